@@ -1,0 +1,12 @@
+//! The science of nimbus, free of GPU code.
+//!
+//! Every module here is plain CPU code that can be tested alone: it computes
+//! the quantities the renderer uploads (terrain heights and albedo, sky
+//! radiance, sun irradiance) and serves as the CPU reference for each GPU
+//! algorithm. Units are SI unless a name says otherwise; radiance is carried
+//! per linear Rec.709 channel as described in [`photometry`].
+
+pub mod noise;
+pub mod photometry;
+pub mod sky;
+pub mod terrain;
