@@ -1,1 +1,67 @@
-fn main(){}
+//! The `nimbus` command-line tool: a thin layer of argument parsing and
+//! output over `nimbus-render` and `nimbus-physics`. Errors are reported
+//! once, here, as one line on standard error.
+
+mod commands;
+mod output;
+
+use clap::{Parser, Subcommand};
+use std::process::ExitCode;
+
+/// nimbus: real-time cloudy and rainy skies, from physics and phenomenology.
+#[derive(Debug, Parser)]
+#[command(name = "nimbus", version, about, propagate_version = true)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Debug, Subcommand)]
+enum Command {
+    /// Render a scene to a PNG (tone-mapped sRGB) or EXR (linear radiance) image.
+    Render(commands::render::RenderArgs),
+    /// Render frames repeatedly and report per-pass GPU times.
+    Bench(commands::bench::BenchArgs),
+    /// Print or check scene files.
+    Scene(commands::scene::SceneArgs),
+}
+
+fn main() -> ExitCode {
+    let cli = match Cli::try_parse() {
+        Ok(cli) => cli,
+        Err(error) => {
+            use clap::error::ErrorKind;
+            if matches!(
+                error.kind(),
+                ErrorKind::DisplayHelp
+                    | ErrorKind::DisplayVersion
+                    | ErrorKind::DisplayHelpOnMissingArgumentOrSubcommand
+            ) {
+                let _ = error.print();
+                return if error.kind() == ErrorKind::DisplayHelpOnMissingArgumentOrSubcommand {
+                    ExitCode::from(2)
+                } else {
+                    ExitCode::SUCCESS
+                };
+            }
+            // One line: clap's first line, without its usage block.
+            let text = error.to_string();
+            let first = text.lines().next().unwrap_or("invalid arguments");
+            eprintln!("nimbus: {}", first.trim_start_matches("error: "));
+            return ExitCode::from(2);
+        }
+    };
+    let result = match cli.command {
+        Command::Render(args) => commands::render::run(&args),
+        Command::Bench(args) => commands::bench::run(&args),
+        Command::Scene(args) => commands::scene::run(&args),
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(error) => {
+            let message = format!("{error:#}");
+            eprintln!("nimbus: {}", message.lines().collect::<Vec<_>>().join(" "));
+            ExitCode::FAILURE
+        }
+    }
+}

@@ -67,7 +67,11 @@ pub struct Fractal {
 
 impl Default for Fractal {
     fn default() -> Self {
-        Self { octaves: 8, lacunarity: 2.0, gain: 0.5 }
+        Self {
+            octaves: 8,
+            lacunarity: 2.0,
+            gain: 0.5,
+        }
     }
 }
 

@@ -58,13 +58,21 @@ pub fn xyz_from_xy_y(x: f64, y: f64, luminance: f64) -> [f64; 3] {
 /// sRGB transfer function (IEC 61966-2-1): linear value in [0, 1] to encoded.
 pub fn srgb_encode(linear: f64) -> f64 {
     let c = linear.clamp(0.0, 1.0);
-    if c <= 0.003_130_8 { 12.92 * c } else { 1.055 * c.powf(1.0 / 2.4) - 0.055 }
+    if c <= 0.003_130_8 {
+        12.92 * c
+    } else {
+        1.055 * c.powf(1.0 / 2.4) - 0.055
+    }
 }
 
 /// Inverse of [`srgb_encode`].
 pub fn srgb_decode(encoded: f64) -> f64 {
     let c = encoded.clamp(0.0, 1.0);
-    if c <= 0.040_45 { c / 12.92 } else { ((c + 0.055) / 1.055).powf(2.4) }
+    if c <= 0.040_45 {
+        c / 12.92
+    } else {
+        ((c + 0.055) / 1.055).powf(2.4)
+    }
 }
 
 #[cfg(test)]

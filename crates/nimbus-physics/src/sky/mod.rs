@@ -10,7 +10,7 @@ mod sun;
 pub use preetham::{PerezCoefficients, PreethamSky};
 pub use sun::{
     SOLAR_DISK_ANGULAR_RADIUS_RAD, SOLAR_ILLUMINANCE_CONSTANT_LUX, Sun, aerosol_optical_depth,
-    relative_air_mass, rayleigh_optical_depth, sun_direction,
+    rayleigh_optical_depth, relative_air_mass, sun_direction,
 };
 
 /// Representative wavelengths of the linear R, G and B channels, µm: the

@@ -30,7 +30,8 @@ impl PerezCoefficients {
         // guard keeps B / cos θ finite (B < 0, so the term tends to zero).
         let cos_theta = cos_theta.max(1e-4);
         let cos_gamma = gamma_rad.cos();
-        (1.0 + a * (b / cos_theta).exp()) * (1.0 + c * (d * gamma_rad).exp() + e * cos_gamma * cos_gamma)
+        (1.0 + a * (b / cos_theta).exp())
+            * (1.0 + c * (d * gamma_rad).exp() + e * cos_gamma * cos_gamma)
     }
 }
 
@@ -56,8 +57,11 @@ impl PreethamSky {
         let t = turbidity;
         let sun_elevation = sun_direction[1].clamp(-1.0, 1.0).asin();
         // Hold the sun just above the horizon for the fit; fade the sky through twilight.
-        let theta_s = (std::f64::consts::FRAC_PI_2 - sun_elevation).min(std::f64::consts::FRAC_PI_2 - 1e-3);
-        let twilight_fade = ((sun_elevation.to_degrees() + 8.0) / 8.0).clamp(0.0, 1.0).powi(2);
+        let theta_s =
+            (std::f64::consts::FRAC_PI_2 - sun_elevation).min(std::f64::consts::FRAC_PI_2 - 1e-3);
+        let twilight_fade = ((sun_elevation.to_degrees() + 8.0) / 8.0)
+            .clamp(0.0, 1.0)
+            .powi(2);
 
         let coeff_y = PerezCoefficients([
             0.1787 * t - 1.4630,
@@ -83,7 +87,8 @@ impl PreethamSky {
 
         // Zenith luminance (kcd/m²) and chromaticity, appendix A.2.
         let chi = (4.0 / 9.0 - t / 120.0) * (std::f64::consts::PI - 2.0 * theta_s);
-        let zenith_luminance_cd_m2 = 1000.0 * ((4.0453 * t - 4.9710) * chi.tan() - 0.2155 * t + 2.4192);
+        let zenith_luminance_cd_m2 =
+            1000.0 * ((4.0453 * t - 4.9710) * chi.tan() - 0.2155 * t + 2.4192);
         let th = [theta_s.powi(3), theta_s.powi(2), theta_s, 1.0];
         let dot = |v: [f64; 4]| v.iter().zip(th).map(|(a, b)| a * b).sum::<f64>();
         let zenith_x = t * t * dot([0.00166, -0.00375, 0.00209, 0.0])
@@ -99,7 +104,13 @@ impl PreethamSky {
         for k in 0..3 {
             zenith_over_perez[k] = zenith[k] / coefficients[k].perez(1.0, theta_s);
         }
-        Self { sun_direction, turbidity, coefficients, zenith_over_perez, twilight_fade }
+        Self {
+            sun_direction,
+            turbidity,
+            coefficients,
+            zenith_over_perez,
+            twilight_fade,
+        }
     }
 
     /// Sky luminance (cd/m²) and chromaticity (x, y) seen in a unit direction.
@@ -110,14 +121,16 @@ impl PreethamSky {
             + direction[2] * self.sun_direction[2])
             .clamp(-1.0, 1.0);
         let gamma = cos_gamma.acos();
-        let [fy, fx, fyc] = [0, 1, 2].map(|k| self.zenith_over_perez[k] * self.coefficients[k].perez(cos_theta, gamma));
+        let [fy, fx, fyc] = [0, 1, 2]
+            .map(|k| self.zenith_over_perez[k] * self.coefficients[k].perez(cos_theta, gamma));
         (fy * self.twilight_fade, fx, fyc)
     }
 
     /// Sky radiance per RGB channel in a unit direction, W·sr⁻¹·m⁻².
     pub fn radiance_rgb(&self, direction: [f64; 3]) -> [f64; 3] {
         let (luminance, x, y) = self.luminance_xy(direction);
-        rec709_from_xyz(xyz_from_xy_y(x, y, luminance)).map(|c| c.max(0.0) / MAX_LUMINOUS_EFFICACY_LM_PER_W)
+        rec709_from_xyz(xyz_from_xy_y(x, y, luminance))
+            .map(|c| c.max(0.0) / MAX_LUMINOUS_EFFICACY_LM_PER_W)
     }
 
     /// Irradiance from the sky dome (sun excluded) on an upward-facing
@@ -186,7 +199,10 @@ mod tests {
             let lux = illuminance_lux(sky.horizontal_irradiance_rgb());
             let reference = 1000.0 * (0.8 + 15.5 * elevation.to_radians().sin().sqrt());
             let ratio = lux / reference;
-            assert!((0.9..2.2).contains(&ratio), "h = {elevation}°: {lux:.0} lx vs {reference:.0} lx");
+            assert!(
+                (0.9..2.2).contains(&ratio),
+                "h = {elevation}°: {lux:.0} lx vs {reference:.0} lx"
+            );
         }
     }
 

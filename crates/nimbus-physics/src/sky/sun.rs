@@ -72,7 +72,10 @@ impl Sun {
             let tau = rayleigh_optical_depth(wl) + aerosol_optical_depth(turbidity, wl);
             e0 * (-tau * air_mass).exp() * above_horizon
         });
-        Self { direction, irradiance_rgb }
+        Self {
+            direction,
+            irradiance_rgb,
+        }
     }
 
     /// Radiance of the solar disk per RGB channel, W·sr⁻¹·m⁻², taken uniform over the disk.
@@ -100,8 +103,17 @@ mod tests {
         // Near the zenith the plane-parallel limit m = 1 / cos θ holds; at the
         // horizon Kasten & Young (1989) give m(90°) = 37.92 (their table 1: 38.0868
         // for the older 1966 formula, 37.92 for the 1989 revision).
-        for (z, m) in [(0.0, 1.0), (30.0, 1.0 / 30f64.to_radians().cos()), (60.0, 2.0), (90.0, 37.92)] {
-            assert!((relative_air_mass(z) - m).abs() / m < 4e-3, "m({z}) = {}", relative_air_mass(z));
+        for (z, m) in [
+            (0.0, 1.0),
+            (30.0, 1.0 / 30f64.to_radians().cos()),
+            (60.0, 2.0),
+            (90.0, 37.92),
+        ] {
+            assert!(
+                (relative_air_mass(z) - m).abs() / m < 4e-3,
+                "m({z}) = {}",
+                relative_air_mass(z)
+            );
         }
     }
 
@@ -111,7 +123,10 @@ mod tests {
         // τ_R(0.55 µm) = 0.0973, τ_R(0.44 µm) = 0.2372, τ_R(0.70 µm) = 0.0362.
         for (wl, tau) in [(0.55, 0.0973), (0.44, 0.2372), (0.70, 0.0362)] {
             let got = rayleigh_optical_depth(wl);
-            assert!((got - tau).abs() / tau < 0.06, "τ_R({wl}) = {got}, expected {tau}");
+            assert!(
+                (got - tau).abs() / tau < 0.06,
+                "τ_R({wl}) = {got}, expected {tau}"
+            );
         }
     }
 

@@ -78,7 +78,10 @@ impl Terrain {
         let half = self.params.extent_m * 0.5;
         let fx = ((x_m + half) / self.cell_size_m()).clamp(0.0, (n - 1) as f64);
         let fz = ((z_m + half) / self.cell_size_m()).clamp(0.0, (n - 1) as f64);
-        let (i0, j0) = ((fx.floor() as usize).min(n - 2), (fz.floor() as usize).min(n - 2));
+        let (i0, j0) = (
+            (fx.floor() as usize).min(n - 2),
+            (fz.floor() as usize).min(n - 2),
+        );
         let (tx, tz) = (fx - i0 as f64, fz - j0 as f64);
         let h = |i: usize, j: usize| self.surface_height_m[j * n + i] as f64;
         let a = h(i0, j0) + tx * (h(i0 + 1, j0) - h(i0, j0));
@@ -94,7 +97,11 @@ impl Terrain {
             .zip(&self.surface_class)
             .map(|(rgb, class)| {
                 let enc = |c: f32| (srgb_encode(c as f64) * 255.0).round() as u8;
-                let water = if *class == SurfaceClass::Water { 255 } else { 0 };
+                let water = if *class == SurfaceClass::Water {
+                    255
+                } else {
+                    0
+                };
                 [enc(rgb[0]), enc(rgb[1]), enc(rgb[2]), water]
             })
             .collect()
@@ -105,22 +112,52 @@ impl Terrain {
 ///
 /// Broad hills (fBm over 8 octaves at a wavelength of a quarter of the
 /// extent) plus ridged mountains gated by a smooth low-frequency mask. The
-/// result spans roughly `[-0.35, 1] × height_scale_m`.
+/// result spans roughly `[-0.35, 1] × height_scale_m`. Over the outer 20 % of
+/// each half-extent the relief sinks below the water level, so the terrain
+/// ends in open sea that continues to the horizon.
 pub fn ground_height_m(params: &TerrainParams, x_m: f64, z_m: f64) -> f64 {
+    let half = 0.5 * params.extent_m;
+    let edge = x_m.abs().max(z_m.abs()) / half;
+    let inland = 1.0 - smoothstep(0.8, 1.0, edge);
+    let sea_floor = params.water_level_m - 0.05 * params.height_scale_m - 1.0;
+    sea_floor + inland * (relief_m(params, x_m, z_m) - sea_floor)
+}
+
+/// The relief before the sea margin is applied.
+fn relief_m(params: &TerrainParams, x_m: f64, z_m: f64) -> f64 {
     let seed = params.seed as u32;
     let wavelength = params.feature_wavelength_m;
     let (u, v) = (x_m / wavelength, z_m / wavelength);
-    let hills = fbm(u, v, seed, Fractal { octaves: 9, lacunarity: 2.03, gain: 0.5 });
-    let mask_raw = fbm(u * 0.35 + 17.3, v * 0.35 - 4.1, seed ^ 0x5bd1, Fractal {
-        octaves: 3,
-        ..Fractal::default()
-    });
+    let hills = fbm(
+        u,
+        v,
+        seed,
+        Fractal {
+            octaves: 9,
+            lacunarity: 2.03,
+            gain: 0.5,
+        },
+    );
+    let mask_raw = fbm(
+        u * 0.35 + 17.3,
+        v * 0.35 - 4.1,
+        seed ^ 0x5bd1,
+        Fractal {
+            octaves: 3,
+            ..Fractal::default()
+        },
+    );
     let mask = smoothstep(-0.15, 0.45, mask_raw);
-    let mountains = ridged(u * 1.3 + 3.7, v * 1.3 + 1.9, seed ^ 0xa3c5, Fractal {
-        octaves: 9,
-        lacunarity: 2.1,
-        gain: 0.5,
-    });
+    let mountains = ridged(
+        u * 1.3 + 3.7,
+        v * 1.3 + 1.9,
+        seed ^ 0xa3c5,
+        Fractal {
+            octaves: 9,
+            lacunarity: 2.1,
+            gain: 0.5,
+        },
+    );
     params.height_scale_m * (0.32 * hills + mask * mountains.powf(1.6) * 1.1 - 0.04)
 }
 
@@ -158,7 +195,11 @@ pub fn generate(params: &TerrainParams) -> Terrain {
             let dhdx = (h(ir, j) - h(il, j)) / ((ir - il) as f64 * cell);
             let dhdz = (h(i, ju) - h(i, jd)) / ((ju - jd) as f64 * cell);
             let len = (dhdx * dhdx + 1.0 + dhdz * dhdz).sqrt();
-            [(-dhdx / len) as f32, (1.0 / len) as f32, (-dhdz / len) as f32]
+            [
+                (-dhdx / len) as f32,
+                (1.0 / len) as f32,
+                (-dhdz / len) as f32,
+            ]
         })
         .collect();
 
@@ -167,7 +208,13 @@ pub fn generate(params: &TerrainParams) -> Terrain {
         .into_par_iter()
         .map(|k| {
             let (x, z) = xz(k % n, k / n);
-            let class = classify(params, ground_height_m[k] as f64, surface_normal[k][1] as f64, x, z);
+            let class = classify(
+                params,
+                ground_height_m[k] as f64,
+                surface_normal[k][1] as f64,
+                x,
+                z,
+            );
             // Small-scale albedo variation (±15 %) so that zones are not flat colour.
             let variation = 1.0 + 0.15 * gradient_noise(x / 97.0, z / 97.0, seed ^ 0x1234) as f32;
             let base = params.albedo.of(class);
@@ -180,17 +227,38 @@ pub fn generate(params: &TerrainParams) -> Terrain {
         })
         .unzip();
 
-    Terrain { params: params.clone(), ground_height_m, surface_height_m, surface_normal, surface_class, albedo }
+    Terrain {
+        params: params.clone(),
+        ground_height_m,
+        surface_height_m,
+        surface_normal,
+        surface_class,
+        albedo,
+    }
 }
 
 /// Surface class of a point from its ground height (m), the vertical
 /// component of its normal, and its position (for noisy zone boundaries).
-pub fn classify(params: &TerrainParams, ground_m: f64, normal_y: f64, x_m: f64, z_m: f64) -> SurfaceClass {
+pub fn classify(
+    params: &TerrainParams,
+    ground_m: f64,
+    normal_y: f64,
+    x_m: f64,
+    z_m: f64,
+) -> SurfaceClass {
     if ground_m < params.water_level_m {
         return SurfaceClass::Water;
     }
     let seed = params.seed as u32;
-    let jitter = fbm(x_m / 310.0, z_m / 310.0, seed ^ 0x77aa, Fractal { octaves: 4, ..Fractal::default() });
+    let jitter = fbm(
+        x_m / 310.0,
+        z_m / 310.0,
+        seed ^ 0x77aa,
+        Fractal {
+            octaves: 4,
+            ..Fractal::default()
+        },
+    );
     let slope_deg = normal_y.clamp(-1.0, 1.0).acos().to_degrees();
     let above_water = ground_m - params.water_level_m;
     if above_water < params.sand_band_m * (1.0 + 0.6 * jitter) && slope_deg < 20.0 {
@@ -211,7 +279,10 @@ mod tests {
     use super::*;
 
     fn small() -> TerrainParams {
-        TerrainParams { resolution: 64, ..TerrainParams::default() }
+        TerrainParams {
+            resolution: 64,
+            ..TerrainParams::default()
+        }
     }
 
     #[test]
@@ -220,7 +291,10 @@ mod tests {
         let b = generate(&small());
         assert_eq!(a.ground_height_m, b.ground_height_m);
         assert_eq!(a.albedo, b.albedo);
-        let c = generate(&TerrainParams { seed: 99, ..small() });
+        let c = generate(&TerrainParams {
+            seed: 99,
+            ..small()
+        });
         assert_ne!(a.ground_height_m, c.ground_height_m);
     }
 
@@ -237,8 +311,17 @@ mod tests {
 
     #[test]
     fn default_terrain_has_every_surface_class() {
-        let t = generate(&TerrainParams { resolution: 128, ..TerrainParams::default() });
-        for class in [SurfaceClass::Water, SurfaceClass::Sand, SurfaceClass::Grass, SurfaceClass::Rock, SurfaceClass::Snow] {
+        let t = generate(&TerrainParams {
+            resolution: 128,
+            ..TerrainParams::default()
+        });
+        for class in [
+            SurfaceClass::Water,
+            SurfaceClass::Sand,
+            SurfaceClass::Grass,
+            SurfaceClass::Rock,
+            SurfaceClass::Snow,
+        ] {
             let count = t.surface_class.iter().filter(|c| **c == class).count();
             assert!(count > 0, "no {class:?} in the default terrain");
         }
@@ -249,6 +332,17 @@ mod tests {
         let t = generate(&small());
         for (texel, class) in t.albedo_rgba8().iter().zip(&t.surface_class) {
             assert_eq!(texel[3] == 255, *class == SurfaceClass::Water);
+        }
+    }
+
+    #[test]
+    fn terrain_edges_are_under_water() {
+        let t = generate(&small());
+        let n = t.vertices_per_side();
+        for k in 0..n {
+            for (i, j) in [(k, 0), (k, n - 1), (0, k), (n - 1, k)] {
+                assert_eq!(t.surface_class[j * n + i], SurfaceClass::Water);
+            }
         }
     }
 

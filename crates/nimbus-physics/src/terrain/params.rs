@@ -95,6 +95,12 @@ impl SurfaceAlbedos {
 
     /// The classes with their scene-file names, for validation messages.
     pub fn named(&self) -> [(&'static str, [f32; 3]); 5] {
-        [("water", self.water), ("sand", self.sand), ("grass", self.grass), ("rock", self.rock), ("snow", self.snow)]
+        [
+            ("water", self.water),
+            ("sand", self.sand),
+            ("grass", self.grass),
+            ("rock", self.rock),
+            ("snow", self.snow),
+        ]
     }
 }

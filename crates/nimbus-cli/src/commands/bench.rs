@@ -1,0 +1,155 @@
+//! `nimbus bench`: per-pass GPU times over many frames.
+
+use clap::Args;
+use nimbus_render::headless::HeadlessRenderer;
+use nimbus_render::{AdapterPreference, PASS_NAMES};
+use serde::Serialize;
+use std::path::PathBuf;
+
+/// Largest frame count of one benchmark.
+const MAX_FRAMES: u32 = 100_000;
+
+/// Arguments of `nimbus bench`.
+#[derive(Debug, Args)]
+pub struct BenchArgs {
+    /// Scene file (TOML); the embedded default scene when omitted.
+    scene: Option<PathBuf>,
+    /// Number of measured frames (after one warm-up frame).
+    #[arg(long, default_value_t = 60, value_parser = clap::value_parser!(u32).range(1..=MAX_FRAMES as i64))]
+    frames: u32,
+    /// Image width in pixels (overrides the scene's image.width).
+    #[arg(long, value_name = "PX", value_parser = clap::value_parser!(u32).range(1..=super::MAX_SIDE_PX as i64))]
+    width: Option<u32>,
+    /// Image height in pixels (overrides the scene's image.height).
+    #[arg(long, value_name = "PX", value_parser = clap::value_parser!(u32).range(1..=super::MAX_SIDE_PX as i64))]
+    height: Option<u32>,
+    /// GPU adapter: auto, hardware or software (lavapipe).
+    #[arg(long, default_value = "auto", value_parser = super::parse_adapter)]
+    adapter: AdapterPreference,
+    /// Print one JSON document on standard output.
+    #[arg(long)]
+    json: bool,
+}
+
+/// Median and 95th percentile of a series, ms.
+#[derive(Debug, Serialize)]
+struct Stats {
+    median_ms: f64,
+    p95_ms: f64,
+}
+
+impl Stats {
+    fn of(values: &[f64]) -> Self {
+        let mut sorted = values.to_vec();
+        sorted.sort_by(f64::total_cmp);
+        // Nearest-rank percentiles.
+        let rank =
+            |p: f64| sorted[((p * sorted.len() as f64).ceil() as usize).clamp(1, sorted.len()) - 1];
+        Self {
+            median_ms: rank(0.5),
+            p95_ms: rank(0.95),
+        }
+    }
+}
+
+#[derive(Debug, Serialize)]
+struct PassReport {
+    name: &'static str,
+    #[serde(flatten)]
+    stats: Stats,
+}
+
+#[derive(Debug, Serialize)]
+struct Report {
+    adapter: String,
+    backend: String,
+    device_type: String,
+    driver: String,
+    width: u32,
+    height: u32,
+    frames: u32,
+    timestamps_supported: bool,
+    /// Per-pass GPU time from timestamp queries (empty when unsupported).
+    passes: Vec<PassReport>,
+    /// Sum of the passes' GPU times per frame.
+    gpu_total: Option<Stats>,
+    /// Wall-clock time from submission to completion of each frame.
+    frame_wall: Stats,
+    note: Option<String>,
+}
+
+/// Runs the subcommand.
+pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
+    let scene = super::load_scene(args.scene.as_deref())?;
+    let (width, height) = super::image_size(&scene, args.width, args.height);
+    let mut headless = HeadlessRenderer::new(args.adapter)?;
+    eprintln!(
+        "nimbus: benchmarking {} frames at {width}×{height} on {}",
+        args.frames,
+        headless.gpu.adapter_summary()
+    );
+    // Warm-up: builds the terrain and the pipelines' first use.
+    headless.render_frame(&scene, width, height, 0.0)?;
+    let mut wall_ms = Vec::new();
+    let mut per_pass: Vec<Vec<f64>> = vec![Vec::new(); PASS_NAMES.len()];
+    let mut totals = Vec::new();
+    for frame in 0..args.frames {
+        let seconds = headless.render_frame(&scene, width, height, frame as f32 / 60.0)?;
+        wall_ms.push(seconds * 1e3);
+        if let Some(times) = headless.renderer.read_pass_times_ms() {
+            for (series, t) in per_pass.iter_mut().zip(&times) {
+                series.push(*t);
+            }
+            totals.push(times.iter().sum());
+        }
+    }
+    let timestamps = headless.renderer.has_timestamps() && !totals.is_empty();
+    let info = &headless.gpu.adapter_info;
+    let report = Report {
+        adapter: info.name.clone(),
+        backend: format!("{:?}", info.backend),
+        device_type: format!("{:?}", info.device_type),
+        driver: format!("{} {}", info.driver, info.driver_info).trim().to_owned(),
+        width,
+        height,
+        frames: args.frames,
+        timestamps_supported: timestamps,
+        passes: if timestamps {
+            PASS_NAMES.iter().zip(&per_pass).map(|(name, series)| PassReport { name, stats: Stats::of(series) }).collect()
+        } else {
+            Vec::new()
+        },
+        gpu_total: timestamps.then(|| Stats::of(&totals)),
+        frame_wall: Stats::of(&wall_ms),
+        note: (!timestamps).then(|| "this adapter does not support timestamp queries: only wall-clock frame times are reported".to_owned()),
+    };
+    if args.json {
+        println!("{}", serde_json::to_string_pretty(&report)?);
+    } else {
+        println!(
+            "adapter   {} ({}, {})",
+            report.adapter, report.backend, report.device_type
+        );
+        println!("size      {width}×{height}, {} frames", report.frames);
+        for pass in &report.passes {
+            println!(
+                "{:<9} median {:8.3} ms   p95 {:8.3} ms",
+                pass.name, pass.stats.median_ms, pass.stats.p95_ms
+            );
+        }
+        if let Some(total) = &report.gpu_total {
+            println!(
+                "{:<9} median {:8.3} ms   p95 {:8.3} ms",
+                "gpu total", total.median_ms, total.p95_ms
+            );
+        }
+        println!(
+            "{:<9} median {:8.3} ms   p95 {:8.3} ms",
+            "wall", report.frame_wall.median_ms, report.frame_wall.p95_ms
+        );
+        if let Some(note) = &report.note {
+            println!("note      {note}");
+        }
+    }
+    Ok(())
+}

@@ -1,0 +1,101 @@
+//! Image output, written atomically: the file is written under a temporary
+//! name in the same directory and renamed into place, so a failed run never
+//! leaves a partial image.
+
+use anyhow::Context;
+use nimbus_render::headless::{HdrImage, Rgba8Image};
+use std::io::Write;
+use std::path::{Path, PathBuf};
+
+/// Image file formats nimbus writes.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ImageFormat {
+    /// 8-bit sRGB PNG, tone-mapped.
+    Png,
+    /// OpenEXR, 32-bit float linear radiance (W·sr⁻¹·m⁻² per channel).
+    Exr,
+}
+
+impl ImageFormat {
+    /// The format of an output path, from its extension.
+    pub fn from_path(path: &Path) -> anyhow::Result<Self> {
+        match path
+            .extension()
+            .and_then(|e| e.to_str())
+            .map(str::to_ascii_lowercase)
+            .as_deref()
+        {
+            Some("png") => Ok(Self::Png),
+            Some("exr") => Ok(Self::Exr),
+            other => anyhow::bail!(
+                "output {}: extension {} is not supported; use .png or .exr",
+                path.display(),
+                other.map_or("(none)".to_owned(), |e| format!(".{e}"))
+            ),
+        }
+    }
+}
+
+fn temporary_path(path: &Path) -> PathBuf {
+    let name = path
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    path.with_file_name(format!(".{name}.{}.tmp", std::process::id()))
+}
+
+/// Writes `path` through a temporary file and a rename; removes the
+/// temporary file if anything fails.
+pub fn write_atomically(
+    path: &Path,
+    write: impl FnOnce(&Path) -> anyhow::Result<()>,
+) -> anyhow::Result<()> {
+    let temporary = temporary_path(path);
+    let result = write(&temporary).and_then(|()| {
+        std::fs::rename(&temporary, path).with_context(|| {
+            format!(
+                "output {}: cannot move the image into place",
+                path.display()
+            )
+        })
+    });
+    if result.is_err() {
+        let _ = std::fs::remove_file(&temporary);
+    }
+    result
+}
+
+/// Writes a tone-mapped image as PNG.
+pub fn write_png(path: &Path, image: &Rgba8Image) -> anyhow::Result<()> {
+    use image::ImageEncoder;
+    let mut encoded = Vec::new();
+    image::codecs::png::PngEncoder::new(&mut encoded)
+        .write_image(
+            &image.pixels,
+            image.width,
+            image.height,
+            image::ExtendedColorType::Rgba8,
+        )
+        .with_context(|| format!("output {}: PNG encoding failed", path.display()))?;
+    write_atomically(path, |temporary| {
+        let mut file = std::fs::File::create(temporary)
+            .with_context(|| format!("output {}: cannot create file", path.display()))?;
+        file.write_all(&encoded)
+            .with_context(|| format!("output {}: write failed", path.display()))?;
+        file.sync_all()
+            .with_context(|| format!("output {}: write failed", path.display()))?;
+        Ok(())
+    })
+}
+
+/// Writes an HDR image as a linear OpenEXR file.
+pub fn write_exr(path: &Path, image: &HdrImage) -> anyhow::Result<()> {
+    let width = image.width as usize;
+    write_atomically(path, |temporary| {
+        exr::prelude::write_rgb_file(temporary, width, image.height as usize, |x, y| {
+            let [r, g, b] = image.pixels[y * width + x];
+            (r, g, b)
+        })
+        .with_context(|| format!("output {}: EXR write failed", path.display()))
+    })
+}

@@ -1,0 +1,252 @@
+//! The per-frame uniform shared by every pass (WGSL `Frame` in
+//! `shaders/common.wgsl`): camera transforms, sun, sky-model coefficients,
+//! exposure and time; and the camera model that produces the transforms.
+
+use crate::scene::{CameraSettings, Scene};
+use bytemuck::{Pod, Zeroable};
+use glam::{DMat4, DVec3, Mat4};
+use nimbus_physics::photometry::exposure_scale_from_ev100;
+use nimbus_physics::sky::{PreethamSky, SOLAR_DISK_ANGULAR_RADIUS_RAD, Sun};
+
+/// Distance of the near clip plane, m. With reverse-Z and an infinite far
+/// plane, depth precision is ample from here to the horizon.
+pub const NEAR_PLANE_M: f64 = 0.5;
+
+/// Largest pre-exposed value written to the half-float HDR target (the
+/// largest finite f16 is 65504).
+pub const MAX_PRE_EXPOSED: f32 = 60_000.0;
+
+/// GPU layout of the Preetham sky model (WGSL `SkyModel`).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct SkyModelUniform {
+    /// Perez A, B, C, D of luminance.
+    pub perez_luminance: [f32; 4],
+    /// Perez A, B, C, D of chromaticity x.
+    pub perez_x: [f32; 4],
+    /// Perez A, B, C, D of chromaticity y.
+    pub perez_y: [f32; 4],
+    /// Perez E of (Y, x, y) and the twilight fade.
+    pub perez_e_and_fade: [f32; 4],
+    /// Zenith values over F(0, θs) for (Y cd/m², x, y), and padding.
+    pub zenith_over_perez: [f32; 4],
+}
+
+impl From<&PreethamSky> for SkyModelUniform {
+    fn from(sky: &PreethamSky) -> Self {
+        let abcd = |k: usize| {
+            let c = sky.coefficients[k].0;
+            [c[0] as f32, c[1] as f32, c[2] as f32, c[3] as f32]
+        };
+        let z = sky.zenith_over_perez;
+        Self {
+            perez_luminance: abcd(0),
+            perez_x: abcd(1),
+            perez_y: abcd(2),
+            perez_e_and_fade: [
+                sky.coefficients[0].0[4] as f32,
+                sky.coefficients[1].0[4] as f32,
+                sky.coefficients[2].0[4] as f32,
+                sky.twilight_fade as f32,
+            ],
+            zenith_over_perez: [z[0] as f32, z[1] as f32, z[2] as f32, 0.0],
+        }
+    }
+}
+
+/// GPU layout of the frame uniform (WGSL `Frame`). Its layout is checked
+/// against naga's layout of the WGSL struct by a unit test.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct FrameUniform {
+    /// Clip space from world space (reverse-Z, infinite far plane).
+    pub clip_from_world: [[f32; 4]; 4],
+    /// World space from clip space.
+    pub world_from_clip: [[f32; 4]; 4],
+    /// Camera position, world metres.
+    pub camera_position_m: [f32; 3],
+    /// Animation time, s.
+    pub time_s: f32,
+    /// Unit vector towards the sun.
+    pub sun_direction: [f32; 3],
+    /// Radiance-to-target scale (see [`exposure_scale_from_ev100`]).
+    pub exposure_scale: f32,
+    /// Direct solar irradiance at the ground, W·m⁻² per channel.
+    pub sun_irradiance: [f32; 3],
+    /// Cosine of the solar disk's angular radius.
+    pub sun_cos_angular_radius: f32,
+    /// Sky irradiance on a horizontal surface, W·m⁻² per channel.
+    pub sky_irradiance: [f32; 3],
+    /// Clamp of pre-exposed values, see [`MAX_PRE_EXPOSED`].
+    pub max_pre_exposed: f32,
+    /// Viewport size, pixels.
+    pub viewport_size_px: [f32; 2],
+    /// Angle subtended by one pixel at the image centre, rad (for filtering).
+    pub pixel_angle_rad: f32,
+    /// Padding to the 16-byte alignment of the next member.
+    pub _padding: f32,
+    /// The sky model.
+    pub sky: SkyModelUniform,
+}
+
+/// A pinhole camera in world space.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Camera {
+    /// Eye position, world metres.
+    pub position_m: DVec3,
+    /// Unit view direction.
+    pub forward: DVec3,
+    /// Vertical field of view, rad.
+    pub fov_y_rad: f64,
+    /// Width over height.
+    pub aspect: f64,
+}
+
+/// Unit vector for a heading (clockwise from north = −Z) and an elevation, degrees.
+pub fn direction_from_yaw_pitch(yaw_deg: f64, pitch_deg: f64) -> DVec3 {
+    let (y, p) = (yaw_deg.to_radians(), pitch_deg.to_radians());
+    DVec3::new(p.cos() * y.sin(), p.sin(), -p.cos() * y.cos())
+}
+
+impl Camera {
+    /// The camera of a scene's settings for an image of the given size.
+    pub fn from_settings(settings: &CameraSettings, width: u32, height: u32) -> Self {
+        let position_m = DVec3::from_array(settings.position_m);
+        let forward = match settings.look_at_m {
+            Some(target) => (DVec3::from_array(target) - position_m).normalize(),
+            None => direction_from_yaw_pitch(
+                settings.yaw_deg.unwrap_or(0.0),
+                settings.pitch_deg.unwrap_or(0.0),
+            ),
+        };
+        Self {
+            position_m,
+            forward,
+            fov_y_rad: settings.fov_deg.to_radians(),
+            aspect: width as f64 / height.max(1) as f64,
+        }
+    }
+
+    /// View space (right-handed, looking down −Z) from world space.
+    pub fn view_from_world(&self) -> DMat4 {
+        DMat4::look_to_rh(self.position_m, self.forward, DVec3::Y)
+    }
+
+    /// Clip space from view space: reverse-Z with the far plane at infinity.
+    pub fn clip_from_view(&self) -> DMat4 {
+        DMat4::perspective_infinite_reverse_rh(self.fov_y_rad, self.aspect, NEAR_PLANE_M)
+    }
+
+    /// Clip space from world space.
+    pub fn clip_from_world(&self) -> DMat4 {
+        self.clip_from_view() * self.view_from_world()
+    }
+}
+
+/// Lighting derived from a scene: the sun and the sky model (CPU side).
+#[derive(Clone, Copy, Debug)]
+pub struct Lighting {
+    /// The sun.
+    pub sun: Sun,
+    /// The clear sky.
+    pub sky: PreethamSky,
+    /// Sky irradiance on a horizontal surface, W·m⁻².
+    pub sky_irradiance_rgb: [f64; 3],
+}
+
+impl Lighting {
+    /// Lighting of a scene (this integrates the sky dome, so compute it only
+    /// when the sun or atmosphere changes).
+    pub fn new(scene: &Scene) -> Self {
+        let sun = Sun::new(
+            scene.sun.azimuth_deg,
+            scene.sun.elevation_deg,
+            scene.atmosphere.turbidity,
+        );
+        let sky = PreethamSky::new(sun.direction, scene.atmosphere.turbidity);
+        Self {
+            sun,
+            sky,
+            sky_irradiance_rgb: sky.horizontal_irradiance_rgb(),
+        }
+    }
+}
+
+fn to_f32_3(v: [f64; 3]) -> [f32; 3] {
+    v.map(|c| c as f32)
+}
+
+impl FrameUniform {
+    /// The uniform for a scene's camera and exposure, given its lighting, for
+    /// an image of the given size at time `time_s`.
+    pub fn new(scene: &Scene, lighting: &Lighting, width: u32, height: u32, time_s: f32) -> Self {
+        let camera = Camera::from_settings(&scene.camera, width, height);
+        let clip_from_world = camera.clip_from_world();
+        Self {
+            clip_from_world: clip_from_world.as_mat4().to_cols_array_2d(),
+            world_from_clip: clip_from_world.inverse().as_mat4().to_cols_array_2d(),
+            camera_position_m: camera.position_m.as_vec3().to_array(),
+            time_s,
+            sun_direction: to_f32_3(lighting.sun.direction),
+            exposure_scale: exposure_scale_from_ev100(scene.camera.exposure_ev100) as f32,
+            sun_irradiance: to_f32_3(lighting.sun.irradiance_rgb),
+            sun_cos_angular_radius: SOLAR_DISK_ANGULAR_RADIUS_RAD.cos() as f32,
+            sky_irradiance: to_f32_3(lighting.sky_irradiance_rgb),
+            max_pre_exposed: MAX_PRE_EXPOSED,
+            viewport_size_px: [width as f32, height as f32],
+            pixel_angle_rad: (2.0 * (camera.fov_y_rad * 0.5).tan() / height.max(1) as f64) as f32,
+            _padding: 0.0,
+            sky: SkyModelUniform::from(&lighting.sky),
+        }
+    }
+
+    /// The clip-from-world transform as a matrix.
+    pub fn clip_from_world(&self) -> Mat4 {
+        Mat4::from_cols_array_2d(&self.clip_from_world)
+    }
+}
+
+/// GPU resources of the frame uniform (group 0 of every pass).
+pub type FrameBinding = crate::uniform::UniformBinding<FrameUniform>;
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn yaw_pitch_follow_the_world_convention() {
+        assert!((direction_from_yaw_pitch(0.0, 0.0) - DVec3::NEG_Z).length() < 1e-12);
+        assert!((direction_from_yaw_pitch(90.0, 0.0) - DVec3::X).length() < 1e-12);
+        assert!((direction_from_yaw_pitch(0.0, 89.0).y - 89f64.to_radians().sin()).abs() < 1e-12);
+    }
+
+    #[test]
+    fn projection_is_reverse_z_and_centres_the_view_axis() {
+        let settings = CameraSettings {
+            position_m: [10.0, 50.0, 20.0],
+            ..CameraSettings::default()
+        };
+        let cam = Camera::from_settings(&settings, 160, 90);
+        let m = cam.clip_from_world();
+        let ahead = m * (cam.position_m + cam.forward * 1000.0).extend(1.0);
+        let (ndc_x, ndc_y, depth) = (ahead.x / ahead.w, ahead.y / ahead.w, ahead.z / ahead.w);
+        assert!(ndc_x.abs() < 1e-9 && ndc_y.abs() < 1e-9);
+        assert!(
+            (depth - NEAR_PLANE_M / 1000.0).abs() < 1e-9,
+            "reverse-Z depth {depth}"
+        );
+        let near = m * (cam.position_m + cam.forward * NEAR_PLANE_M).extend(1.0);
+        assert!((near.z / near.w - 1.0).abs() < 1e-9);
+    }
+
+    #[test]
+    fn look_at_points_the_camera_at_the_target() {
+        let settings = CameraSettings {
+            position_m: [0.0, 100.0, 0.0],
+            look_at_m: Some([1000.0, 100.0, 0.0]),
+            ..CameraSettings::default()
+        };
+        let cam = Camera::from_settings(&settings, 100, 100);
+        assert!((cam.forward - DVec3::X).length() < 1e-12);
+    }
+}

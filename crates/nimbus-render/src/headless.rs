@@ -1,0 +1,239 @@
+//! Headless rendering: a device of its own, offscreen targets, and read-back
+//! of the tone-mapped (RGBA8, sRGB) or HDR (linear radiance) image. Used by
+//! the CLI, the tests and the benchmarks.
+
+use crate::gpu::{AdapterPreference, GpuContext, GpuError};
+use crate::renderer::{FrameTargets, RenderError, Renderer, RendererDescriptor, TargetLoad};
+use crate::scene::Scene;
+use crate::targets::{DEPTH_FORMAT, Target};
+use nimbus_physics::photometry::exposure_scale_from_ev100;
+
+/// Format of the tone-mapped output.
+pub const OUTPUT_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba8Unorm;
+
+/// Why a headless render failed.
+#[derive(Debug, thiserror::Error)]
+pub enum HeadlessError {
+    /// No adapter or device.
+    #[error(transparent)]
+    Gpu(#[from] GpuError),
+    /// The frame could not be prepared.
+    #[error(transparent)]
+    Render(#[from] RenderError),
+    /// Reading the image back failed.
+    #[error("reading the image back from the GPU failed: {0}")]
+    Readback(String),
+}
+
+/// A tone-mapped image: sRGB-encoded RGBA8, rows top to bottom.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Rgba8Image {
+    /// Width, pixels.
+    pub width: u32,
+    /// Height, pixels.
+    pub height: u32,
+    /// Pixels, 4 bytes each.
+    pub pixels: Vec<u8>,
+}
+
+/// An HDR image: linear radiance per RGB channel, W·sr⁻¹·m⁻², rows top to bottom.
+#[derive(Clone, Debug, PartialEq)]
+pub struct HdrImage {
+    /// Width, pixels.
+    pub width: u32,
+    /// Height, pixels.
+    pub height: u32,
+    /// RGB radiance per pixel.
+    pub pixels: Vec<[f32; 3]>,
+}
+
+/// A renderer with its own device and offscreen targets.
+#[derive(Debug)]
+pub struct HeadlessRenderer {
+    /// The device.
+    pub gpu: GpuContext,
+    /// The renderer.
+    pub renderer: Renderer,
+    targets: Option<(Target, Target)>,
+}
+
+impl HeadlessRenderer {
+    /// Opens an adapter of the preferred kind and creates the renderer.
+    pub fn new(preference: AdapterPreference) -> Result<Self, HeadlessError> {
+        let gpu = GpuContext::new(preference)?;
+        let renderer = Renderer::new(
+            &gpu.device,
+            &gpu.queue,
+            &RendererDescriptor {
+                output_format: OUTPUT_FORMAT,
+                timestamps: true,
+            },
+        );
+        Ok(Self {
+            gpu,
+            renderer,
+            targets: None,
+        })
+    }
+
+    /// Renders one frame and waits for it; returns the wall-clock time from
+    /// submission to completion, s.
+    pub fn render_frame(
+        &mut self,
+        scene: &Scene,
+        width: u32,
+        height: u32,
+        time_s: f32,
+    ) -> Result<f64, HeadlessError> {
+        self.renderer.prepare(scene, width, height, time_s)?;
+        if self.targets.as_ref().map(|(o, _)| o.size()) != Some((width, height)) {
+            let output = Target::new(
+                &self.gpu.device,
+                "output",
+                OUTPUT_FORMAT,
+                width,
+                height,
+                wgpu::TextureUsages::COPY_SRC,
+            );
+            let depth = Target::new(
+                &self.gpu.device,
+                "depth",
+                DEPTH_FORMAT,
+                width,
+                height,
+                wgpu::TextureUsages::empty(),
+            );
+            self.targets = Some((output, depth));
+        }
+        let Some((output, depth)) = &self.targets else {
+            unreachable!("targets were just created")
+        };
+        let mut encoder = self.gpu.device.create_command_encoder(&Default::default());
+        self.renderer.encode(
+            &mut encoder,
+            &FrameTargets {
+                output: &output.view,
+                depth: &depth.view,
+                load: TargetLoad::Clear,
+            },
+        );
+        let start = std::time::Instant::now();
+        self.gpu.queue.submit([encoder.finish()]);
+        self.gpu
+            .device
+            .poll(wgpu::PollType::wait_indefinitely())
+            .map_err(|e| HeadlessError::Readback(e.to_string()))?;
+        Ok(start.elapsed().as_secs_f64())
+    }
+
+    /// Renders a scene and returns the tone-mapped image.
+    pub fn render_rgba8(
+        &mut self,
+        scene: &Scene,
+        width: u32,
+        height: u32,
+        time_s: f32,
+    ) -> Result<Rgba8Image, HeadlessError> {
+        self.render_frame(scene, width, height, time_s)?;
+        let Some((output, _)) = &self.targets else {
+            unreachable!("render_frame creates the targets")
+        };
+        let pixels = read_texture(&self.gpu, &output.texture, 4)?;
+        Ok(Rgba8Image {
+            width,
+            height,
+            pixels,
+        })
+    }
+
+    /// Renders a scene and returns the linear HDR radiance (exposure undone).
+    pub fn render_hdr(
+        &mut self,
+        scene: &Scene,
+        width: u32,
+        height: u32,
+        time_s: f32,
+    ) -> Result<HdrImage, HeadlessError> {
+        self.render_frame(scene, width, height, time_s)?;
+        let Some(hdr) = self.renderer.hdr_target() else {
+            unreachable!("prepare creates the HDR target")
+        };
+        let bytes = read_texture(&self.gpu, &hdr.texture, 8)?;
+        let halves: &[half::f16] = bytemuck::cast_slice(&bytes);
+        let inverse_exposure =
+            (1.0 / exposure_scale_from_ev100(scene.camera.exposure_ev100)) as f32;
+        let pixels = halves
+            .chunks_exact(4)
+            .map(|p| {
+                [
+                    p[0].to_f32() * inverse_exposure,
+                    p[1].to_f32() * inverse_exposure,
+                    p[2].to_f32() * inverse_exposure,
+                ]
+            })
+            .collect();
+        Ok(HdrImage {
+            width,
+            height,
+            pixels,
+        })
+    }
+}
+
+/// Copies a 2D texture to the CPU, rows tightly packed.
+pub fn read_texture(
+    gpu: &GpuContext,
+    texture: &wgpu::Texture,
+    bytes_per_pixel: u32,
+) -> Result<Vec<u8>, HeadlessError> {
+    let (width, height) = (texture.width(), texture.height());
+    let row_bytes = width * bytes_per_pixel;
+    let padded_row =
+        row_bytes.div_ceil(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT) * wgpu::COPY_BYTES_PER_ROW_ALIGNMENT;
+    let buffer = gpu.device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("readback"),
+        size: padded_row as u64 * height as u64,
+        usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+        mapped_at_creation: false,
+    });
+    let mut encoder = gpu.device.create_command_encoder(&Default::default());
+    encoder.copy_texture_to_buffer(
+        texture.as_image_copy(),
+        wgpu::TexelCopyBufferInfo {
+            buffer: &buffer,
+            layout: wgpu::TexelCopyBufferLayout {
+                offset: 0,
+                bytes_per_row: Some(padded_row),
+                rows_per_image: Some(height),
+            },
+        },
+        wgpu::Extent3d {
+            width,
+            height,
+            depth_or_array_layers: 1,
+        },
+    );
+    gpu.queue.submit([encoder.finish()]);
+    let (sender, receiver) = std::sync::mpsc::channel();
+    buffer.map_async(wgpu::MapMode::Read, .., move |r| {
+        let _ = sender.send(r);
+    });
+    gpu.device
+        .poll(wgpu::PollType::wait_indefinitely())
+        .map_err(|e| HeadlessError::Readback(e.to_string()))?;
+    receiver
+        .recv()
+        .map_err(|e| HeadlessError::Readback(e.to_string()))?
+        .map_err(|e| HeadlessError::Readback(e.to_string()))?;
+    let mut out = Vec::with_capacity((row_bytes * height) as usize);
+    {
+        let view = buffer
+            .get_mapped_range(..)
+            .map_err(|e| HeadlessError::Readback(e.to_string()))?;
+        for row in view.chunks(padded_row as usize) {
+            out.extend_from_slice(&row[..row_bytes as usize]);
+        }
+    }
+    buffer.unmap();
+    Ok(out)
+}

@@ -1,0 +1,304 @@
+//! The renderer: owns the passes and runs them in the frame's order.
+//!
+//! The frame's pass order lives in [`Renderer::encode`] and nowhere else:
+//! sky, terrain, then tone mapping into the caller's output target. Every
+//! pass writes GPU timestamps when the device supports them.
+
+use crate::frame::{FrameBinding, FrameUniform, Lighting};
+use crate::scene::Scene;
+use crate::sky::{SkyPass, SkySettings};
+use crate::targets::{FAR_DEPTH, HDR_FORMAT, Target};
+use crate::terrain::TerrainPass;
+use crate::timing::GpuTimer;
+use crate::tonemap::TonemapPass;
+
+/// Names of the passes in frame order, as reported by timings.
+pub const PASS_NAMES: [&str; 3] = ["sky", "terrain", "tonemap"];
+
+/// How the renderer is set up.
+#[derive(Clone, Copy, Debug)]
+pub struct RendererDescriptor {
+    /// Format of the caller's output target (any renderable colour format;
+    /// 8-bit unorm formats get sRGB encoding and dithering in the shader).
+    pub output_format: wgpu::TextureFormat,
+    /// Write per-pass GPU timestamps when the device supports them.
+    pub timestamps: bool,
+}
+
+/// Whether a frame starts from cleared targets or keeps what the caller drew.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum TargetLoad {
+    /// Clear the HDR target and the depth buffer (to the far plane, 0 under reverse-Z).
+    #[default]
+    Clear,
+    /// Keep the caller's depth (and anything drawn into [`Renderer::hdr_view`]):
+    /// the sky fills only pixels still at the far plane and the terrain is depth-tested.
+    Keep,
+}
+
+/// The caller's targets for one frame.
+#[derive(Clone, Copy, Debug)]
+pub struct FrameTargets<'a> {
+    /// Output colour view, of the descriptor's `output_format` and the prepared size.
+    pub output: &'a wgpu::TextureView,
+    /// Depth view, [`crate::targets::DEPTH_FORMAT`], same size; reverse-Z (1 near, 0 far).
+    pub depth: &'a wgpu::TextureView,
+    /// Clear or keep the previous contents.
+    pub load: TargetLoad,
+}
+
+/// Why a frame cannot be prepared.
+#[derive(Debug, thiserror::Error)]
+pub enum RenderError {
+    /// The image is larger than the device allows.
+    #[error("image size {width}×{height}: each side must be in [1, {max}] on this device")]
+    ImageSize {
+        /// Requested width.
+        width: u32,
+        /// Requested height.
+        height: u32,
+        /// The device's largest 2D texture side.
+        max: u32,
+    },
+}
+
+/// Lighting depends only on these scene values; recomputed when they change.
+type LightingKey = (f64, f64, f64);
+
+/// The nimbus renderer.
+#[derive(Debug)]
+pub struct Renderer {
+    device: wgpu::Device,
+    queue: wgpu::Queue,
+    frame: FrameBinding,
+    sky: SkyPass,
+    terrain: TerrainPass,
+    tonemap: TonemapPass,
+    hdr: Option<Target>,
+    timer: Option<GpuTimer>,
+    lighting: Option<(LightingKey, Lighting)>,
+}
+
+impl Renderer {
+    /// Creates the passes on the caller's device.
+    pub fn new(
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        descriptor: &RendererDescriptor,
+    ) -> Self {
+        let frame = FrameBinding::new(
+            device,
+            "frame uniform",
+            wgpu::ShaderStages::VERTEX_FRAGMENT | wgpu::ShaderStages::COMPUTE,
+        );
+        let sky = SkyPass::new(device, &frame.layout);
+        let terrain = TerrainPass::new(device, &frame.layout);
+        let tonemap = TonemapPass::new(device, queue, descriptor.output_format);
+        let timer = if descriptor.timestamps {
+            GpuTimer::new(device, queue, PASS_NAMES.len() as u32)
+        } else {
+            None
+        };
+        Self {
+            device: device.clone(),
+            queue: queue.clone(),
+            frame,
+            sky,
+            terrain,
+            tonemap,
+            hdr: None,
+            timer,
+            lighting: None,
+        }
+    }
+
+    /// Whether per-pass GPU timestamps are recorded.
+    pub fn has_timestamps(&self) -> bool {
+        self.timer.is_some()
+    }
+
+    /// Checks an image size against the device's limits.
+    pub fn check_size(device: &wgpu::Device, width: u32, height: u32) -> Result<(), RenderError> {
+        let max = device
+            .limits()
+            .max_texture_dimension_2d
+            .min(crate::scene::MAX_IMAGE_SIDE_PX);
+        if width == 0 || height == 0 || width > max || height > max {
+            return Err(RenderError::ImageSize { width, height, max });
+        }
+        Ok(())
+    }
+
+    /// Updates everything a frame needs: the frame uniform, lighting and the
+    /// terrain (regenerated only when their inputs change), and the HDR
+    /// target (recreated on resize).
+    pub fn prepare(
+        &mut self,
+        scene: &Scene,
+        width: u32,
+        height: u32,
+        time_s: f32,
+    ) -> Result<(), RenderError> {
+        Self::check_size(&self.device, width, height)?;
+        if self.hdr.as_ref().map(Target::size) != Some((width, height)) {
+            let hdr = Target::new(
+                &self.device,
+                "hdr colour",
+                HDR_FORMAT,
+                width,
+                height,
+                wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_SRC,
+            );
+            self.tonemap.set_input(&self.device, &hdr.view);
+            self.hdr = Some(hdr);
+        }
+        let key = (
+            scene.sun.azimuth_deg,
+            scene.sun.elevation_deg,
+            scene.atmosphere.turbidity,
+        );
+        let lighting = match &self.lighting {
+            Some((k, lighting)) if *k == key => *lighting,
+            _ => {
+                let lighting = Lighting::new(scene);
+                self.lighting = Some((key, lighting));
+                lighting
+            }
+        };
+        self.frame.write(
+            &self.queue,
+            &FrameUniform::new(scene, &lighting, width, height, time_s),
+        );
+        self.sky.prepare(
+            &self.queue,
+            SkySettings {
+                water_level_m: scene.terrain.water_level_m as f32,
+                water_albedo: scene.terrain.albedo.water,
+            },
+        );
+        self.terrain
+            .prepare(&self.device, &self.queue, &scene.terrain);
+        Ok(())
+    }
+
+    /// Records the frame: sky, terrain, tone mapping. Call [`Self::prepare`] first.
+    pub fn encode(&self, encoder: &mut wgpu::CommandEncoder, targets: &FrameTargets<'_>) {
+        let Some(hdr) = &self.hdr else { return };
+        let (color_load, depth_load) = match targets.load {
+            TargetLoad::Clear => (
+                wgpu::LoadOp::Clear(wgpu::Color::BLACK),
+                wgpu::LoadOp::Clear(FAR_DEPTH),
+            ),
+            TargetLoad::Keep => (wgpu::LoadOp::Load, wgpu::LoadOp::Load),
+        };
+        let frame = &self.frame.bind_group;
+        // 1. Sky, sun and open sea, at the far plane.
+        {
+            let mut pass = self.hdr_pass(
+                encoder,
+                "sky",
+                0,
+                hdr,
+                targets.depth,
+                color_load,
+                depth_load,
+            );
+            self.sky.draw(&mut pass, frame);
+        }
+        // 2. Terrain, depth-tested.
+        {
+            let mut pass = self.hdr_pass(
+                encoder,
+                "terrain",
+                1,
+                hdr,
+                targets.depth,
+                wgpu::LoadOp::Load,
+                wgpu::LoadOp::Load,
+            );
+            self.terrain.draw(&mut pass, frame);
+        }
+        // 3. Exposure is already applied; tone map into the caller's output.
+        {
+            let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+                label: Some("tonemap"),
+                color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+                    view: targets.output,
+                    depth_slice: None,
+                    resolve_target: None,
+                    ops: wgpu::Operations {
+                        load: wgpu::LoadOp::Clear(wgpu::Color::BLACK),
+                        store: wgpu::StoreOp::Store,
+                    },
+                })],
+                depth_stencil_attachment: None,
+                timestamp_writes: self.timer.as_ref().map(|t| t.pass_writes(2)),
+                occlusion_query_set: None,
+                multiview_mask: None,
+            });
+            self.tonemap.draw(&mut pass);
+        }
+        if let Some(timer) = &self.timer {
+            timer.resolve(encoder);
+        }
+    }
+
+    #[allow(clippy::too_many_arguments)]
+    fn hdr_pass<'e>(
+        &self,
+        encoder: &'e mut wgpu::CommandEncoder,
+        label: &str,
+        index: u32,
+        hdr: &Target,
+        depth: &wgpu::TextureView,
+        color_load: wgpu::LoadOp<wgpu::Color>,
+        depth_load: wgpu::LoadOp<f32>,
+    ) -> wgpu::RenderPass<'e> {
+        encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+            label: Some(label),
+            color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+                view: &hdr.view,
+                depth_slice: None,
+                resolve_target: None,
+                ops: wgpu::Operations {
+                    load: color_load,
+                    store: wgpu::StoreOp::Store,
+                },
+            })],
+            depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
+                view: depth,
+                depth_ops: Some(wgpu::Operations {
+                    load: depth_load,
+                    store: wgpu::StoreOp::Store,
+                }),
+                stencil_ops: None,
+            }),
+            timestamp_writes: self.timer.as_ref().map(|t| t.pass_writes(index)),
+            occlusion_query_set: None,
+            multiview_mask: None,
+        })
+    }
+
+    /// After the frame's submission: waits for it and returns each pass's GPU
+    /// time in ms, in [`PASS_NAMES`] order (`None` without timestamp support).
+    pub fn read_pass_times_ms(&self) -> Option<Vec<f64>> {
+        self.timer
+            .as_ref()
+            .and_then(|t| t.read_ms(&self.device).ok())
+    }
+
+    /// The HDR colour target (pre-exposed linear radiance), once prepared.
+    pub fn hdr_target(&self) -> Option<&Target> {
+        self.hdr.as_ref()
+    }
+
+    /// The terrain's albedo map (RGB albedo, A water mask), once prepared.
+    pub fn terrain_albedo_view(&self) -> Option<&wgpu::TextureView> {
+        self.terrain.albedo_view()
+    }
+
+    /// The terrain's albedo texture, once prepared.
+    pub fn terrain_albedo_texture(&self) -> Option<&wgpu::Texture> {
+        self.terrain.albedo_texture()
+    }
+}

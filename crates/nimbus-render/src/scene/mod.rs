@@ -1,0 +1,259 @@
+//! Scene files: the weather, camera, sun and terrain of one picture.
+//!
+//! A scene is a TOML file read with serde. Every section and key is
+//! documented on the types below (and in `docs/scene-file.md`); unknown keys,
+//! wrong types, NaN/inf and out-of-range values are rejected by
+//! [`Scene::from_toml_str`] with a [`SceneError`] that names the file, the key,
+//! the value and what is allowed.
+
+mod validate;
+
+pub use validate::SceneError;
+
+use nimbus_physics::terrain::TerrainParams;
+use serde::{Deserialize, Serialize};
+
+/// The text of the embedded default scene (`scenes/default.toml`).
+pub const DEFAULT_SCENE_TOML: &str = include_str!("../../../../scenes/default.toml");
+
+/// Largest image side nimbus renders, pixels (further bounded by the device).
+pub const MAX_IMAGE_SIDE_PX: u32 = 16_384;
+
+/// A complete scene.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct Scene {
+    /// Output image size.
+    pub image: ImageSettings,
+    /// The camera.
+    pub camera: CameraSettings,
+    /// The sun's position.
+    pub sun: SunSettings,
+    /// The clear atmosphere.
+    pub atmosphere: AtmosphereSettings,
+    /// The procedural terrain.
+    pub terrain: TerrainParams,
+    /// Cumulus clouds (reserved: parsed and validated, not rendered yet).
+    pub cumulus: Option<CumulusSettings>,
+    /// Stratiform cloud layer (reserved: parsed and validated, not rendered yet).
+    pub stratus: Option<StratusSettings>,
+    /// Rain (reserved: parsed and validated, not rendered yet).
+    pub rain: Option<RainSettings>,
+    /// Wind (reserved: parsed and validated, not used yet).
+    pub wind: Option<WindSettings>,
+}
+
+/// Output image size (`[image]`).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct ImageSettings {
+    /// Width in pixels, 1 to 16384.
+    pub width: u32,
+    /// Height in pixels, 1 to 16384.
+    pub height: u32,
+}
+
+impl Default for ImageSettings {
+    fn default() -> Self {
+        Self {
+            width: 1280,
+            height: 720,
+        }
+    }
+}
+
+/// The camera (`[camera]`): a pinhole at `position_m`, aimed either at
+/// `look_at_m` or by `yaw_deg`/`pitch_deg` (not both).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct CameraSettings {
+    /// Eye position in world metres (x east, y up, z south).
+    pub position_m: [f64; 3],
+    /// Point the camera looks at, world metres.
+    pub look_at_m: Option<[f64; 3]>,
+    /// Heading, degrees clockwise from north, in [−360, 360] (0 when neither
+    /// this nor `look_at_m` is given).
+    pub yaw_deg: Option<f64>,
+    /// Elevation of the view axis above the horizon, degrees, in [−89, 89].
+    pub pitch_deg: Option<f64>,
+    /// Vertical field of view, degrees, in (0, 179).
+    pub fov_deg: f64,
+    /// Exposure value at ISO 100; higher is darker. 15 suits a sunlit scene.
+    pub exposure_ev100: f64,
+}
+
+impl Default for CameraSettings {
+    fn default() -> Self {
+        Self {
+            position_m: [0.0, 200.0, 0.0],
+            look_at_m: None,
+            yaw_deg: None,
+            pitch_deg: None,
+            fov_deg: 60.0,
+            exposure_ev100: 14.5,
+        }
+    }
+}
+
+/// The sun's position (`[sun]`), given directly as angles.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct SunSettings {
+    /// Azimuth, degrees clockwise from north, in [0, 360].
+    pub azimuth_deg: f64,
+    /// Elevation above the horizon, degrees, in [−90, 90].
+    pub elevation_deg: f64,
+}
+
+impl Default for SunSettings {
+    fn default() -> Self {
+        Self {
+            azimuth_deg: 200.0,
+            elevation_deg: 30.0,
+        }
+    }
+}
+
+/// The clear atmosphere (`[atmosphere]`).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct AtmosphereSettings {
+    /// Linke-style turbidity of Preetham's sky model, in [1.7, 10]: 2 is very
+    /// clear, 3 clear, 6 hazy.
+    pub turbidity: f64,
+}
+
+impl Default for AtmosphereSettings {
+    fn default() -> Self {
+        Self { turbidity: 2.5 }
+    }
+}
+
+/// Cumulus clouds (`[cumulus]`, reserved).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct CumulusSettings {
+    /// Fraction of the sky covered, in [0, 1].
+    pub coverage: f64,
+    /// Height of the cloud bases, m, in [0, 10000].
+    pub base_m: f64,
+    /// Random seed of the cloud field.
+    pub seed: u64,
+}
+
+impl Default for CumulusSettings {
+    fn default() -> Self {
+        Self {
+            coverage: 0.3,
+            base_m: 1500.0,
+            seed: 1,
+        }
+    }
+}
+
+/// A stratiform cloud layer (`[stratus]`, reserved).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct StratusSettings {
+    /// Height of the layer's base, m, in [0, 15000].
+    pub base_m: f64,
+    /// Geometric thickness, m, in [1, 5000].
+    pub thickness_m: f64,
+    /// Effective droplet radius, µm, in [1, 50].
+    pub effective_radius_um: f64,
+}
+
+impl Default for StratusSettings {
+    fn default() -> Self {
+        Self {
+            base_m: 1000.0,
+            thickness_m: 400.0,
+            effective_radius_um: 6.0,
+        }
+    }
+}
+
+/// Rain (`[rain]`, reserved).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct RainSettings {
+    /// Rain intensity, mm/h, in [0, 300].
+    pub intensity_mm_h: f64,
+}
+
+impl Default for RainSettings {
+    fn default() -> Self {
+        Self {
+            intensity_mm_h: 5.0,
+        }
+    }
+}
+
+/// Uniform wind (`[wind]`, reserved).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct WindSettings {
+    /// Wind speed, m/s, in [0, 100].
+    pub speed_m_s: f64,
+    /// Direction the wind blows from, degrees clockwise from north, in [0, 360].
+    pub from_deg: f64,
+}
+
+impl Default for WindSettings {
+    fn default() -> Self {
+        Self {
+            speed_m_s: 5.0,
+            from_deg: 270.0,
+        }
+    }
+}
+
+impl Scene {
+    /// Parses and validates a scene from TOML text; `file` names the source in errors.
+    pub fn from_toml_str(text: &str, file: &str) -> Result<Self, SceneError> {
+        let deserializer =
+            toml::de::Deserializer::parse(text).map_err(|e| SceneError::syntax(file, text, &e))?;
+        let scene: Scene = serde_path_to_error::deserialize(deserializer)
+            .map_err(|e| SceneError::from_path_error(file, text, e))?;
+        scene.validate(file)?;
+        Ok(scene)
+    }
+
+    /// Reads, parses and validates a scene file.
+    pub fn from_file(path: &std::path::Path) -> Result<Self, SceneError> {
+        let file = path.display().to_string();
+        let text = std::fs::read_to_string(path).map_err(|e| SceneError::Io {
+            file: file.clone(),
+            message: e.to_string(),
+        })?;
+        Self::from_toml_str(&text, &file)
+    }
+
+    /// The embedded default scene.
+    pub fn embedded_default() -> Self {
+        // The embedded file is checked by a unit test, so this cannot fail in a release.
+        Self::from_toml_str(DEFAULT_SCENE_TOML, "<default scene>").unwrap_or_default()
+    }
+
+    /// Names of the reserved sections present in this scene, which this
+    /// version parses but does not render yet.
+    pub fn reserved_sections_present(&self) -> Vec<&'static str> {
+        let mut names = Vec::new();
+        if self.cumulus.is_some() {
+            names.push("cumulus");
+        }
+        if self.stratus.is_some() {
+            names.push("stratus");
+        }
+        if self.rain.is_some() {
+            names.push("rain");
+        }
+        if self.wind.is_some() {
+            names.push("wind");
+        }
+        names
+    }
+}
+
+#[cfg(test)]
+mod tests;

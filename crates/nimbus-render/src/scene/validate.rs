@@ -1,0 +1,261 @@
+//! Scene errors and range validation.
+//!
+//! Every error is one line naming the file, the key (its dotted path), the
+//! offending value and what is allowed, e.g.
+//! `scene.toml: camera.fov_deg = 190: must be in (0, 179)`.
+
+use super::Scene;
+use std::fmt::Display;
+
+/// Why a scene could not be loaded.
+#[derive(Debug, thiserror::Error)]
+pub enum SceneError {
+    /// The file could not be read.
+    #[error("{file}: cannot read: {message}")]
+    Io {
+        /// The file.
+        file: String,
+        /// The operating system's message.
+        message: String,
+    },
+    /// The text is not valid TOML.
+    #[error("{file}: line {line}: {message}")]
+    Syntax {
+        /// The file.
+        file: String,
+        /// 1-based line of the error.
+        line: usize,
+        /// The parser's message.
+        message: String,
+    },
+    /// A key is unknown, or its value has the wrong type.
+    #[error("{file}: {key}: {message} (line {line})")]
+    Key {
+        /// The file.
+        file: String,
+        /// Dotted path of the key.
+        key: String,
+        /// What is wrong, with the allowed keys or type.
+        message: String,
+        /// 1-based line of the key.
+        line: usize,
+    },
+    /// A value is out of range or inconsistent with another.
+    #[error("{file}: {key} = {value}: {allowed}")]
+    Invalid {
+        /// The file.
+        file: String,
+        /// Dotted path of the key.
+        key: String,
+        /// The value as given.
+        value: String,
+        /// What is allowed.
+        allowed: String,
+    },
+}
+
+fn line_of(text: &str, span: Option<std::ops::Range<usize>>) -> usize {
+    let offset = span.map_or(0, |s| s.start.min(text.len()));
+    text.as_bytes()[..offset]
+        .iter()
+        .filter(|b| **b == b'\n')
+        .count()
+        + 1
+}
+
+fn one_line(message: &str) -> String {
+    message.split_whitespace().collect::<Vec<_>>().join(" ")
+}
+
+impl SceneError {
+    pub(super) fn syntax(file: &str, text: &str, error: &toml::de::Error) -> Self {
+        Self::Syntax {
+            file: file.to_owned(),
+            line: line_of(text, error.span()),
+            message: one_line(error.message()),
+        }
+    }
+
+    pub(super) fn from_path_error(
+        file: &str,
+        text: &str,
+        error: serde_path_to_error::Error<toml::de::Error>,
+    ) -> Self {
+        let key = error.path().to_string();
+        let inner = error.inner();
+        let message = one_line(inner.message())
+            .replace("unknown field", "unknown key")
+            .replace(", expected one of", "; allowed keys:")
+            .replace(", expected", "; expected");
+        let key = if key == "." {
+            "(top level)".to_owned()
+        } else {
+            key
+        };
+        Self::Key {
+            file: file.to_owned(),
+            key,
+            message,
+            line: line_of(text, inner.span()),
+        }
+    }
+}
+
+/// Collects range checks against one file, stopping at the first failure.
+struct Checker<'a> {
+    file: &'a str,
+}
+
+impl Checker<'_> {
+    fn invalid(&self, key: &str, value: impl Display, allowed: impl Into<String>) -> SceneError {
+        SceneError::Invalid {
+            file: self.file.to_owned(),
+            key: key.to_owned(),
+            value: value.to_string(),
+            allowed: allowed.into(),
+        }
+    }
+
+    /// `lo <= value <= hi`, and finite.
+    fn closed(&self, key: &str, value: f64, lo: f64, hi: f64) -> Result<(), SceneError> {
+        if value.is_finite() && value >= lo && value <= hi {
+            Ok(())
+        } else {
+            Err(self.invalid(
+                key,
+                value,
+                format!("must be a finite number in [{lo}, {hi}]"),
+            ))
+        }
+    }
+
+    /// `lo < value < hi`, and finite.
+    fn open(&self, key: &str, value: f64, lo: f64, hi: f64) -> Result<(), SceneError> {
+        if value.is_finite() && value > lo && value < hi {
+            Ok(())
+        } else {
+            Err(self.invalid(key, value, format!("must be in ({lo}, {hi})")))
+        }
+    }
+
+    fn integer(&self, key: &str, value: u64, lo: u64, hi: u64) -> Result<(), SceneError> {
+        if (lo..=hi).contains(&value) {
+            Ok(())
+        } else {
+            Err(self.invalid(key, value, format!("must be an integer in [{lo}, {hi}]")))
+        }
+    }
+
+    fn vector(&self, key: &str, value: &[f64], lo: f64, hi: f64) -> Result<(), SceneError> {
+        if value.iter().all(|v| v.is_finite() && *v >= lo && *v <= hi) {
+            Ok(())
+        } else {
+            Err(self.invalid(
+                key,
+                format!("{value:?}"),
+                format!("each component must be a finite number in [{lo}, {hi}]"),
+            ))
+        }
+    }
+}
+
+/// World coordinates are bounded so that f32 positions on the GPU keep
+/// sub-metre precision.
+const MAX_COORDINATE_M: f64 = 1.0e6;
+
+impl Scene {
+    /// Checks every value against its documented range.
+    pub fn validate(&self, file: &str) -> Result<(), SceneError> {
+        let c = Checker { file };
+        let side = super::MAX_IMAGE_SIDE_PX as u64;
+        c.integer("image.width", self.image.width as u64, 1, side)?;
+        c.integer("image.height", self.image.height as u64, 1, side)?;
+
+        let cam = &self.camera;
+        c.vector(
+            "camera.position_m",
+            &cam.position_m,
+            -MAX_COORDINATE_M,
+            MAX_COORDINATE_M,
+        )?;
+        if let Some(target) = &cam.look_at_m {
+            c.vector(
+                "camera.look_at_m",
+                target,
+                -MAX_COORDINATE_M,
+                MAX_COORDINATE_M,
+            )?;
+            if cam.yaw_deg.is_some() || cam.pitch_deg.is_some() {
+                return Err(c.invalid(
+                    "camera.look_at_m",
+                    format!("{target:?}"),
+                    "give either look_at_m or yaw_deg/pitch_deg, not both",
+                ));
+            }
+            let d: Vec<f64> = (0..3).map(|k| target[k] - cam.position_m[k]).collect();
+            let horizontal = (d[0] * d[0] + d[2] * d[2]).sqrt();
+            if horizontal < 1e-3 * d[1].abs().max(1e-3) {
+                return Err(c.invalid("camera.look_at_m", format!("{target:?}"), "must not be straight above or below camera.position_m (the view would have no horizon direction)"));
+            }
+        }
+        if let Some(yaw) = cam.yaw_deg {
+            c.closed("camera.yaw_deg", yaw, -360.0, 360.0)?;
+        }
+        if let Some(pitch) = cam.pitch_deg {
+            c.closed("camera.pitch_deg", pitch, -89.0, 89.0)?;
+        }
+        c.open("camera.fov_deg", cam.fov_deg, 0.0, 179.0)?;
+        c.closed("camera.exposure_ev100", cam.exposure_ev100, -10.0, 30.0)?;
+
+        c.closed("sun.azimuth_deg", self.sun.azimuth_deg, 0.0, 360.0)?;
+        c.closed("sun.elevation_deg", self.sun.elevation_deg, -90.0, 90.0)?;
+        c.closed("atmosphere.turbidity", self.atmosphere.turbidity, 1.7, 10.0)?;
+
+        let t = &self.terrain;
+        c.closed("terrain.extent_m", t.extent_m, 100.0, MAX_COORDINATE_M)?;
+        c.closed("terrain.height_scale_m", t.height_scale_m, 0.0, 10_000.0)?;
+        c.closed(
+            "terrain.feature_wavelength_m",
+            t.feature_wavelength_m,
+            10.0,
+            MAX_COORDINATE_M,
+        )?;
+        c.integer("terrain.resolution", t.resolution as u64, 16, 4096)?;
+        c.closed(
+            "terrain.water_level_m",
+            t.water_level_m,
+            -10_000.0,
+            10_000.0,
+        )?;
+        c.closed("terrain.sand_band_m", t.sand_band_m, 0.0, 1_000.0)?;
+        c.closed("terrain.snow_line_m", t.snow_line_m, -10_000.0, 100_000.0)?;
+        c.closed("terrain.rock_slope_deg", t.rock_slope_deg, 0.0, 90.0)?;
+        for (name, rgb) in t.albedo.named() {
+            let rgb = rgb.map(f64::from);
+            c.vector(&format!("terrain.albedo.{name}"), &rgb, 0.0, 1.0)?;
+        }
+
+        if let Some(cu) = &self.cumulus {
+            c.closed("cumulus.coverage", cu.coverage, 0.0, 1.0)?;
+            c.closed("cumulus.base_m", cu.base_m, 0.0, 10_000.0)?;
+        }
+        if let Some(st) = &self.stratus {
+            c.closed("stratus.base_m", st.base_m, 0.0, 15_000.0)?;
+            c.closed("stratus.thickness_m", st.thickness_m, 1.0, 5_000.0)?;
+            c.closed(
+                "stratus.effective_radius_um",
+                st.effective_radius_um,
+                1.0,
+                50.0,
+            )?;
+        }
+        if let Some(rain) = &self.rain {
+            c.closed("rain.intensity_mm_h", rain.intensity_mm_h, 0.0, 300.0)?;
+        }
+        if let Some(wind) = &self.wind {
+            c.closed("wind.speed_m_s", wind.speed_m_s, 0.0, 100.0)?;
+            c.closed("wind.from_deg", wind.from_deg, 0.0, 360.0)?;
+        }
+        Ok(())
+    }
+}

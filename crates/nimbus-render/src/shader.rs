@@ -1,0 +1,60 @@
+//! Composition of WGSL sources: each pass's shader is its own file preceded
+//! by the shared libraries it needs. The layer is deliberately thin: plain
+//! concatenation in a fixed order, so that naga's error positions map back to
+//! files through the `// ---- file:` markers.
+
+/// Shared declarations: constants, the frame uniform and its binding.
+pub const COMMON_WGSL: &str = include_str!("shaders/common.wgsl");
+/// The analytic sky radiance function.
+pub const SKY_MODEL_WGSL: &str = include_str!("shaders/sky_model.wgsl");
+
+/// A named WGSL source file.
+#[derive(Clone, Copy, Debug)]
+pub struct WgslFile {
+    /// File name, for diagnostics.
+    pub name: &'static str,
+    /// Its text.
+    pub source: &'static str,
+}
+
+/// Concatenates the given files into one shader module source.
+pub fn compose(files: &[WgslFile]) -> String {
+    let mut out = String::new();
+    for file in files {
+        out.push_str("// ---- file: ");
+        out.push_str(file.name);
+        out.push('\n');
+        out.push_str(file.source);
+        out.push('\n');
+    }
+    out
+}
+
+/// The shared files, in dependency order.
+pub const COMMON: WgslFile = WgslFile {
+    name: "shaders/common.wgsl",
+    source: COMMON_WGSL,
+};
+/// The sky model library.
+pub const SKY_MODEL: WgslFile = WgslFile {
+    name: "shaders/sky_model.wgsl",
+    source: SKY_MODEL_WGSL,
+};
+
+/// Every composed shader module of the renderer, by name: what the naga
+/// validation test checks.
+pub fn all_modules() -> Vec<(&'static str, String)> {
+    vec![
+        ("sky", crate::sky::shader_source()),
+        ("terrain", crate::terrain::shader_source()),
+        ("tonemap", crate::tonemap::shader_source()),
+    ]
+}
+
+/// Creates a shader module from composed source.
+pub fn create_module(device: &wgpu::Device, label: &str, source: &str) -> wgpu::ShaderModule {
+    device.create_shader_module(wgpu::ShaderModuleDescriptor {
+        label: Some(label),
+        source: wgpu::ShaderSource::Wgsl(source.into()),
+    })
+}

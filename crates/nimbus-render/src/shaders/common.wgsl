@@ -1,0 +1,55 @@
+// Shared declarations of every nimbus pass: constants, the frame uniform and
+// its binding (group 0, binding 0). Composed in front of each pass's shader
+// by `shader::compose`. Units: metres, radians, radiance in W·sr⁻¹·m⁻² per
+// RGB channel (pre-exposed in render targets: multiplied by exposure_scale).
+
+const PI: f32 = 3.14159265358979;
+
+// Preetham sky model parameters (see nimbus_physics::sky::PreethamSky).
+struct SkyModel {
+    // Perez A, B, C, D for luminance Y, chromaticity x and chromaticity y.
+    perez_luminance: vec4<f32>,
+    perez_x: vec4<f32>,
+    perez_y: vec4<f32>,
+    // Perez E for (Y, x, y); w = twilight fade factor.
+    perez_e_and_fade: vec4<f32>,
+    // Y_z / F(0, θs) in cd/m², x_z / F(0, θs), y_z / F(0, θs); w unused.
+    zenith_over_perez: vec4<f32>,
+}
+
+struct Frame {
+    clip_from_world: mat4x4<f32>,
+    world_from_clip: mat4x4<f32>,
+    camera_position_m: vec3<f32>,
+    time_s: f32,
+    // Unit vector towards the sun.
+    sun_direction: vec3<f32>,
+    // Multiplies radiance (W·sr⁻¹·m⁻²) to give pre-exposed render-target values.
+    exposure_scale: f32,
+    // Direct solar irradiance at the ground, W·m⁻² per channel.
+    sun_irradiance: vec3<f32>,
+    sun_cos_angular_radius: f32,
+    // Sky irradiance on a horizontal surface, W·m⁻² per channel.
+    sky_irradiance: vec3<f32>,
+    // Largest value written to the half-float HDR target.
+    max_pre_exposed: f32,
+    viewport_size_px: vec2<f32>,
+    // Angle subtended by one pixel at the image centre, rad.
+    pixel_angle_rad: f32,
+    _padding: f32,
+    sky: SkyModel,
+}
+
+@group(0) @binding(0) var<uniform> frame: Frame;
+
+// World-space unit view ray through a clip-space position (x, y in [-1, 1]).
+fn view_ray_world(clip_xy: vec2<f32>) -> vec3<f32> {
+    // Reverse-Z: depth 1 is the near plane, so this point is finite.
+    let near = frame.world_from_clip * vec4<f32>(clip_xy, 1.0, 1.0);
+    return normalize(near.xyz / near.w - frame.camera_position_m);
+}
+
+// Keeps pre-exposed radiance finite in the half-float target.
+fn to_target(radiance: vec3<f32>) -> vec4<f32> {
+    return vec4<f32>(min(radiance * frame.exposure_scale, vec3<f32>(frame.max_pre_exposed)), 1.0);
+}

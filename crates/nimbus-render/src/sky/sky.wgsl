@@ -1,0 +1,40 @@
+// Sky pass: Preetham sky radiance, the limb-darkened solar disk, and the open
+// sea at the water level below the horizon, beyond the terrain's edge.
+
+struct SkyPassParams {
+    // Height of the open sea, m.
+    water_level_m: f32,
+    // Limb-darkening coefficient u of the linear law I(μ) = I(1) (1 − u (1 − μ)).
+    limb_darkening_u: f32,
+    _padding: vec2<f32>,
+    // Diffuse albedo of deep water.
+    water_albedo: vec4<f32>,
+}
+
+@group(1) @binding(0) var<uniform> params: SkyPassParams;
+
+fn solar_disk(direction: vec3<f32>) -> vec3<f32> {
+    let cos_angle = dot(direction, frame.sun_direction);
+    if (cos_angle < frame.sun_cos_angular_radius) {
+        return vec3<f32>(0.0);
+    }
+    let radius = acos(frame.sun_cos_angular_radius);
+    let r = acos(min(cos_angle, 1.0)) / radius;
+    let mu = sqrt(max(1.0 - r * r, 0.0));
+    let u = params.limb_darkening_u;
+    let solid_angle = 2.0 * PI * (1.0 - frame.sun_cos_angular_radius);
+    // The disk average of (1 − u (1 − μ)) is 1 − u / 3, so the disk still delivers sun_irradiance.
+    return frame.sun_irradiance / solid_angle * (1.0 - u * (1.0 - mu)) / (1.0 - u / 3.0);
+}
+
+@fragment
+fn sky_fragment(in: FullscreenOutput) -> @location(0) vec4<f32> {
+    let direction = view_ray_world(in.clip_xy);
+    let height = frame.camera_position_m.y - params.water_level_m;
+    if (direction.y < 0.0 && height > 0.0) {
+        let distance = height / -direction.y;
+        let sea_point = frame.camera_position_m + direction * distance;
+        return to_target(water_radiance(sea_point, params.water_albedo.rgb));
+    }
+    return to_target(sky_radiance(direction) + solar_disk(direction));
+}
