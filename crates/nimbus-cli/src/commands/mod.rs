@@ -21,6 +21,15 @@ pub fn load_scene(path: Option<&Path>) -> anyhow::Result<Scene> {
     for name in scene.reserved_sections_present() {
         eprintln!("nimbus: warning: [{name}] is validated but not rendered by this version");
     }
+    let [x, y, z] = scene.camera.position_m;
+    let ground = nimbus_physics::terrain::ground_height_m(&scene.terrain, x, z)
+        .max(scene.terrain.water_level_m);
+    if y < ground {
+        eprintln!(
+            "nimbus: warning: camera.position_m is {:.0} m below the terrain surface there ({ground:.0} m)",
+            ground - y
+        );
+    }
     Ok(scene)
 }
 

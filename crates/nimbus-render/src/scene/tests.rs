@@ -1,1 +1,227 @@
+//! Scene parsing and validation: every error path names the file, the key,
+//! the value and what is allowed, on one line.
 
+use super::*;
+
+fn error_of(text: &str) -> String {
+    let err = Scene::from_toml_str(text, "scene.toml").expect_err("scene should be rejected");
+    let message = err.to_string();
+    assert!(!message.contains('\n'), "error spans lines: {message}");
+    assert!(
+        message.starts_with("scene.toml: "),
+        "error does not name the file: {message}"
+    );
+    message
+}
+
+#[test]
+fn embedded_default_scene_parses_and_validates() {
+    let scene = Scene::from_toml_str(DEFAULT_SCENE_TOML, "default.toml").expect("default scene");
+    assert_eq!(scene, Scene::embedded_default());
+    assert!(scene.reserved_sections_present().is_empty());
+}
+
+#[test]
+fn example_scenes_parse() {
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenes");
+    let mut count = 0;
+    for entry in std::fs::read_dir(&dir).expect("scenes directory") {
+        let path = entry.expect("entry").path();
+        if path.extension().is_some_and(|e| e == "toml") {
+            Scene::from_file(&path).unwrap_or_else(|e| panic!("{e}"));
+            count += 1;
+        }
+    }
+    assert!(count >= 3, "expected a few example scenes, found {count}");
+}
+
+#[test]
+fn empty_file_gives_the_built_in_defaults() {
+    assert_eq!(
+        Scene::from_toml_str("", "empty.toml").expect("empty scene"),
+        Scene::default()
+    );
+}
+
+#[test]
+fn out_of_range_field_of_view_is_reported_as_documented() {
+    assert_eq!(
+        error_of("[camera]\nfov_deg = 190"),
+        "scene.toml: camera.fov_deg = 190: must be in (0, 179)"
+    );
+    assert_eq!(
+        error_of("[camera]\nfov_deg = 0"),
+        "scene.toml: camera.fov_deg = 0: must be in (0, 179)"
+    );
+}
+
+#[test]
+fn nan_and_infinity_are_rejected() {
+    let m = error_of("[sun]\nelevation_deg = nan");
+    assert!(
+        m.contains("sun.elevation_deg = NaN") && m.contains("[-90, 90]"),
+        "{m}"
+    );
+    let m = error_of("[terrain]\nextent_m = inf");
+    assert!(m.contains("terrain.extent_m = inf"), "{m}");
+    let m = error_of("[camera]\nposition_m = [0.0, -inf, 0.0]");
+    assert!(
+        m.contains("camera.position_m") && m.contains("finite"),
+        "{m}"
+    );
+}
+
+#[test]
+fn unknown_keys_are_rejected_with_the_allowed_ones() {
+    let m = error_of("[camera]\nfov = 60");
+    assert!(
+        m.contains("camera.fov") && m.contains("unknown key") && m.contains("fov_deg"),
+        "{m}"
+    );
+    let m = error_of("colour = 1");
+    assert!(
+        m.contains("colour") && m.contains("unknown key") && m.contains("camera"),
+        "{m}"
+    );
+    let m = error_of("[terrain.albedo]\nlava = [1.0, 0.0, 0.0]");
+    assert!(
+        m.contains("terrain.albedo.lava") && m.contains("snow"),
+        "{m}"
+    );
+    let m = error_of("[clouds]\n");
+    assert!(m.contains("clouds") && m.contains("unknown key"), "{m}");
+}
+
+#[test]
+fn wrong_types_are_rejected_with_the_line() {
+    let m = error_of("[image]\nwidth = \"wide\"");
+    assert!(m.contains("image.width") && m.contains("line 2"), "{m}");
+    let m = error_of("[image]\nwidth = -5");
+    assert!(m.contains("image.width"), "{m}");
+    let m = error_of("[camera]\nposition_m = [1.0, 2.0]");
+    assert!(m.contains("camera.position_m"), "{m}");
+}
+
+#[test]
+fn syntax_errors_name_the_line() {
+    let m = error_of("[camera]\nfov_deg = = 3\n");
+    assert!(m.contains("line 2"), "{m}");
+}
+
+#[test]
+fn every_range_is_checked() {
+    let cases = [
+        ("[image]\nwidth = 0", "image.width = 0"),
+        ("[image]\nheight = 20000", "image.height = 20000"),
+        ("[camera]\npitch_deg = 95", "camera.pitch_deg = 95"),
+        ("[camera]\nyaw_deg = 400", "camera.yaw_deg = 400"),
+        (
+            "[camera]\nexposure_ev100 = 40",
+            "camera.exposure_ev100 = 40",
+        ),
+        (
+            "[camera]\nposition_m = [0.0, 2e7, 0.0]",
+            "camera.position_m",
+        ),
+        ("[sun]\nazimuth_deg = -1", "sun.azimuth_deg = -1"),
+        ("[sun]\nelevation_deg = 91", "sun.elevation_deg = 91"),
+        ("[atmosphere]\nturbidity = 1.0", "atmosphere.turbidity = 1"),
+        ("[terrain]\nextent_m = 10", "terrain.extent_m = 10"),
+        (
+            "[terrain]\nheight_scale_m = -1",
+            "terrain.height_scale_m = -1",
+        ),
+        (
+            "[terrain]\nfeature_wavelength_m = 1",
+            "terrain.feature_wavelength_m = 1",
+        ),
+        ("[terrain]\nresolution = 8", "terrain.resolution = 8"),
+        (
+            "[terrain]\nresolution = 100000",
+            "terrain.resolution = 100000",
+        ),
+        ("[terrain]\nwater_level_m = 1e9", "terrain.water_level_m"),
+        ("[terrain]\nsand_band_m = -3", "terrain.sand_band_m = -3"),
+        ("[terrain]\nsnow_line_m = 1e6", "terrain.snow_line_m"),
+        (
+            "[terrain]\nrock_slope_deg = 120",
+            "terrain.rock_slope_deg = 120",
+        ),
+        (
+            "[terrain.albedo]\nsnow = [1.2, 0.9, 0.9]",
+            "terrain.albedo.snow",
+        ),
+        ("[cumulus]\ncoverage = 2", "cumulus.coverage = 2"),
+        ("[cumulus]\nbase_m = -5", "cumulus.base_m = -5"),
+        ("[stratus]\nthickness_m = 0", "stratus.thickness_m = 0"),
+        ("[stratus]\nbase_m = 20000", "stratus.base_m = 20000"),
+        (
+            "[stratus]\neffective_radius_um = 0.1",
+            "stratus.effective_radius_um = 0.1",
+        ),
+        ("[rain]\nintensity_mm_h = 500", "rain.intensity_mm_h = 500"),
+        ("[wind]\nspeed_m_s = -1", "wind.speed_m_s = -1"),
+        ("[wind]\nfrom_deg = 361", "wind.from_deg = 361"),
+    ];
+    for (text, expected) in cases {
+        let m = error_of(text);
+        assert!(
+            m.contains(expected),
+            "`{text}` gave `{m}`, expected it to mention `{expected}`"
+        );
+        assert!(m.contains("must be"), "`{m}` does not say what is allowed");
+    }
+}
+
+#[test]
+fn look_at_excludes_yaw_and_pitch_and_needs_a_horizontal_offset() {
+    let m = error_of("[camera]\nlook_at_m = [0.0, 0.0, -100.0]\nyaw_deg = 10");
+    assert!(
+        m.contains("camera.look_at_m") && m.contains("not both"),
+        "{m}"
+    );
+    let m = error_of("[camera]\nposition_m = [0.0, 100.0, 0.0]\nlook_at_m = [0.0, 0.0, 0.0]");
+    assert!(m.contains("straight above or below"), "{m}");
+}
+
+#[test]
+fn reserved_sections_are_parsed_and_listed() {
+    let scene =
+        Scene::from_toml_str("[rain]\nintensity_mm_h = 12.5\n[wind]\n", "s.toml").expect("scene");
+    assert_eq!(scene.rain.as_ref().map(|r| r.intensity_mm_h), Some(12.5));
+    assert_eq!(scene.reserved_sections_present(), vec!["rain", "wind"]);
+}
+
+#[test]
+fn missing_file_is_reported_with_its_name() {
+    let err =
+        Scene::from_file(std::path::Path::new("/nonexistent/scene.toml")).expect_err("missing");
+    assert!(
+        err.to_string()
+            .starts_with("/nonexistent/scene.toml: cannot read"),
+        "{err}"
+    );
+}
+
+#[test]
+fn scene_reference_documents_every_key_of_the_default_scene() {
+    let doc = include_str!("../../../../docs/scene-file.md");
+    let value: toml::Table = toml::from_str(DEFAULT_SCENE_TOML).expect("default scene is TOML");
+    fn walk(prefix: &str, table: &toml::Table, doc: &str) {
+        for (key, value) in table {
+            let path = if prefix.is_empty() {
+                key.clone()
+            } else {
+                format!("{prefix}.{key}")
+            };
+            match value {
+                toml::Value::Table(inner) => walk(&path, inner, doc),
+                _ => assert!(
+                    doc.contains(&format!("`{path}`")),
+                    "docs/scene-file.md does not document `{path}`"
+                ),
+            }
+        }
+    }
+    walk("", &value, doc);
+}

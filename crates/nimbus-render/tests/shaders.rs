@@ -1,0 +1,122 @@
+//! Every WGSL module of the renderer is parsed and validated by naga (no GPU
+//! needed), and every uniform struct's Rust layout is checked against naga's
+//! layout of the WGSL struct, member by member.
+
+use nimbus_render::frame::{FrameUniform, SkyModelUniform};
+use nimbus_render::shader::all_modules;
+use nimbus_render::sky::SkyPassUniform;
+use nimbus_render::tonemap::TonemapUniform;
+use std::mem::{offset_of, size_of};
+
+fn parse(name: &str, source: &str) -> naga::Module {
+    naga::front::wgsl::parse_str(source)
+        .unwrap_or_else(|e| panic!("{name}: {}", e.emit_to_string(source)))
+}
+
+#[test]
+fn every_shader_module_parses_and_validates() {
+    for (name, source) in all_modules() {
+        let module = parse(name, &source);
+        naga::valid::Validator::new(
+            naga::valid::ValidationFlags::all(),
+            naga::valid::Capabilities::default(),
+        )
+        .validate(&module)
+        .unwrap_or_else(|e| panic!("{name}: {}", e.emit_to_string(&source)));
+    }
+}
+
+/// Size and member offsets of a WGSL struct, as naga lays it out.
+fn wgsl_layout(module: &naga::Module, struct_name: &str) -> (u32, Vec<(String, u32)>) {
+    let mut layouter = naga::proc::Layouter::default();
+    layouter.update(module.to_ctx()).expect("layout");
+    for (_, ty) in module.types.iter() {
+        if ty.name.as_deref() == Some(struct_name) {
+            if let naga::TypeInner::Struct { members, span } = &ty.inner {
+                return (
+                    *span,
+                    members
+                        .iter()
+                        .map(|m| (m.name.clone().unwrap_or_default(), m.offset))
+                        .collect(),
+                );
+            }
+        }
+    }
+    panic!("struct {struct_name} not found");
+}
+
+fn module_named(name: &str) -> naga::Module {
+    let (_, source) = all_modules()
+        .into_iter()
+        .find(|(n, _)| *n == name)
+        .expect("module");
+    parse(name, &source)
+}
+
+macro_rules! assert_layout {
+    ($module:expr, $wgsl:literal, $rust:ty, [$($field:ident),* $(,)?]) => {{
+        let (size, members) = wgsl_layout(&$module, $wgsl);
+        assert_eq!(size as usize, size_of::<$rust>(), "size of {} vs {}", $wgsl, stringify!($rust));
+        let rust: Vec<(&str, usize)> = vec![$((stringify!($field), offset_of!($rust, $field))),*];
+        assert_eq!(members.len(), rust.len(), "member count of {}", $wgsl);
+        for ((wgsl_name, wgsl_offset), (rust_name, rust_offset)) in members.iter().zip(rust) {
+            assert_eq!(wgsl_name, rust_name, "member order of {}", $wgsl);
+            assert_eq!(*wgsl_offset as usize, rust_offset, "offset of {}.{}", $wgsl, wgsl_name);
+        }
+    }};
+}
+
+#[test]
+fn frame_uniform_matches_wgsl_layout() {
+    let module = module_named("sky");
+    assert_layout!(
+        module,
+        "Frame",
+        FrameUniform,
+        [
+            clip_from_world,
+            world_from_clip,
+            camera_position_m,
+            time_s,
+            sun_direction,
+            exposure_scale,
+            sun_irradiance,
+            sun_cos_angular_radius,
+            sky_irradiance,
+            max_pre_exposed,
+            viewport_size_px,
+            pixel_angle_rad,
+            _padding,
+            sky,
+        ]
+    );
+    assert_layout!(
+        module,
+        "SkyModel",
+        SkyModelUniform,
+        [
+            perez_luminance,
+            perez_x,
+            perez_y,
+            perez_e_and_fade,
+            zenith_over_perez,
+        ]
+    );
+}
+
+#[test]
+fn pass_uniforms_match_wgsl_layout() {
+    assert_layout!(
+        module_named("sky"),
+        "SkyPassParams",
+        SkyPassUniform,
+        [water_level_m, limb_darkening_u, _padding, water_albedo,]
+    );
+    assert_layout!(
+        module_named("tonemap"),
+        "TonemapParams",
+        TonemapUniform,
+        [encode_srgb, dither_lsb, code_values, _padding,]
+    );
+}
