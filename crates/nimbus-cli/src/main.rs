@@ -47,7 +47,7 @@ fn main() -> ExitCode {
             // One line: clap's first line, without its usage block.
             let text = error.to_string();
             let first = text.lines().next().unwrap_or("invalid arguments");
-            eprintln!("nimbus: {}", first.trim_start_matches("error: "));
+            eprintln!("nimbus: error: {}", first.trim_start_matches("error: "));
             return ExitCode::from(2);
         }
     };
@@ -60,7 +60,10 @@ fn main() -> ExitCode {
         Ok(()) => ExitCode::SUCCESS,
         Err(error) => {
             let message = format!("{error:#}");
-            eprintln!("nimbus: {}", message.lines().collect::<Vec<_>>().join(" "));
+            eprintln!(
+                "nimbus: error: {}",
+                message.lines().collect::<Vec<_>>().join(" ")
+            );
             ExitCode::FAILURE
         }
     }

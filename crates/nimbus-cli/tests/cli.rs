@@ -1,0 +1,300 @@
+//! Integration tests of the `nimbus` binary: exit codes, one-line errors,
+//! outputs, and no partial files on failure.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn nimbus(args: &[&str], dir: &Path) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_nimbus"))
+        .args(args)
+        .current_dir(dir)
+        .output()
+        .expect("run nimbus")
+}
+
+fn stderr_lines(out: &Output) -> Vec<String> {
+    // wgpu's Vulkan loader may print unrelated environment notices; keep nimbus's own lines.
+    String::from_utf8_lossy(&out.stderr)
+        .lines()
+        .filter(|l| l.starts_with("nimbus:"))
+        .map(str::to_owned)
+        .collect()
+}
+
+fn temp_dir(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("nimbus-cli-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).expect("temp dir");
+    dir
+}
+
+fn files_in(dir: &Path) -> Vec<String> {
+    let mut names: Vec<String> = std::fs::read_dir(dir)
+        .expect("dir")
+        .map(|e| e.expect("entry").file_name().to_string_lossy().into_owned())
+        .collect();
+    names.sort();
+    names
+}
+
+/// Asserts a failure with exactly one error line containing every fragment.
+fn assert_fails_with(out: &Output, fragments: &[&str]) {
+    assert!(
+        !out.status.success(),
+        "expected failure, got {:?}",
+        out.status
+    );
+    let errors: Vec<String> = stderr_lines(out)
+        .into_iter()
+        .filter(|l| l.starts_with("nimbus: error: "))
+        .collect();
+    assert_eq!(errors.len(), 1, "expected one error line, got {errors:?}");
+    for fragment in fragments {
+        assert!(
+            errors[0].contains(fragment),
+            "`{}` does not mention `{fragment}`",
+            errors[0]
+        );
+    }
+    assert!(
+        !String::from_utf8_lossy(&out.stderr).contains("panicked"),
+        "panic: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+}
+
+#[test]
+fn help_is_available_for_every_subcommand() {
+    let dir = temp_dir("help");
+    for sub in [
+        &["--help"][..],
+        &["render", "--help"],
+        &["bench", "--help"],
+        &["scene", "--help"],
+    ] {
+        let out = nimbus(sub, &dir);
+        assert!(out.status.success(), "{sub:?}");
+        assert!(
+            String::from_utf8_lossy(&out.stdout).contains("Usage"),
+            "{sub:?}"
+        );
+    }
+}
+
+#[test]
+fn render_writes_a_png_of_the_default_scene() {
+    let dir = temp_dir("render-png");
+    let out = nimbus(
+        &["render", "-o", "sky.png", "--width", "96", "--height", "54"],
+        &dir,
+    );
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let image = image::open(dir.join("sky.png")).expect("png").to_rgba8();
+    assert_eq!(image.dimensions(), (96, 54));
+    // Sky at the top is bluish and brighter than black; nothing else was left in the directory.
+    let top = image.get_pixel(48, 2);
+    assert!(top[2] > top[0] && top[2] > 60, "top pixel {top:?}");
+    assert_eq!(files_in(&dir), vec!["sky.png"]);
+}
+
+#[test]
+fn render_writes_a_linear_exr() {
+    let dir = temp_dir("render-exr");
+    let out = nimbus(
+        &["render", "-o", "sky.exr", "--width", "40", "--height", "24"],
+        &dir,
+    );
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let image = exr::prelude::read_first_rgba_layer_from_file(
+        dir.join("sky.exr"),
+        |resolution, _| vec![[0f32; 3]; resolution.width() * resolution.height()],
+        |pixels, position, (r, g, b, _a): (f32, f32, f32, f32)| {
+            pixels[position.y() * 40 + position.x()] = [r, g, b]
+        },
+    )
+    .expect("exr");
+    let pixels = image.layer_data.channel_data.pixels;
+    // Linear radiance in W·sr⁻¹·m⁻²: a daylight sky is of order 1–100, not display values in [0, 1].
+    let top = pixels[20];
+    assert!(top[2] > 1.0 && top[2] < 1000.0, "sky radiance {top:?}");
+    assert_eq!(files_in(&dir), vec!["sky.exr"]);
+}
+
+#[test]
+fn bad_scene_values_fail_with_one_line_and_no_output() {
+    let dir = temp_dir("bad-scene");
+    let cases: [(&str, &[&str]); 5] = [
+        (
+            "[camera]\nfov_deg = 190\n",
+            &["bad.toml: camera.fov_deg = 190: must be in (0, 179)"],
+        ),
+        (
+            "[camera]\nfov = 60\n",
+            &["bad.toml", "camera.fov", "unknown key", "fov_deg"],
+        ),
+        (
+            "[image]\nwidth = \"big\"\n",
+            &["bad.toml", "image.width", "line 2"],
+        ),
+        (
+            "[sun]\nelevation_deg = nan\n",
+            &["bad.toml", "sun.elevation_deg = NaN"],
+        ),
+        ("[camera\n", &["bad.toml", "line 1"]),
+    ];
+    for (text, fragments) in cases {
+        std::fs::write(dir.join("bad.toml"), text).expect("write");
+        let out = nimbus(&["render", "bad.toml", "-o", "out.png"], &dir);
+        assert_fails_with(&out, fragments);
+        assert_eq!(
+            files_in(&dir),
+            vec!["bad.toml"],
+            "output left behind for {text:?}"
+        );
+    }
+}
+
+#[test]
+fn bad_flags_fail_with_one_line() {
+    let dir = temp_dir("bad-flags");
+    assert_fails_with(
+        &nimbus(&["render", "--width", "0"], &dir),
+        &["--width", "0"],
+    );
+    assert_fails_with(
+        &nimbus(&["render", "--height", "abc"], &dir),
+        &["--height", "abc"],
+    );
+    assert_fails_with(
+        &nimbus(&["render", "--adapter", "quantum"], &dir),
+        &["quantum", "auto, hardware, software"],
+    );
+    assert_fails_with(
+        &nimbus(&["render", "-o", "out.jpg"], &dir),
+        &["out.jpg", ".png or .exr"],
+    );
+    assert_fails_with(
+        &nimbus(&["render", "-o", "missing/out.png"], &dir),
+        &["missing/out.png", "does not exist"],
+    );
+    assert_fails_with(
+        &nimbus(&["render", "no-such-scene.toml"], &dir),
+        &["no-such-scene.toml", "cannot read"],
+    );
+    assert_fails_with(&nimbus(&["bench", "--frames", "0"], &dir), &["--frames"]);
+    assert_fails_with(&nimbus(&["render", "--bogus"], &dir), &["--bogus"]);
+    assert!(files_in(&dir).is_empty(), "left {:?}", files_in(&dir));
+}
+
+#[test]
+fn a_failed_write_leaves_no_partial_file() {
+    let dir = temp_dir("failed-write");
+    // The output path is an existing directory: the rename fails after the image is encoded.
+    std::fs::create_dir(dir.join("taken.png")).expect("dir");
+    let out = nimbus(
+        &[
+            "render",
+            "-o",
+            "taken.png",
+            "--width",
+            "16",
+            "--height",
+            "16",
+        ],
+        &dir,
+    );
+    assert_fails_with(&out, &["taken.png"]);
+    assert_eq!(files_in(&dir), vec!["taken.png"]);
+    assert!(dir.join("taken.png").is_dir());
+}
+
+#[test]
+fn scene_print_default_round_trips() {
+    let dir = temp_dir("print-default");
+    let out = nimbus(&["scene", "--print-default"], &dir);
+    assert!(out.status.success());
+    std::fs::write(dir.join("default.toml"), &out.stdout).expect("write");
+    let check = nimbus(&["scene", "--check", "default.toml"], &dir);
+    assert!(
+        check.status.success(),
+        "{}",
+        String::from_utf8_lossy(&check.stderr)
+    );
+}
+
+#[test]
+fn reserved_sections_warn_but_render() {
+    let dir = temp_dir("reserved");
+    std::fs::write(dir.join("rain.toml"), "[rain]\nintensity_mm_h = 4.0\n").expect("write");
+    let out = nimbus(
+        &[
+            "render",
+            "rain.toml",
+            "-o",
+            "rain.png",
+            "--width",
+            "16",
+            "--height",
+            "16",
+        ],
+        &dir,
+    );
+    assert!(out.status.success());
+    assert!(
+        stderr_lines(&out)
+            .iter()
+            .any(|l| l.contains("warning: [rain]"))
+    );
+}
+
+#[test]
+fn bench_prints_one_json_document_with_per_pass_times() {
+    let dir = temp_dir("bench");
+    let out = nimbus(
+        &[
+            "bench", "--frames", "5", "--width", "64", "--height", "36", "--json",
+        ],
+        &dir,
+    );
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let report: serde_json::Value =
+        serde_json::from_slice(&out.stdout).expect("stdout is one JSON document");
+    assert_eq!(report["width"], 64);
+    assert_eq!(report["frames"], 5);
+    assert!(report["adapter"].as_str().is_some_and(|s| !s.is_empty()));
+    assert!(
+        report["frame_wall"]["median_ms"]
+            .as_f64()
+            .is_some_and(|t| t > 0.0)
+    );
+    if report["timestamps_supported"] == true {
+        let passes = report["passes"].as_array().expect("passes");
+        let names: Vec<&str> = passes.iter().filter_map(|p| p["name"].as_str()).collect();
+        assert_eq!(names, ["sky", "terrain", "tonemap"]);
+        for pass in passes {
+            let (median, p95) = (
+                pass["median_ms"].as_f64().expect("median"),
+                pass["p95_ms"].as_f64().expect("p95"),
+            );
+            assert!(median >= 0.0 && p95 >= median, "{pass}");
+        }
+    } else {
+        assert!(
+            report["note"]
+                .as_str()
+                .is_some_and(|n| n.contains("timestamp"))
+        );
+    }
+}
