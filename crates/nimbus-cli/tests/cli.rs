@@ -191,6 +191,10 @@ fn bad_flags_fail_with_one_line() {
     );
     assert_fails_with(&nimbus(&["bench", "--frames", "0"], &dir), &["--frames"]);
     assert_fails_with(&nimbus(&["render", "--bogus"], &dir), &["--bogus"]);
+    assert_fails_with(
+        &nimbus(&["render", "--width", "16384", "--height", "16384"], &dir),
+        &["16384×16384", "at most"],
+    );
     assert!(files_in(&dir).is_empty(), "left {:?}", files_in(&dir));
 }
 

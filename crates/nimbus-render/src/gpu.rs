@@ -136,7 +136,12 @@ impl GpuContext {
         let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
             label: Some("nimbus device"),
             required_features,
-            required_limits: wgpu::Limits::default().using_resolution(adapter.limits()),
+            // Large textures and buffers as far as the adapter allows; the
+            // renderer checks image and mesh sizes against these before allocating.
+            required_limits: wgpu::Limits {
+                max_buffer_size: adapter.limits().max_buffer_size,
+                ..wgpu::Limits::default().using_resolution(adapter.limits())
+            },
             experimental_features: wgpu::ExperimentalFeatures::disabled(),
             memory_hints: wgpu::MemoryHints::Performance,
             trace: wgpu::Trace::Off,

@@ -134,6 +134,7 @@ impl HeadlessRenderer {
         height: u32,
         time_s: f32,
     ) -> Result<Rgba8Image, HeadlessError> {
+        check_readback(&self.gpu, width, height, 4)?;
         self.render_frame(scene, width, height, time_s)?;
         let Some((output, _)) = &self.targets else {
             unreachable!("render_frame creates the targets")
@@ -154,6 +155,7 @@ impl HeadlessRenderer {
         height: u32,
         time_s: f32,
     ) -> Result<HdrImage, HeadlessError> {
+        check_readback(&self.gpu, width, height, 8)?;
         self.render_frame(scene, width, height, time_s)?;
         let Some(hdr) = self.renderer.hdr_target() else {
             unreachable!("prepare creates the HDR target")
@@ -180,6 +182,25 @@ impl HeadlessRenderer {
     }
 }
 
+fn padded_row_bytes(width: u32, bytes_per_pixel: u32) -> u32 {
+    (width * bytes_per_pixel).div_ceil(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT)
+        * wgpu::COPY_BYTES_PER_ROW_ALIGNMENT
+}
+
+/// Checks, before rendering, that the image can be read back on this device.
+fn check_readback(
+    gpu: &GpuContext,
+    width: u32,
+    height: u32,
+    bytes_per_pixel: u32,
+) -> Result<(), HeadlessError> {
+    Renderer::check_size(&gpu.device, width, height)?;
+    let bytes = padded_row_bytes(width, bytes_per_pixel) as u64 * height as u64;
+    let what = format!("reading back a {width}×{height} image");
+    Renderer::check_buffer_size(&gpu.device, &what, bytes)?;
+    Ok(())
+}
+
 /// Copies a 2D texture to the CPU, rows tightly packed.
 pub fn read_texture(
     gpu: &GpuContext,
@@ -188,8 +209,7 @@ pub fn read_texture(
 ) -> Result<Vec<u8>, HeadlessError> {
     let (width, height) = (texture.width(), texture.height());
     let row_bytes = width * bytes_per_pixel;
-    let padded_row =
-        row_bytes.div_ceil(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT) * wgpu::COPY_BYTES_PER_ROW_ALIGNMENT;
+    let padded_row = padded_row_bytes(width, bytes_per_pixel);
     let buffer = gpu.device.create_buffer(&wgpu::BufferDescriptor {
         label: Some("readback"),
         size: padded_row as u64 * height as u64,

@@ -51,7 +51,9 @@ pub struct FrameTargets<'a> {
 #[derive(Debug, thiserror::Error)]
 pub enum RenderError {
     /// The image is larger than the device allows.
-    #[error("image size {width}×{height}: each side must be in [1, {max}] on this device")]
+    #[error(
+        "image size {width}×{height}: each side must be in [1, {max}] on this device, and the area at most {max_pixels} pixels"
+    )]
     ImageSize {
         /// Requested width.
         width: u32,
@@ -59,6 +61,18 @@ pub enum RenderError {
         height: u32,
         /// The device's largest 2D texture side.
         max: u32,
+        /// The largest area.
+        max_pixels: u64,
+    },
+    /// A GPU buffer would exceed the device's limit.
+    #[error("{what} needs a {bytes}-byte buffer; this device allows at most {max} bytes")]
+    BufferTooLarge {
+        /// What the buffer is for, naming the setting that sizes it.
+        what: String,
+        /// Bytes needed.
+        bytes: u64,
+        /// The device's `max_buffer_size`.
+        max: u64,
     },
 }
 
@@ -123,8 +137,36 @@ impl Renderer {
             .limits()
             .max_texture_dimension_2d
             .min(crate::scene::MAX_IMAGE_SIDE_PX);
-        if width == 0 || height == 0 || width > max || height > max {
-            return Err(RenderError::ImageSize { width, height, max });
+        let max_pixels = crate::scene::MAX_IMAGE_PIXELS;
+        if width == 0
+            || height == 0
+            || width > max
+            || height > max
+            || width as u64 * height as u64 > max_pixels
+        {
+            return Err(RenderError::ImageSize {
+                width,
+                height,
+                max,
+                max_pixels,
+            });
+        }
+        Ok(())
+    }
+
+    /// Checks that a buffer of `bytes` fits the device's limit.
+    pub fn check_buffer_size(
+        device: &wgpu::Device,
+        what: &str,
+        bytes: u64,
+    ) -> Result<(), RenderError> {
+        let max = device.limits().max_buffer_size;
+        if bytes > max {
+            return Err(RenderError::BufferTooLarge {
+                what: what.to_owned(),
+                bytes,
+                max,
+            });
         }
         Ok(())
     }
@@ -177,7 +219,7 @@ impl Renderer {
             },
         );
         self.terrain
-            .prepare(&self.device, &self.queue, &scene.terrain);
+            .prepare(&self.device, &self.queue, &scene.terrain)?;
         Ok(())
     }
 

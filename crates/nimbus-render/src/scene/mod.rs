@@ -19,6 +19,14 @@ pub const DEFAULT_SCENE_TOML: &str = include_str!("../../../../scenes/default.to
 /// Largest image side nimbus renders, pixels (further bounded by the device).
 pub const MAX_IMAGE_SIDE_PX: u32 = 16_384;
 
+/// Largest image area nimbus renders, pixels (8192 × 8192): the HDR target
+/// alone then takes 512 MiB.
+pub const MAX_IMAGE_PIXELS: u64 = 8192 * 8192;
+
+/// Largest terrain resolution (grid cells per side): the vertex buffer then
+/// takes 134 MB, within every device's default 256 MiB buffer limit.
+pub const MAX_TERRAIN_RESOLUTION: u32 = 2048;
+
 /// A complete scene.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]

@@ -140,6 +140,11 @@ fn every_range_is_checked() {
             "[terrain]\nresolution = 100000",
             "terrain.resolution = 100000",
         ),
+        ("[terrain]\nresolution = 4096", "terrain.resolution = 4096"),
+        (
+            "[image]\nwidth = 16384\nheight = 16384",
+            "image = 16384×16384",
+        ),
         ("[terrain]\nwater_level_m = 1e9", "terrain.water_level_m"),
         ("[terrain]\nsand_band_m = -3", "terrain.sand_band_m = -3"),
         ("[terrain]\nsnow_line_m = 1e6", "terrain.snow_line_m"),

@@ -170,6 +170,17 @@ impl Scene {
         let side = super::MAX_IMAGE_SIDE_PX as u64;
         c.integer("image.width", self.image.width as u64, 1, side)?;
         c.integer("image.height", self.image.height as u64, 1, side)?;
+        let pixels = self.image.width as u64 * self.image.height as u64;
+        if pixels > super::MAX_IMAGE_PIXELS {
+            return Err(c.invalid(
+                "image",
+                format!("{}×{}", self.image.width, self.image.height),
+                format!(
+                    "width × height must be at most {} pixels",
+                    super::MAX_IMAGE_PIXELS
+                ),
+            ));
+        }
 
         let cam = &self.camera;
         c.vector(
@@ -220,7 +231,12 @@ impl Scene {
             10.0,
             MAX_COORDINATE_M,
         )?;
-        c.integer("terrain.resolution", t.resolution as u64, 16, 4096)?;
+        c.integer(
+            "terrain.resolution",
+            t.resolution as u64,
+            16,
+            super::MAX_TERRAIN_RESOLUTION as u64,
+        )?;
         c.closed(
             "terrain.water_level_m",
             t.water_level_m,

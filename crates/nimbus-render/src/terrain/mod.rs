@@ -5,6 +5,7 @@
 //! The albedo map is a first-class resource ([`TerrainPass::albedo_view`]):
 //! later passes (ground–cloud radiosity, rain collisions) bind it too.
 
+use crate::renderer::{RenderError, Renderer};
 use crate::shader::{self, WgslFile};
 use crate::targets::{DEPTH_FORMAT, HDR_FORMAT};
 use bytemuck::{Pod, Zeroable};
@@ -170,10 +171,22 @@ impl TerrainPass {
     }
 
     /// Generates and uploads the terrain when its parameters changed.
-    pub fn prepare(&mut self, device: &wgpu::Device, queue: &wgpu::Queue, params: &TerrainParams) {
+    ///
+    /// The mesh's buffer sizes are checked against the device's limit first.
+    pub fn prepare(
+        &mut self,
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        params: &TerrainParams,
+    ) -> Result<(), RenderError> {
         if self.mesh.as_ref().is_some_and(|m| &m.params == params) {
-            return;
+            return Ok(());
         }
+        let side = params.resolution as u64 + 1;
+        let what = format!("terrain.resolution = {}", params.resolution);
+        let vertex_bytes = side * side * std::mem::size_of::<TerrainVertex>() as u64;
+        Renderer::check_buffer_size(device, &what, vertex_bytes)?;
+        Renderer::check_buffer_size(device, &what, (side - 1) * (side - 1) * 6 * 4)?;
         let terrain = terrain::generate(params);
         let (vertices, indices) = build_mesh(&terrain);
         let vertex_buffer = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
@@ -231,6 +244,7 @@ impl TerrainPass {
             albedo_view,
             bind_group,
         });
+        Ok(())
     }
 
     /// The albedo map (RGB albedo, A water mask), once prepared.
