@@ -283,9 +283,9 @@ fn gpu_tone_mapping_matches_the_cpu_aces_reference() {
     for (k, radiance) in hdr.pixels.iter().enumerate() {
         let exposed = radiance.map(|c| c as f64 * exposure);
         let mapped = nimbus_render::tonemap::aces_fitted_reference(exposed);
-        for c in 0..3 {
-            let cpu = srgb_encode(mapped[c]) * 255.0;
-            let gpu = ldr.pixels[k * 4 + c] as f64;
+        for (channel, value) in mapped.iter().enumerate() {
+            let cpu = srgb_encode(*value) * 255.0;
+            let gpu = ldr.pixels[k * 4 + channel] as f64;
             worst = worst.max((cpu - gpu).abs());
         }
     }
