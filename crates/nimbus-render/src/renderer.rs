@@ -220,6 +220,8 @@ impl Renderer {
         );
         self.terrain
             .prepare(&self.device, &self.queue, &scene.terrain)?;
+        self.terrain
+            .prepare_sun(&self.queue, lighting.sun.direction);
         Ok(())
     }
 

@@ -12,8 +12,10 @@
 //! `[-extent/2, extent/2]²` in X and Z, row-major with rows along +Z.
 
 mod params;
+mod shadow;
 
 pub use params::{SurfaceAlbedos, TerrainParams};
+pub use shadow::sun_visibility;
 
 use crate::noise::{Fractal, fbm, gradient_noise, ridged};
 use crate::photometry::srgb_encode;

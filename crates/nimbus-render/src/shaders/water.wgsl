@@ -36,8 +36,9 @@ fn water_normal(position_m: vec3<f32>, footprint_m: f32) -> vec3<f32> {
     return normalize(vec3<f32>(-slope.x, 1.0, -slope.y));
 }
 
-// Radiance leaving the water surface at `position_m` towards the camera.
-fn water_radiance(position_m: vec3<f32>, diffuse_albedo: vec3<f32>) -> vec3<f32> {
+// Radiance leaving the water surface at `position_m` towards the camera;
+// `sun_visibility` is the visible fraction of the solar disk there.
+fn water_radiance(position_m: vec3<f32>, diffuse_albedo: vec3<f32>, sun_visibility: f32) -> vec3<f32> {
     let to_eye_m = frame.camera_position_m - position_m;
     let to_eye = normalize(to_eye_m);
     // Length of a pixel's footprint along the view on a horizontal surface.
@@ -57,9 +58,9 @@ fn water_radiance(position_m: vec3<f32>, diffuse_albedo: vec3<f32>) -> vec3<f32>
         // Microfacet specular with the implicit (Kelemen) visibility 1 / (4 cos_l cos_v) ≈ 1 / (4 (l·h)²).
         let lh = max(dot(l, h), 1e-3);
         let d = ggx_distribution(max(dot(n, h), 0.0), 0.06);
-        glint = frame.sun_irradiance * cos_l * d * water_fresnel(lh) / (4.0 * lh * lh);
+        glint = frame.sun_irradiance * sun_visibility * cos_l * d * water_fresnel(lh) / (4.0 * lh * lh);
     }
-    let irradiance = frame.sun_irradiance * max(frame.sun_direction.y, 0.0) + frame.sky_irradiance;
+    let irradiance = frame.sun_irradiance * max(frame.sun_direction.y, 0.0) * sun_visibility + frame.sky_irradiance;
     let body = diffuse_albedo / PI * irradiance * (1.0 - fresnel);
     return reflected_sky + glint + body;
 }

@@ -34,7 +34,7 @@ fn sky_fragment(in: FullscreenOutput) -> @location(0) vec4<f32> {
     if (direction.y < 0.0 && height > 0.0) {
         let distance = height / -direction.y;
         let sea_point = frame.camera_position_m + direction * distance;
-        return to_target(water_radiance(sea_point, params.water_albedo.rgb));
+        return to_target(water_radiance(sea_point, params.water_albedo.rgb, 1.0));
     }
     return to_target(sky_radiance(direction) + solar_disk(direction));
 }

@@ -75,11 +75,16 @@ pub fn build_mesh(terrain: &Terrain) -> (Vec<TerrainVertex>, Vec<u32>) {
 #[derive(Debug)]
 struct TerrainMesh {
     params: TerrainParams,
+    /// The CPU terrain, kept to recompute the sun visibility when the sun moves.
+    terrain: Terrain,
     vertices: wgpu::Buffer,
     indices: wgpu::Buffer,
     index_count: u32,
     albedo: wgpu::Texture,
     albedo_view: wgpu::TextureView,
+    sun_visibility: wgpu::Texture,
+    /// Sun direction the visibility map was computed for.
+    sun_direction: Option<[f64; 3]>,
     bind_group: wgpu::BindGroup,
 }
 
@@ -112,6 +117,16 @@ impl TerrainPass {
                     binding: 1,
                     visibility: wgpu::ShaderStages::FRAGMENT,
                     ty: wgpu::BindingType::Sampler(wgpu::SamplerBindingType::Filtering),
+                    count: None,
+                },
+                wgpu::BindGroupLayoutEntry {
+                    binding: 2,
+                    visibility: wgpu::ShaderStages::FRAGMENT,
+                    ty: wgpu::BindingType::Texture {
+                        sample_type: wgpu::TextureSampleType::Float { filterable: true },
+                        view_dimension: wgpu::TextureViewDimension::D2,
+                        multisampled: false,
+                    },
                     count: None,
                 },
             ],
@@ -221,6 +236,21 @@ impl TerrainPass {
             bytemuck::cast_slice(&texels),
         );
         let albedo_view = albedo.create_view(&Default::default());
+        let sun_visibility = device.create_texture(&wgpu::TextureDescriptor {
+            label: Some("terrain sun visibility"),
+            size: wgpu::Extent3d {
+                width: side,
+                height: side,
+                depth_or_array_layers: 1,
+            },
+            mip_level_count: 1,
+            sample_count: 1,
+            dimension: wgpu::TextureDimension::D2,
+            format: wgpu::TextureFormat::R8Unorm,
+            usage: wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
+            view_formats: &[],
+        });
+        let sun_visibility_view = sun_visibility.create_view(&Default::default());
         let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("terrain albedo"),
             layout: &self.group_layout,
@@ -233,18 +263,55 @@ impl TerrainPass {
                     binding: 1,
                     resource: wgpu::BindingResource::Sampler(&self.sampler),
                 },
+                wgpu::BindGroupEntry {
+                    binding: 2,
+                    resource: wgpu::BindingResource::TextureView(&sun_visibility_view),
+                },
             ],
         });
         self.mesh = Some(TerrainMesh {
             params: params.clone(),
+            terrain,
             vertices: vertex_buffer,
             indices: index_buffer,
             index_count: indices.len() as u32,
             albedo,
             albedo_view,
+            sun_visibility,
+            sun_direction: None,
             bind_group,
         });
         Ok(())
+    }
+
+    /// Recomputes the sun-visibility map (terrain shadows) when the sun has
+    /// moved or the terrain was regenerated. Call after [`Self::prepare`].
+    pub fn prepare_sun(&mut self, queue: &wgpu::Queue, sun_direction: [f64; 3]) {
+        let Some(mesh) = &mut self.mesh else { return };
+        if mesh.sun_direction == Some(sun_direction) {
+            return;
+        }
+        let visibility = terrain::sun_visibility(&mesh.terrain, sun_direction);
+        let texels: Vec<u8> = visibility
+            .iter()
+            .map(|v| (v.clamp(0.0, 1.0) * 255.0).round() as u8)
+            .collect();
+        let side = mesh.terrain.vertices_per_side() as u32;
+        queue.write_texture(
+            mesh.sun_visibility.as_image_copy(),
+            &texels,
+            wgpu::TexelCopyBufferLayout {
+                offset: 0,
+                bytes_per_row: Some(side),
+                rows_per_image: Some(side),
+            },
+            wgpu::Extent3d {
+                width: side,
+                height: side,
+                depth_or_array_layers: 1,
+            },
+        );
+        mesh.sun_direction = Some(sun_direction);
     }
 
     /// The albedo map (RGB albedo, A water mask), once prepared.
