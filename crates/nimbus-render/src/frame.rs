@@ -207,7 +207,7 @@ impl FrameUniform {
 }
 
 /// GPU resources of the frame uniform (group 0 of every pass).
-pub type FrameBinding = crate::uniform::UniformBinding<FrameUniform>;
+pub type FrameBinding = crate::binding::UniformBinding<FrameUniform>;
 
 #[cfg(test)]
 mod tests {

@@ -10,6 +10,7 @@
 //! GPU resources, draw function and WGSL side by side. The order of the
 //! passes in a frame is in [`Renderer::encode`].
 
+pub mod binding;
 pub mod frame;
 pub mod gpu;
 pub mod headless;
@@ -21,7 +22,6 @@ pub mod targets;
 pub mod terrain;
 pub mod timing;
 pub mod tonemap;
-pub mod uniform;
 
 pub use gpu::{AdapterPreference, GpuContext, GpuError};
 pub use renderer::{

@@ -3,11 +3,6 @@
 //! concatenation in a fixed order, so that naga's error positions map back to
 //! files through the `// ---- file:` markers.
 
-/// Shared declarations: constants, the frame uniform and its binding.
-pub const COMMON_WGSL: &str = include_str!("shaders/common.wgsl");
-/// The analytic sky radiance function.
-pub const SKY_MODEL_WGSL: &str = include_str!("shaders/sky_model.wgsl");
-
 /// A named WGSL source file.
 #[derive(Clone, Copy, Debug)]
 pub struct WgslFile {
@@ -30,15 +25,26 @@ pub fn compose(files: &[WgslFile]) -> String {
     out
 }
 
-/// The shared files, in dependency order.
+/// Shared declarations: constants, the frame uniform and its binding.
 pub const COMMON: WgslFile = WgslFile {
     name: "shaders/common.wgsl",
-    source: COMMON_WGSL,
+    source: include_str!("shaders/common.wgsl"),
 };
-/// The sky model library.
+/// The analytic sky radiance function (needs `COMMON`).
 pub const SKY_MODEL: WgslFile = WgslFile {
     name: "shaders/sky_model.wgsl",
-    source: SKY_MODEL_WGSL,
+    source: include_str!("shaders/sky_model.wgsl"),
+};
+
+/// A full-screen triangle vertex shader.
+pub const FULLSCREEN: WgslFile = WgslFile {
+    name: "shaders/fullscreen.wgsl",
+    source: include_str!("shaders/fullscreen.wgsl"),
+};
+/// Shading of open water (needs `COMMON` and `SKY_MODEL`).
+pub const WATER: WgslFile = WgslFile {
+    name: "shaders/water.wgsl",
+    source: include_str!("shaders/water.wgsl"),
 };
 
 /// Every composed shader module of the renderer, by name: what the naga

@@ -1,10 +1,9 @@
 //! `nimbus bench`: per-pass GPU times over many frames.
 
 use clap::Args;
+use nimbus_render::PASS_NAMES;
 use nimbus_render::headless::HeadlessRenderer;
-use nimbus_render::{AdapterPreference, PASS_NAMES};
 use serde::Serialize;
-use std::path::PathBuf;
 
 /// Largest frame count of one benchmark.
 const MAX_FRAMES: u32 = 100_000;
@@ -12,20 +11,11 @@ const MAX_FRAMES: u32 = 100_000;
 /// Arguments of `nimbus bench`.
 #[derive(Debug, Args)]
 pub struct BenchArgs {
-    /// Scene file (TOML); the embedded default scene when omitted.
-    scene: Option<PathBuf>,
+    #[command(flatten)]
+    frame: super::FrameArgs,
     /// Number of measured frames (after one warm-up frame).
     #[arg(long, default_value_t = 60, value_parser = clap::value_parser!(u32).range(1..=MAX_FRAMES as i64))]
     frames: u32,
-    /// Image width in pixels (overrides the scene's image.width).
-    #[arg(long, value_name = "PX", value_parser = clap::value_parser!(u32).range(1..=super::MAX_SIDE_PX as i64))]
-    width: Option<u32>,
-    /// Image height in pixels (overrides the scene's image.height).
-    #[arg(long, value_name = "PX", value_parser = clap::value_parser!(u32).range(1..=super::MAX_SIDE_PX as i64))]
-    height: Option<u32>,
-    /// GPU adapter: auto, hardware or software (lavapipe).
-    #[arg(long, default_value = "auto", value_parser = super::parse_adapter)]
-    adapter: AdapterPreference,
     /// Print one JSON document on standard output.
     #[arg(long)]
     json: bool,
@@ -80,9 +70,8 @@ struct Report {
 
 /// Runs the subcommand.
 pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
-    let scene = super::load_scene(args.scene.as_deref())?;
-    let (width, height) = super::image_size(&scene, args.width, args.height);
-    let mut headless = HeadlessRenderer::new(args.adapter)?;
+    let (scene, width, height) = args.frame.scene_and_size()?;
+    let mut headless = HeadlessRenderer::new(args.frame.adapter)?;
     eprintln!(
         "nimbus: benchmarking {} frames at {width}×{height} on {}",
         args.frames,

@@ -34,16 +34,34 @@ pub fn load_scene(path: Option<&Path>) -> anyhow::Result<Scene> {
 }
 
 /// Parses `--adapter`.
-pub fn parse_adapter(text: &str) -> Result<AdapterPreference, String> {
+fn parse_adapter(text: &str) -> Result<AdapterPreference, String> {
     text.parse()
 }
 
-/// Image size from flags, falling back to the scene's.
-pub fn image_size(scene: &Scene, width: Option<u32>, height: Option<u32>) -> (u32, u32) {
-    (
-        width.unwrap_or(scene.image.width),
-        height.unwrap_or(scene.image.height),
-    )
+/// The scene, image size and adapter flags shared by the rendering commands.
+#[derive(Debug, clap::Args)]
+pub struct FrameArgs {
+    /// Scene file (TOML); the embedded default scene when omitted.
+    scene: Option<PathBuf>,
+    /// Image width in pixels (overrides the scene's image.width).
+    #[arg(long, value_name = "PX", value_parser = clap::value_parser!(u32).range(1..=MAX_SIDE_PX as i64))]
+    width: Option<u32>,
+    /// Image height in pixels (overrides the scene's image.height).
+    #[arg(long, value_name = "PX", value_parser = clap::value_parser!(u32).range(1..=MAX_SIDE_PX as i64))]
+    height: Option<u32>,
+    /// GPU adapter: auto, hardware or software (lavapipe).
+    #[arg(long, default_value = "auto", value_parser = parse_adapter)]
+    pub adapter: AdapterPreference,
+}
+
+impl FrameArgs {
+    /// Loads the scene and resolves the image size (flags override the scene).
+    pub fn scene_and_size(&self) -> anyhow::Result<(Scene, u32, u32)> {
+        let scene = load_scene(self.scene.as_deref())?;
+        let width = self.width.unwrap_or(scene.image.width);
+        let height = self.height.unwrap_or(scene.image.height);
+        Ok((scene, width, height))
+    }
 }
 
 /// Checks that an output path's directory exists before any work is done.

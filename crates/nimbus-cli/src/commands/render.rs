@@ -2,27 +2,17 @@
 
 use crate::output::{ImageFormat, write_exr, write_png};
 use clap::Args;
-use nimbus_render::AdapterPreference;
 use nimbus_render::headless::HeadlessRenderer;
 use std::path::PathBuf;
 
 /// Arguments of `nimbus render`.
 #[derive(Debug, Args)]
 pub struct RenderArgs {
-    /// Scene file (TOML); the embedded default scene when omitted.
-    scene: Option<PathBuf>,
+    #[command(flatten)]
+    frame: super::FrameArgs,
     /// Output image: .png (tone-mapped sRGB) or .exr (linear radiance, W·sr⁻¹·m⁻²).
     #[arg(short, long, default_value = "nimbus.png")]
     output: PathBuf,
-    /// Image width in pixels (overrides the scene's image.width).
-    #[arg(long, value_name = "PX", value_parser = clap::value_parser!(u32).range(1..=super::MAX_SIDE_PX as i64))]
-    width: Option<u32>,
-    /// Image height in pixels (overrides the scene's image.height).
-    #[arg(long, value_name = "PX", value_parser = clap::value_parser!(u32).range(1..=super::MAX_SIDE_PX as i64))]
-    height: Option<u32>,
-    /// GPU adapter: auto, hardware or software (lavapipe).
-    #[arg(long, default_value = "auto", value_parser = super::parse_adapter)]
-    adapter: AdapterPreference,
     /// Animation time, s (moves the water ripples).
     #[arg(long, default_value_t = 0.0, value_name = "S")]
     time_s: f32,
@@ -37,9 +27,8 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
         "--time-s {}: must be a finite number",
         args.time_s
     );
-    let scene = super::load_scene(args.scene.as_deref())?;
-    let (width, height) = super::image_size(&scene, args.width, args.height);
-    let mut headless = HeadlessRenderer::new(args.adapter)?;
+    let (scene, width, height) = args.frame.scene_and_size()?;
+    let mut headless = HeadlessRenderer::new(args.frame.adapter)?;
     eprintln!(
         "nimbus: rendering {width}×{height} on {}",
         headless.gpu.adapter_summary()

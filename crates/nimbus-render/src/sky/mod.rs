@@ -12,22 +12,14 @@ const SKY_WGSL: WgslFile = WgslFile {
     name: "sky/sky.wgsl",
     source: include_str!("sky.wgsl"),
 };
-const FULLSCREEN: WgslFile = WgslFile {
-    name: "shaders/fullscreen.wgsl",
-    source: include_str!("../shaders/fullscreen.wgsl"),
-};
-const WATER: WgslFile = WgslFile {
-    name: "shaders/water.wgsl",
-    source: include_str!("../shaders/water.wgsl"),
-};
 
 /// The composed WGSL of this pass.
 pub fn shader_source() -> String {
     shader::compose(&[
         shader::COMMON,
         shader::SKY_MODEL,
-        FULLSCREEN,
-        WATER,
+        shader::FULLSCREEN,
+        shader::WATER,
         SKY_WGSL,
     ])
 }
@@ -75,14 +67,14 @@ impl From<SkySettings> for SkyPassUniform {
 #[derive(Debug)]
 pub struct SkyPass {
     pipeline: wgpu::RenderPipeline,
-    params: crate::uniform::UniformBinding<SkyPassUniform>,
+    params: crate::binding::UniformBinding<SkyPassUniform>,
 }
 
 impl SkyPass {
     /// Creates the pipeline; `frame_layout` is the shared group-0 layout.
     pub fn new(device: &wgpu::Device, frame_layout: &wgpu::BindGroupLayout) -> Self {
         let params =
-            crate::uniform::UniformBinding::new(device, "sky params", wgpu::ShaderStages::FRAGMENT);
+            crate::binding::UniformBinding::new(device, "sky params", wgpu::ShaderStages::FRAGMENT);
         let module = shader::create_module(device, "sky", &shader_source());
         let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
             label: Some("sky"),

@@ -5,6 +5,7 @@
 //! The albedo map is a first-class resource ([`TerrainPass::albedo_view`]):
 //! later passes (ground–cloud radiosity, rain collisions) bind it too.
 
+use crate::binding;
 use crate::renderer::{RenderError, Renderer};
 use crate::shader::{self, WgslFile};
 use crate::targets::{DEPTH_FORMAT, HDR_FORMAT};
@@ -16,14 +17,15 @@ const TERRAIN_WGSL: WgslFile = WgslFile {
     name: "terrain/terrain.wgsl",
     source: include_str!("terrain.wgsl"),
 };
-const WATER: WgslFile = WgslFile {
-    name: "shaders/water.wgsl",
-    source: include_str!("../shaders/water.wgsl"),
-};
 
 /// The composed WGSL of this pass.
 pub fn shader_source() -> String {
-    shader::compose(&[shader::COMMON, shader::SKY_MODEL, WATER, TERRAIN_WGSL])
+    shader::compose(&[
+        shader::COMMON,
+        shader::SKY_MODEL,
+        shader::WATER,
+        TERRAIN_WGSL,
+    ])
 }
 
 /// One mesh vertex (WGSL `TerrainVertex`).
@@ -103,32 +105,9 @@ impl TerrainPass {
         let group_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("terrain albedo"),
             entries: &[
-                wgpu::BindGroupLayoutEntry {
-                    binding: 0,
-                    visibility: wgpu::ShaderStages::FRAGMENT,
-                    ty: wgpu::BindingType::Texture {
-                        sample_type: wgpu::TextureSampleType::Float { filterable: true },
-                        view_dimension: wgpu::TextureViewDimension::D2,
-                        multisampled: false,
-                    },
-                    count: None,
-                },
-                wgpu::BindGroupLayoutEntry {
-                    binding: 1,
-                    visibility: wgpu::ShaderStages::FRAGMENT,
-                    ty: wgpu::BindingType::Sampler(wgpu::SamplerBindingType::Filtering),
-                    count: None,
-                },
-                wgpu::BindGroupLayoutEntry {
-                    binding: 2,
-                    visibility: wgpu::ShaderStages::FRAGMENT,
-                    ty: wgpu::BindingType::Texture {
-                        sample_type: wgpu::TextureSampleType::Float { filterable: true },
-                        view_dimension: wgpu::TextureViewDimension::D2,
-                        multisampled: false,
-                    },
-                    count: None,
-                },
+                binding::texture_2d_entry(0, true),
+                binding::filtering_sampler_entry(1),
+                binding::texture_2d_entry(2, true),
             ],
         });
         let sampler = device.create_sampler(&wgpu::SamplerDescriptor {

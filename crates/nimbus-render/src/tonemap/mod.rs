@@ -10,14 +10,10 @@ const TONEMAP_WGSL: WgslFile = WgslFile {
     name: "tonemap/tonemap.wgsl",
     source: include_str!("tonemap.wgsl"),
 };
-const FULLSCREEN: WgslFile = WgslFile {
-    name: "shaders/fullscreen.wgsl",
-    source: include_str!("../shaders/fullscreen.wgsl"),
-};
 
 /// The composed WGSL of this pass (it does not use the frame uniform).
 pub fn shader_source() -> String {
-    shader::compose(&[FULLSCREEN, TONEMAP_WGSL])
+    shader::compose(&[shader::FULLSCREEN, TONEMAP_WGSL])
 }
 
 /// GPU layout of WGSL `TonemapParams`.
@@ -90,17 +86,8 @@ impl TonemapPass {
         let group_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("tonemap"),
             entries: &[
-                wgpu::BindGroupLayoutEntry {
-                    binding: 0,
-                    visibility: wgpu::ShaderStages::FRAGMENT,
-                    ty: wgpu::BindingType::Texture {
-                        sample_type: wgpu::TextureSampleType::Float { filterable: false },
-                        view_dimension: wgpu::TextureViewDimension::D2,
-                        multisampled: false,
-                    },
-                    count: None,
-                },
-                crate::uniform::uniform_layout_entry(1, wgpu::ShaderStages::FRAGMENT, size),
+                crate::binding::texture_2d_entry(0, false),
+                crate::binding::uniform_layout_entry(1, wgpu::ShaderStages::FRAGMENT, size),
             ],
         });
         let params = device.create_buffer(&wgpu::BufferDescriptor {

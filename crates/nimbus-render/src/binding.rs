@@ -1,6 +1,7 @@
-//! A uniform buffer of one `Pod` type with its bind group: the layout's
-//! `min_binding_size` is the type's size, so wgpu checks it against the
-//! shader's struct at pipeline creation.
+//! Bind-group helpers shared by the passes: a uniform buffer of one `Pod`
+//! type with its bind group (the layout's `min_binding_size` is the type's
+//! size, so wgpu checks it against the shader's struct at pipeline
+//! creation), and the layout entries the passes use.
 
 use bytemuck::Pod;
 use std::marker::PhantomData;
@@ -67,6 +68,30 @@ pub fn uniform_layout_entry(
             has_dynamic_offset: false,
             min_binding_size: wgpu::BufferSize::new(size),
         },
+        count: None,
+    }
+}
+
+/// A layout entry for a 2D float texture read by fragment shaders.
+pub fn texture_2d_entry(binding: u32, filterable: bool) -> wgpu::BindGroupLayoutEntry {
+    wgpu::BindGroupLayoutEntry {
+        binding,
+        visibility: wgpu::ShaderStages::FRAGMENT,
+        ty: wgpu::BindingType::Texture {
+            sample_type: wgpu::TextureSampleType::Float { filterable },
+            view_dimension: wgpu::TextureViewDimension::D2,
+            multisampled: false,
+        },
+        count: None,
+    }
+}
+
+/// A layout entry for a filtering sampler used by fragment shaders.
+pub fn filtering_sampler_entry(binding: u32) -> wgpu::BindGroupLayoutEntry {
+    wgpu::BindGroupLayoutEntry {
+        binding,
+        visibility: wgpu::ShaderStages::FRAGMENT,
+        ty: wgpu::BindingType::Sampler(wgpu::SamplerBindingType::Filtering),
         count: None,
     }
 }
