@@ -6,6 +6,7 @@
 //! algorithm. Units are SI unless a name says otherwise; radiance is carried
 //! per linear Rec.709 channel as described in [`photometry`].
 
+pub mod atmosphere;
 pub mod noise;
 pub mod photometry;
 pub mod sky;
