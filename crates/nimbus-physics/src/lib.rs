@@ -9,5 +9,6 @@
 pub mod atmosphere;
 pub mod noise;
 pub mod photometry;
+pub mod sh;
 pub mod sky;
 pub mod terrain;

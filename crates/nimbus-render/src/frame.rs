@@ -1,12 +1,12 @@
 //! The per-frame uniform shared by every pass (WGSL `Frame` in
-//! `shaders/common.wgsl`): camera transforms, sun, sky-model coefficients,
-//! exposure and time; and the camera model that produces the transforms.
+//! `shaders/common.wgsl`): camera transforms, sun direction, exposure and
+//! time; and the camera model that produces the transforms.
 
 use crate::scene::{CameraSettings, Scene};
 use bytemuck::{Pod, Zeroable};
 use glam::{DMat4, DVec3, Mat4};
 use nimbus_physics::photometry::exposure_scale_from_ev100;
-use nimbus_physics::sky::{PreethamSky, SOLAR_DISK_ANGULAR_RADIUS_RAD, Sun};
+use nimbus_physics::sky::SOLAR_DISK_ANGULAR_RADIUS_RAD;
 
 /// Distance of the near clip plane, m. With reverse-Z and an infinite far
 /// plane, depth precision is ample from here to the horizon.
@@ -15,44 +15,6 @@ pub const NEAR_PLANE_M: f64 = 0.5;
 /// Largest pre-exposed value written to the half-float HDR target (the
 /// largest finite f16 is 65504).
 pub const MAX_PRE_EXPOSED: f32 = 60_000.0;
-
-/// GPU layout of the Preetham sky model (WGSL `SkyModel`).
-#[repr(C)]
-#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
-pub struct SkyModelUniform {
-    /// Perez A, B, C, D of luminance.
-    pub perez_luminance: [f32; 4],
-    /// Perez A, B, C, D of chromaticity x.
-    pub perez_x: [f32; 4],
-    /// Perez A, B, C, D of chromaticity y.
-    pub perez_y: [f32; 4],
-    /// Perez E of (Y, x, y) and the twilight fade.
-    pub perez_e_and_fade: [f32; 4],
-    /// Zenith values over F(0, θs) for (Y cd/m², x, y), and padding.
-    pub zenith_over_perez: [f32; 4],
-}
-
-impl From<&PreethamSky> for SkyModelUniform {
-    fn from(sky: &PreethamSky) -> Self {
-        let abcd = |k: usize| {
-            let c = sky.coefficients[k].0;
-            [c[0] as f32, c[1] as f32, c[2] as f32, c[3] as f32]
-        };
-        let z = sky.zenith_over_perez;
-        Self {
-            perez_luminance: abcd(0),
-            perez_x: abcd(1),
-            perez_y: abcd(2),
-            perez_e_and_fade: [
-                sky.coefficients[0].0[4] as f32,
-                sky.coefficients[1].0[4] as f32,
-                sky.coefficients[2].0[4] as f32,
-                sky.twilight_fade as f32,
-            ],
-            zenith_over_perez: [z[0] as f32, z[1] as f32, z[2] as f32, 0.0],
-        }
-    }
-}
 
 /// GPU layout of the frame uniform (WGSL `Frame`). Its layout is checked
 /// against naga's layout of the WGSL struct by a unit test.
@@ -71,22 +33,20 @@ pub struct FrameUniform {
     pub sun_direction: [f32; 3],
     /// Radiance-to-target scale (see [`exposure_scale_from_ev100`]).
     pub exposure_scale: f32,
-    /// Direct solar irradiance at the ground, W·m⁻² per channel.
-    pub sun_irradiance: [f32; 3],
-    /// Cosine of the solar disk's angular radius.
-    pub sun_cos_angular_radius: f32,
-    /// Sky irradiance on a horizontal surface, W·m⁻² per channel.
-    pub sky_irradiance: [f32; 3],
-    /// Clamp of pre-exposed values, see [`MAX_PRE_EXPOSED`].
-    pub max_pre_exposed: f32,
     /// Viewport size, pixels.
     pub viewport_size_px: [f32; 2],
     /// Angle subtended by one pixel at the image centre, rad (for filtering).
     pub pixel_angle_rad: f32,
-    /// Padding to the 16-byte alignment of the next member.
-    pub _padding: f32,
-    /// The sky model.
-    pub sky: SkyModelUniform,
+    /// Cosine of the solar disk's angular radius.
+    pub sun_cos_angular_radius: f32,
+    /// Clamp of pre-exposed values, see [`MAX_PRE_EXPOSED`].
+    pub max_pre_exposed: f32,
+    /// Padding.
+    pub _padding0: f32,
+    /// Padding.
+    pub _padding1: f32,
+    /// Padding.
+    pub _padding2: f32,
 }
 
 /// A pinhole camera in world space.
@@ -143,60 +103,27 @@ impl Camera {
     }
 }
 
-/// Lighting derived from a scene: the sun and the sky model (CPU side).
-#[derive(Clone, Copy, Debug)]
-pub struct Lighting {
-    /// The sun.
-    pub sun: Sun,
-    /// The clear sky.
-    pub sky: PreethamSky,
-    /// Sky irradiance on a horizontal surface, W·m⁻².
-    pub sky_irradiance_rgb: [f64; 3],
-}
-
-impl Lighting {
-    /// Lighting of a scene (this integrates the sky dome, so compute it only
-    /// when the sun or atmosphere changes).
-    pub fn new(scene: &Scene) -> Self {
-        let sun = Sun::new(
-            scene.sun.azimuth_deg,
-            scene.sun.elevation_deg,
-            scene.atmosphere.turbidity,
-        );
-        let sky = PreethamSky::new(sun.direction, scene.atmosphere.turbidity);
-        Self {
-            sun,
-            sky,
-            sky_irradiance_rgb: sky.horizontal_irradiance_rgb(),
-        }
-    }
-}
-
-fn to_f32_3(v: [f64; 3]) -> [f32; 3] {
-    v.map(|c| c as f32)
-}
-
 impl FrameUniform {
-    /// The uniform for a scene's camera and exposure, given its lighting, for
-    /// an image of the given size at time `time_s`.
-    pub fn new(scene: &Scene, lighting: &Lighting, width: u32, height: u32, time_s: f32) -> Self {
+    /// The uniform for a scene's camera, sun and exposure, for an image of
+    /// the given size at time `time_s`.
+    pub fn new(scene: &Scene, width: u32, height: u32, time_s: f32) -> Self {
         let camera = Camera::from_settings(&scene.camera, width, height);
         let clip_from_world = camera.clip_from_world();
+        let sun = scene.sun.direction();
         Self {
             clip_from_world: clip_from_world.as_mat4().to_cols_array_2d(),
             world_from_clip: clip_from_world.inverse().as_mat4().to_cols_array_2d(),
             camera_position_m: camera.position_m.as_vec3().to_array(),
             time_s,
-            sun_direction: to_f32_3(lighting.sun.direction),
+            sun_direction: sun.map(|c| c as f32),
             exposure_scale: exposure_scale_from_ev100(scene.camera.exposure_ev100) as f32,
-            sun_irradiance: to_f32_3(lighting.sun.irradiance_rgb),
-            sun_cos_angular_radius: SOLAR_DISK_ANGULAR_RADIUS_RAD.cos() as f32,
-            sky_irradiance: to_f32_3(lighting.sky_irradiance_rgb),
-            max_pre_exposed: MAX_PRE_EXPOSED,
             viewport_size_px: [width as f32, height as f32],
             pixel_angle_rad: (2.0 * (camera.fov_y_rad * 0.5).tan() / height.max(1) as f64) as f32,
-            _padding: 0.0,
-            sky: SkyModelUniform::from(&lighting.sky),
+            sun_cos_angular_radius: SOLAR_DISK_ANGULAR_RADIUS_RAD.cos() as f32,
+            max_pre_exposed: MAX_PRE_EXPOSED,
+            _padding0: 0.0,
+            _padding1: 0.0,
+            _padding2: 0.0,
         }
     }
 

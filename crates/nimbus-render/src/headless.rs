@@ -201,18 +201,19 @@ fn check_readback(
     Ok(())
 }
 
-/// Copies a 2D texture to the CPU, rows tightly packed.
+/// Copies a 2D or 3D texture to the CPU, rows and layers tightly packed.
 pub fn read_texture(
     gpu: &GpuContext,
     texture: &wgpu::Texture,
     bytes_per_pixel: u32,
 ) -> Result<Vec<u8>, HeadlessError> {
     let (width, height) = (texture.width(), texture.height());
+    let layers = texture.depth_or_array_layers();
     let row_bytes = width * bytes_per_pixel;
     let padded_row = padded_row_bytes(width, bytes_per_pixel);
     let buffer = gpu.device.create_buffer(&wgpu::BufferDescriptor {
         label: Some("readback"),
-        size: padded_row as u64 * height as u64,
+        size: padded_row as u64 * height as u64 * layers as u64,
         usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
         mapped_at_creation: false,
     });
@@ -230,7 +231,7 @@ pub fn read_texture(
         wgpu::Extent3d {
             width,
             height,
-            depth_or_array_layers: 1,
+            depth_or_array_layers: layers,
         },
     );
     gpu.queue.submit([encoder.finish()]);
@@ -245,7 +246,7 @@ pub fn read_texture(
         .recv()
         .map_err(|e| HeadlessError::Readback(e.to_string()))?
         .map_err(|e| HeadlessError::Readback(e.to_string()))?;
-    let mut out = Vec::with_capacity((row_bytes * height) as usize);
+    let mut out = Vec::with_capacity((row_bytes * height * layers) as usize);
     {
         let view = buffer
             .get_mapped_range(..)

@@ -10,6 +10,7 @@
 //! GPU resources, draw function and WGSL side by side. The order of the
 //! passes in a frame is in [`Renderer::encode`].
 
+pub mod atmosphere;
 pub mod binding;
 pub mod frame;
 pub mod gpu;

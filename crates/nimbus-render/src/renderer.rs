@@ -1,10 +1,12 @@
 //! The renderer: owns the passes and runs them in the frame's order.
 //!
 //! The frame's pass order lives in [`Renderer::encode`] and nowhere else:
+//! the atmosphere's LUTs and lighting inputs (when their inputs changed),
 //! sky, terrain, then tone mapping into the caller's output target. Every
 //! pass writes GPU timestamps when the device supports them.
 
-use crate::frame::{FrameBinding, FrameUniform, Lighting};
+use crate::atmosphere::AtmospherePass;
+use crate::frame::{FrameBinding, FrameUniform};
 use crate::scene::Scene;
 use crate::sky::{SkyPass, SkySettings};
 use crate::targets::{FAR_DEPTH, HDR_FORMAT, Target};
@@ -13,7 +15,19 @@ use crate::timing::GpuTimer;
 use crate::tonemap::TonemapPass;
 
 /// Names of the passes in frame order, as reported by timings.
-pub const PASS_NAMES: [&str; 3] = ["sky", "terrain", "tonemap"];
+pub const PASS_NAMES: [&str; 8] = [
+    "transmittance",
+    "multiple_scattering",
+    "sky_view",
+    "aerial_perspective",
+    "lighting",
+    "sky",
+    "terrain",
+    "tonemap",
+];
+
+/// Timer slot of the first drawing pass (after the atmosphere's).
+const SKY_PASS_INDEX: u32 = crate::atmosphere::PASS_NAMES.len() as u32;
 
 /// How the renderer is set up.
 #[derive(Clone, Copy, Debug)]
@@ -77,20 +91,20 @@ pub enum RenderError {
 }
 
 /// Lighting depends only on these scene values; recomputed when they change.
-type LightingKey = (f64, f64, f64);
-
 /// The nimbus renderer.
 #[derive(Debug)]
 pub struct Renderer {
     device: wgpu::Device,
     queue: wgpu::Queue,
     frame: FrameBinding,
+    atmosphere: AtmospherePass,
     sky: SkyPass,
     terrain: TerrainPass,
     tonemap: TonemapPass,
     hdr: Option<Target>,
     timer: Option<GpuTimer>,
-    lighting: Option<(LightingKey, Lighting)>,
+    /// Which passes the last [`Renderer::encode`] recorded, in [`PASS_NAMES`] order.
+    passes_run: std::sync::Mutex<[bool; PASS_NAMES.len()]>,
 }
 
 impl Renderer {
@@ -105,8 +119,9 @@ impl Renderer {
             "frame uniform",
             wgpu::ShaderStages::VERTEX_FRAGMENT | wgpu::ShaderStages::COMPUTE,
         );
-        let sky = SkyPass::new(device, &frame.layout);
-        let terrain = TerrainPass::new(device, &frame.layout);
+        let atmosphere = AtmospherePass::new(device, &frame.layout);
+        let sky = SkyPass::new(device, &frame.layout, atmosphere.lookup_layout());
+        let terrain = TerrainPass::new(device, &frame.layout, atmosphere.lookup_layout());
         let tonemap = TonemapPass::new(device, queue, descriptor.output_format);
         let timer = if descriptor.timestamps {
             GpuTimer::new(device, queue, PASS_NAMES.len() as u32)
@@ -117,12 +132,13 @@ impl Renderer {
             device: device.clone(),
             queue: queue.clone(),
             frame,
+            atmosphere,
             sky,
             terrain,
             tonemap,
             hdr: None,
             timer,
-            lighting: None,
+            passes_run: std::sync::Mutex::new([false; PASS_NAMES.len()]),
         }
     }
 
@@ -171,9 +187,9 @@ impl Renderer {
         Ok(())
     }
 
-    /// Updates everything a frame needs: the frame uniform, lighting and the
-    /// terrain (regenerated only when their inputs change), and the HDR
-    /// target (recreated on resize).
+    /// Updates everything a frame needs: the frame uniform, the atmosphere
+    /// and the terrain (recomputed only when their inputs change), and the
+    /// HDR target (recreated on resize).
     pub fn prepare(
         &mut self,
         scene: &Scene,
@@ -194,23 +210,10 @@ impl Renderer {
             self.tonemap.set_input(&self.device, &hdr.view);
             self.hdr = Some(hdr);
         }
-        let key = (
-            scene.sun.azimuth_deg,
-            scene.sun.elevation_deg,
-            scene.atmosphere.turbidity,
-        );
-        let lighting = match &self.lighting {
-            Some((k, lighting)) if *k == key => *lighting,
-            _ => {
-                let lighting = Lighting::new(scene);
-                self.lighting = Some((key, lighting));
-                lighting
-            }
-        };
-        self.frame.write(
-            &self.queue,
-            &FrameUniform::new(scene, &lighting, width, height, time_s),
-        );
+        let frame = FrameUniform::new(scene, width, height, time_s);
+        self.frame.write(&self.queue, &frame);
+        self.atmosphere
+            .prepare(&self.queue, &scene.atmosphere, &frame);
         self.sky.prepare(
             &self.queue,
             SkySettings {
@@ -220,14 +223,24 @@ impl Renderer {
         );
         self.terrain
             .prepare(&self.device, &self.queue, &scene.terrain)?;
-        self.terrain
-            .prepare_sun(&self.queue, lighting.sun.direction);
+        self.terrain.prepare_sun(&self.queue, scene.sun.direction());
         Ok(())
     }
 
-    /// Records the frame: sky, terrain, tone mapping. Call [`Self::prepare`] first.
+    /// Records the frame: atmosphere LUTs, sky, terrain, tone mapping. Call
+    /// [`Self::prepare`] first.
     pub fn encode(&self, encoder: &mut wgpu::CommandEncoder, targets: &FrameTargets<'_>) {
         let Some(hdr) = &self.hdr else { return };
+        let mut run = [true; PASS_NAMES.len()];
+        // 1. Atmosphere: LUTs, aerial perspective and lighting inputs, where their inputs changed.
+        let atmosphere_run =
+            self.atmosphere
+                .encode(encoder, &self.frame.bind_group, self.timer.as_ref(), 0);
+        run[..atmosphere_run.len()].copy_from_slice(&atmosphere_run);
+        if let Ok(mut last) = self.passes_run.lock() {
+            *last = run;
+        }
+        let atmosphere = self.atmosphere.lookup_bind_group();
         let (color_load, depth_load) = match targets.load {
             TargetLoad::Clear => (
                 wgpu::LoadOp::Clear(wgpu::Color::BLACK),
@@ -236,33 +249,33 @@ impl Renderer {
             TargetLoad::Keep => (wgpu::LoadOp::Load, wgpu::LoadOp::Load),
         };
         let frame = &self.frame.bind_group;
-        // 1. Sky, sun and open sea, at the far plane.
+        // 2. Sky, sun and open sea, at the far plane.
         {
             let mut pass = self.hdr_pass(
                 encoder,
                 "sky",
-                0,
+                SKY_PASS_INDEX,
                 hdr,
                 targets.depth,
                 color_load,
                 depth_load,
             );
-            self.sky.draw(&mut pass, frame);
+            self.sky.draw(&mut pass, frame, atmosphere);
         }
-        // 2. Terrain, depth-tested.
+        // 3. Terrain, depth-tested.
         {
             let mut pass = self.hdr_pass(
                 encoder,
                 "terrain",
-                1,
+                SKY_PASS_INDEX + 1,
                 hdr,
                 targets.depth,
                 wgpu::LoadOp::Load,
                 wgpu::LoadOp::Load,
             );
-            self.terrain.draw(&mut pass, frame);
+            self.terrain.draw(&mut pass, frame, atmosphere);
         }
-        // 3. Exposure is already applied; tone map into the caller's output.
+        // 4. Exposure is already applied; tone map into the caller's output.
         {
             let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
                 label: Some("tonemap"),
@@ -276,7 +289,10 @@ impl Renderer {
                     },
                 })],
                 depth_stencil_attachment: None,
-                timestamp_writes: self.timer.as_ref().map(|t| t.pass_writes(2)),
+                timestamp_writes: self
+                    .timer
+                    .as_ref()
+                    .map(|t| t.pass_writes(SKY_PASS_INDEX + 2)),
                 occlusion_query_set: None,
                 multiview_mask: None,
             });
@@ -324,11 +340,36 @@ impl Renderer {
     }
 
     /// After the frame's submission: waits for it and returns each pass's GPU
-    /// time in ms, in [`PASS_NAMES`] order (`None` without timestamp support).
-    pub fn read_pass_times_ms(&self) -> Option<Vec<f64>> {
-        self.timer
+    /// time in ms, in [`PASS_NAMES`] order, `None` for passes the frame did
+    /// not need (their inputs were unchanged). `None` overall without
+    /// timestamp support.
+    pub fn read_pass_times_ms(&self) -> Option<Vec<Option<f64>>> {
+        let times = self
+            .timer
             .as_ref()
-            .and_then(|t| t.read_ms(&self.device).ok())
+            .and_then(|t| t.read_ms(&self.device).ok())?;
+        let run = self
+            .passes_run
+            .lock()
+            .map(|r| *r)
+            .unwrap_or([true; PASS_NAMES.len()]);
+        Some(
+            times
+                .into_iter()
+                .zip(run)
+                .map(|(t, ran)| ran.then_some(t))
+                .collect(),
+        )
+    }
+
+    /// Makes the next frame recompute every atmosphere LUT (for benchmarks).
+    pub fn invalidate_atmosphere(&self) {
+        self.atmosphere.invalidate();
+    }
+
+    /// The atmosphere pass (LUTs and lighting inputs).
+    pub fn atmosphere(&self) -> &AtmospherePass {
+        &self.atmosphere
     }
 
     /// The HDR colour target (pre-exposed linear radiance), once prepared.

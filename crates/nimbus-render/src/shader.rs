@@ -30,18 +30,12 @@ pub const COMMON: WgslFile = WgslFile {
     name: "shaders/common.wgsl",
     source: include_str!("shaders/common.wgsl"),
 };
-/// The analytic sky radiance function (needs `COMMON`).
-pub const SKY_MODEL: WgslFile = WgslFile {
-    name: "shaders/sky_model.wgsl",
-    source: include_str!("shaders/sky_model.wgsl"),
-};
-
 /// A full-screen triangle vertex shader.
 pub const FULLSCREEN: WgslFile = WgslFile {
     name: "shaders/fullscreen.wgsl",
     source: include_str!("shaders/fullscreen.wgsl"),
 };
-/// Shading of open water (needs `COMMON` and `SKY_MODEL`).
+/// Shading of open water (needs `COMMON` and the atmosphere lookups).
 pub const WATER: WgslFile = WgslFile {
     name: "shaders/water.wgsl",
     source: include_str!("shaders/water.wgsl"),
@@ -50,12 +44,22 @@ pub const WATER: WgslFile = WgslFile {
 /// Every composed shader module of the renderer, by name: what the naga
 /// validation test checks.
 pub fn all_modules() -> Vec<(&'static str, String)> {
-    vec![
+    let mut modules = crate::atmosphere::shader_sources();
+    modules.extend([
         ("sky", crate::sky::shader_source()),
         ("terrain", crate::terrain::shader_source()),
         ("tonemap", crate::tonemap::shader_source()),
-    ]
+    ]);
+    modules
 }
+
+/// The shared files every drawing pass that reads the atmosphere needs, in order.
+pub const DRAWING_LIBRARIES: [WgslFile; 4] = [
+    COMMON,
+    crate::atmosphere::ATMOSPHERE,
+    crate::atmosphere::LIGHTING_TYPES,
+    crate::atmosphere::LOOKUP,
+];
 
 /// Creates a shader module from composed source.
 pub fn create_module(device: &wgpu::Device, label: &str, source: &str) -> wgpu::ShaderModule {

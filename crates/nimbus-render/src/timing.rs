@@ -55,6 +55,15 @@ impl GpuTimer {
         }
     }
 
+    /// The timestamp writes of compute pass `index`.
+    pub fn compute_pass_writes(&self, index: u32) -> wgpu::ComputePassTimestampWrites<'_> {
+        wgpu::ComputePassTimestampWrites {
+            query_set: &self.query_set,
+            beginning_of_pass_write_index: Some(index * 2),
+            end_of_pass_write_index: Some(index * 2 + 1),
+        }
+    }
+
     /// Records the resolve and the copy to the readback buffer (end of frame).
     pub fn resolve(&self, encoder: &mut wgpu::CommandEncoder) {
         encoder.resolve_query_set(&self.query_set, 0..self.pass_count * 2, &self.resolve, 0);

@@ -2,7 +2,8 @@
 //! needed), and every uniform struct's Rust layout is checked against naga's
 //! layout of the WGSL struct, member by member.
 
-use nimbus_render::frame::{FrameUniform, SkyModelUniform};
+use nimbus_render::atmosphere::{AtmosphereUniform, LightingUniform};
+use nimbus_render::frame::FrameUniform;
 use nimbus_render::shader::all_modules;
 use nimbus_render::sky::SkyPassUniform;
 use nimbus_render::tonemap::TonemapUniform;
@@ -81,27 +82,48 @@ fn frame_uniform_matches_wgsl_layout() {
             time_s,
             sun_direction,
             exposure_scale,
-            sun_irradiance,
-            sun_cos_angular_radius,
-            sky_irradiance,
-            max_pre_exposed,
             viewport_size_px,
             pixel_angle_rad,
-            _padding,
-            sky,
+            sun_cos_angular_radius,
+            max_pre_exposed,
+            _padding0,
+            _padding1,
+            _padding2,
+        ]
+    );
+}
+
+#[test]
+fn atmosphere_and_lighting_match_wgsl_layout() {
+    let module = module_named("terrain");
+    assert_layout!(
+        module,
+        "Atmosphere",
+        AtmosphereUniform,
+        [
+            rayleigh_scattering,
+            bottom_radius_m,
+            mie_scattering,
+            top_radius_m,
+            mie_extinction,
+            rayleigh_scale_height_m,
+            ozone_absorption,
+            mie_scale_height_m,
+            ground_albedo,
+            mie_asymmetry,
+            sun_irradiance_top,
+            ozone_peak_altitude_m,
+            ozone_half_width_m,
+            _padding0,
+            _padding1,
+            _padding2,
         ]
     );
     assert_layout!(
         module,
-        "SkyModel",
-        SkyModelUniform,
-        [
-            perez_luminance,
-            perez_x,
-            perez_y,
-            perez_e_and_fade,
-            zenith_over_perez,
-        ]
+        "Lighting",
+        LightingUniform,
+        [sh, sky_irradiance_up, sun_irradiance, ground_radiance]
     );
 }
 

@@ -16,6 +16,11 @@ pub struct BenchArgs {
     /// Number of measured frames (after one warm-up frame).
     #[arg(long, default_value_t = 60, value_parser = clap::value_parser!(u32).range(1..=MAX_FRAMES as i64))]
     frames: u32,
+    /// Recompute every atmosphere LUT each frame (by default the
+    /// transmittance and multiple-scattering LUTs run only when the
+    /// atmosphere changes, the view-dependent ones when the camera or sun moves).
+    #[arg(long)]
+    update_luts: bool,
     /// Print one JSON document on standard output.
     #[arg(long)]
     json: bool,
@@ -45,8 +50,10 @@ impl Stats {
 #[derive(Debug, Serialize)]
 struct PassReport {
     name: &'static str,
+    /// Frames in which the pass ran (LUT passes run only when their inputs change).
+    frames: usize,
     #[serde(flatten)]
-    stats: Stats,
+    stats: Option<Stats>,
 }
 
 #[derive(Debug, Serialize)]
@@ -83,13 +90,16 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
     let mut per_pass: Vec<Vec<f64>> = vec![Vec::new(); PASS_NAMES.len()];
     let mut totals = Vec::new();
     for frame in 0..args.frames {
+        if args.update_luts {
+            headless.renderer.invalidate_atmosphere();
+        }
         let seconds = headless.render_frame(&scene, width, height, frame as f32 / 60.0)?;
         wall_ms.push(seconds * 1e3);
         if let Some(times) = headless.renderer.read_pass_times_ms() {
             for (series, t) in per_pass.iter_mut().zip(&times) {
-                series.push(*t);
+                series.extend(*t);
             }
-            totals.push(times.iter().sum());
+            totals.push(times.iter().flatten().sum());
         }
     }
     let timestamps = headless.renderer.has_timestamps() && !totals.is_empty();
@@ -104,7 +114,15 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
         frames: args.frames,
         timestamps_supported: timestamps,
         passes: if timestamps {
-            PASS_NAMES.iter().zip(&per_pass).map(|(name, series)| PassReport { name, stats: Stats::of(series) }).collect()
+            PASS_NAMES
+                .iter()
+                .zip(&per_pass)
+                .map(|(name, series)| PassReport {
+                    name,
+                    frames: series.len(),
+                    stats: (!series.is_empty()).then(|| Stats::of(series)),
+                })
+                .collect()
         } else {
             Vec::new()
         },
@@ -121,19 +139,25 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
         );
         println!("size      {width}×{height}, {} frames", report.frames);
         for pass in &report.passes {
-            println!(
-                "{:<9} median {:8.3} ms   p95 {:8.3} ms",
-                pass.name, pass.stats.median_ms, pass.stats.p95_ms
-            );
+            match &pass.stats {
+                Some(stats) => println!(
+                    "{:<20} median {:8.3} ms   p95 {:8.3} ms   ({} frames)",
+                    pass.name, stats.median_ms, stats.p95_ms, pass.frames
+                ),
+                None => println!(
+                    "{:<20} not run (inputs unchanged; --update-luts to measure)",
+                    pass.name
+                ),
+            }
         }
         if let Some(total) = &report.gpu_total {
             println!(
-                "{:<9} median {:8.3} ms   p95 {:8.3} ms",
+                "{:<20} median {:8.3} ms   p95 {:8.3} ms",
                 "gpu total", total.median_ms, total.p95_ms
             );
         }
         println!(
-            "{:<9} median {:8.3} ms   p95 {:8.3} ms",
+            "{:<20} median {:8.3} ms   p95 {:8.3} ms",
             "wall", report.frame_wall.median_ms, report.frame_wall.p95_ms
         );
         if let Some(note) = &report.note {

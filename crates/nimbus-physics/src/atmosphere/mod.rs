@@ -185,14 +185,11 @@ mod tests {
         let r = p.bottom_radius_m;
         let tau = p.optical_depth(r, 1.0, p.top_radius_m - r, 4000);
         let depth = p.top_radius_m - r;
-        for c in 0..3 {
+        for (c, tau_c) in tau.iter().enumerate() {
             let rayleigh =
                 p.rayleigh_scattering_per_m[c] * 8000.0 * (1.0 - (-depth / 8000.0f64).exp());
             let mie = p.aerosol_extinction_per_m()[c] * 1200.0 * (1.0 - (-depth / 1200.0f64).exp());
-            assert!(
-                (tau[c] - rayleigh - mie).abs() < 1e-6 * tau[c],
-                "channel {c}"
-            );
+            assert!((tau_c - rayleigh - mie).abs() < 1e-6 * tau_c, "channel {c}");
         }
         // The aerosol optical depth at 550 nm is the parameter itself.
         p.rayleigh_scattering_per_m = [0.0; 3];

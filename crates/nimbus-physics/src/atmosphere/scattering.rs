@@ -325,9 +325,9 @@ mod tests {
         ] {
             let zenith: f64 = f64::to_radians(zenith_deg);
             let (sin_z, cos_z) = zenith.sin_cos();
-            let sin_az = (1.0 - cos_az * cos_az as f64).max(0.0).sqrt();
+            let sin_az = (1.0f64 - cos_az * cos_az).max(0.0).sqrt();
             let view = [sin_z * cos_az, cos_z, sin_z * sin_az];
-            let sun = [(1.0 - mu_s * mu_s as f64).sqrt(), mu_s, 0.0];
+            let sun = [(1.0f64 - mu_s * mu_s).sqrt(), mu_s, 0.0];
             let length = t.params.distance_to_boundary(r, cos_z);
             let coarse = t.scatter_along(r, view, sun, length, SKY_VIEW_STEPS).0;
             let fine = t.scatter_along(r, view, sun, length, 1024).0;

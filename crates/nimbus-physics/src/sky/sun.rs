@@ -1,4 +1,5 @@
-//! Sun direction and direct solar irradiance through a clear atmosphere.
+//! Sun direction, the solar constant and disk, and the textbook air-mass
+//! model of the direct beam (used to cross-check the atmosphere model).
 //!
 //! Direction: nimbus's world frame (+Y up, east = +X, north = −Z), azimuth
 //! measured clockwise from north, elevation above the horizon.
@@ -15,9 +16,6 @@
 //!   "A Practical Analytic Model for Daylight", SIGGRAPH 1999, appendix A.2);
 //! - relative air mass m(θ) = 1 / (cos θ + 0.50572 (96.07995° − θ)^−1.6364),
 //!   θ the zenith angle in degrees (Kasten & Young, Applied Optics 28, 1989).
-
-use super::RGB_WAVELENGTHS_UM;
-use crate::photometry::MAX_LUMINOUS_EFFICACY_LM_PER_W;
 
 /// Extraterrestrial solar illuminance at one astronomical unit, lx (Darula et al. 2005).
 pub const SOLAR_ILLUMINANCE_CONSTANT_LUX: f64 = 133_800.0;
@@ -50,45 +48,9 @@ pub fn aerosol_optical_depth(turbidity: f64, wavelength_um: f64) -> f64 {
     beta * wavelength_um.powf(-1.3)
 }
 
-/// The sun as a light source: direction and the direct irradiance it
-/// delivers at the ground.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Sun {
-    /// Unit vector from the ground towards the sun, world frame.
-    pub direction: [f64; 3],
-    /// Direct irradiance on a surface facing the sun, per RGB channel, W·m⁻².
-    pub irradiance_rgb: [f64; 3],
-}
-
-impl Sun {
-    /// The sun at the given angles seen through a clear atmosphere of the given turbidity.
-    pub fn new(azimuth_deg: f64, elevation_deg: f64, turbidity: f64) -> Self {
-        let direction = sun_direction(azimuth_deg, elevation_deg);
-        let air_mass = relative_air_mass(90.0 - elevation_deg);
-        // Below about −1° the disk has set; fade the beam out over the last degree.
-        let above_horizon = ((elevation_deg + 1.0) / 1.0).clamp(0.0, 1.0);
-        let e0 = SOLAR_ILLUMINANCE_CONSTANT_LUX / MAX_LUMINOUS_EFFICACY_LM_PER_W;
-        let irradiance_rgb = RGB_WAVELENGTHS_UM.map(|wl| {
-            let tau = rayleigh_optical_depth(wl) + aerosol_optical_depth(turbidity, wl);
-            e0 * (-tau * air_mass).exp() * above_horizon
-        });
-        Self {
-            direction,
-            irradiance_rgb,
-        }
-    }
-
-    /// Radiance of the solar disk per RGB channel, W·sr⁻¹·m⁻², taken uniform over the disk.
-    pub fn disk_radiance_rgb(&self) -> [f64; 3] {
-        let solid_angle_sr = std::f64::consts::TAU * (1.0 - SOLAR_DISK_ANGULAR_RADIUS_RAD.cos());
-        self.irradiance_rgb.map(|e| e / solid_angle_sr)
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::photometry::illuminance_lux;
 
     #[test]
     fn direction_follows_the_world_convention() {
@@ -131,25 +93,30 @@ mod tests {
     }
 
     #[test]
-    fn clear_sky_direct_illuminance_is_plausible() {
-        // Clear-sky direct normal illuminance with the sun at 60° elevation is
-        // about 80–100 klx (IES Lighting Handbook, 10th ed., fig. 4.3; Darula 2005).
-        let sun = Sun::new(180.0, 60.0, 2.5);
-        let lux = illuminance_lux(sun.irradiance_rgb);
-        assert!((75_000.0..110_000.0).contains(&lux), "{lux} lx");
-        // Low sun is reddened: blue is attenuated more than red.
-        let low = Sun::new(180.0, 3.0, 2.5);
-        assert!(low.irradiance_rgb[2] < 0.5 * low.irradiance_rgb[0]);
-        // No beam below the horizon.
-        assert_eq!(Sun::new(0.0, -5.0, 2.5).irradiance_rgb, [0.0; 3]);
-    }
-
-    #[test]
-    fn disk_radiance_integrates_back_to_irradiance() {
-        let sun = Sun::new(0.0, 45.0, 3.0);
-        let omega = std::f64::consts::TAU * (1.0 - SOLAR_DISK_ANGULAR_RADIUS_RAD.cos());
-        for (l, e) in sun.disk_radiance_rgb().iter().zip(sun.irradiance_rgb) {
-            assert!((l * omega - e).abs() < 1e-9 * e.max(1.0));
+    fn atmosphere_beam_transmittance_agrees_with_the_air_mass_model() {
+        // The spherical atmosphere's transmittance towards the sun against the
+        // Beer–Lambert air-mass model with the same optical depths (Kasten &
+        // Young air mass, ozone omitted from both): within 2 % down to 10°.
+        use crate::atmosphere::AtmosphereParams;
+        let p = AtmosphereParams {
+            ozone_absorption_per_m: [0.0; 3],
+            ..AtmosphereParams::default()
+        };
+        let r = p.bottom_radius_m;
+        for elevation in [90.0f64, 60.0, 30.0, 10.0] {
+            let mu = elevation.to_radians().sin();
+            let t = p.transmittance_to_top(r, mu);
+            let m = relative_air_mass(90.0 - elevation);
+            for c in 0..3 {
+                let tau = p.rayleigh_scattering_per_m[c] * p.rayleigh_scale_height_m
+                    + p.aerosol_extinction_per_m()[c] * p.aerosol_scale_height_m;
+                let model = (-tau * m).exp();
+                assert!(
+                    (t[c] / model - 1.0).abs() < 0.02,
+                    "elevation {elevation}°, channel {c}: {} vs {model}",
+                    t[c]
+                );
+            }
         }
     }
 }

@@ -10,6 +10,7 @@ mod validate;
 
 pub use validate::SceneError;
 
+use nimbus_physics::atmosphere::AtmosphereParams;
 use nimbus_physics::terrain::TerrainParams;
 use serde::{Deserialize, Serialize};
 
@@ -37,8 +38,8 @@ pub struct Scene {
     pub camera: CameraSettings,
     /// The sun's position.
     pub sun: SunSettings,
-    /// The clear atmosphere.
-    pub atmosphere: AtmosphereSettings,
+    /// The clear atmosphere (Hillaire 2020 model).
+    pub atmosphere: AtmosphereParams,
     /// The procedural terrain.
     pub terrain: TerrainParams,
     /// Cumulus clouds (reserved: parsed and validated, not rendered yet).
@@ -113,27 +114,19 @@ pub struct SunSettings {
     pub elevation_deg: f64,
 }
 
+impl SunSettings {
+    /// Unit vector towards the sun, world frame.
+    pub fn direction(&self) -> [f64; 3] {
+        nimbus_physics::sky::sun_direction(self.azimuth_deg, self.elevation_deg)
+    }
+}
+
 impl Default for SunSettings {
     fn default() -> Self {
         Self {
             azimuth_deg: 200.0,
             elevation_deg: 30.0,
         }
-    }
-}
-
-/// The clear atmosphere (`[atmosphere]`).
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields, default)]
-pub struct AtmosphereSettings {
-    /// Linke-style turbidity of Preetham's sky model, in [1.7, 10]: 2 is very
-    /// clear, 3 clear, 6 hazy.
-    pub turbidity: f64,
-}
-
-impl Default for AtmosphereSettings {
-    fn default() -> Self {
-        Self { turbidity: 2.5 }
     }
 }
 

@@ -125,7 +125,30 @@ fn every_range_is_checked() {
         ),
         ("[sun]\nazimuth_deg = -1", "sun.azimuth_deg = -1"),
         ("[sun]\nelevation_deg = 91", "sun.elevation_deg = 91"),
-        ("[atmosphere]\nturbidity = 1.0", "atmosphere.turbidity = 1"),
+        (
+            "[atmosphere]\naerosol_optical_depth = -0.1",
+            "atmosphere.aerosol_optical_depth = -0.1",
+        ),
+        (
+            "[atmosphere]\naerosol_asymmetry = 1.0",
+            "atmosphere.aerosol_asymmetry = 1",
+        ),
+        (
+            "[atmosphere]\ntop_radius_m = 6000000.0",
+            "atmosphere.top_radius_m = 6000000",
+        ),
+        (
+            "[atmosphere]\nbottom_radius_m = 10.0",
+            "atmosphere.bottom_radius_m = 10",
+        ),
+        (
+            "[atmosphere]\nground_albedo = [0.3, 0.3, 1.5]",
+            "atmosphere.ground_albedo",
+        ),
+        (
+            "[atmosphere]\nrayleigh_scale_height_m = 0",
+            "atmosphere.rayleigh_scale_height_m = 0",
+        ),
         ("[terrain]\nextent_m = 10", "terrain.extent_m = 10"),
         (
             "[terrain]\nheight_scale_m = -1",

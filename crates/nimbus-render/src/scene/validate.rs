@@ -220,7 +220,88 @@ impl Scene {
 
         c.closed("sun.azimuth_deg", self.sun.azimuth_deg, 0.0, 360.0)?;
         c.closed("sun.elevation_deg", self.sun.elevation_deg, -90.0, 90.0)?;
-        c.closed("atmosphere.turbidity", self.atmosphere.turbidity, 1.7, 10.0)?;
+        let a = &self.atmosphere;
+        c.closed(
+            "atmosphere.bottom_radius_m",
+            a.bottom_radius_m,
+            1.0e5,
+            1.0e8,
+        )?;
+        if !(a.top_radius_m.is_finite()
+            && a.top_radius_m > a.bottom_radius_m
+            && a.top_radius_m <= 2.0 * a.bottom_radius_m)
+        {
+            return Err(c.invalid(
+                "atmosphere.top_radius_m",
+                a.top_radius_m,
+                format!(
+                    "must be a finite number in ({}, {}] (above bottom_radius_m, at most twice it)",
+                    a.bottom_radius_m,
+                    2.0 * a.bottom_radius_m
+                ),
+            ));
+        }
+        c.vector(
+            "atmosphere.rayleigh_scattering_per_m",
+            &a.rayleigh_scattering_per_m,
+            0.0,
+            1.0e-3,
+        )?;
+        c.closed(
+            "atmosphere.rayleigh_scale_height_m",
+            a.rayleigh_scale_height_m,
+            100.0,
+            100_000.0,
+        )?;
+        c.closed(
+            "atmosphere.aerosol_optical_depth",
+            a.aerosol_optical_depth,
+            0.0,
+            5.0,
+        )?;
+        c.closed(
+            "atmosphere.aerosol_angstrom_exponent",
+            a.aerosol_angstrom_exponent,
+            -1.0,
+            4.0,
+        )?;
+        c.closed(
+            "atmosphere.aerosol_single_scattering_albedo",
+            a.aerosol_single_scattering_albedo,
+            0.0,
+            1.0,
+        )?;
+        c.closed(
+            "atmosphere.aerosol_scale_height_m",
+            a.aerosol_scale_height_m,
+            10.0,
+            100_000.0,
+        )?;
+        c.closed(
+            "atmosphere.aerosol_asymmetry",
+            a.aerosol_asymmetry,
+            -0.99,
+            0.99,
+        )?;
+        c.vector(
+            "atmosphere.ozone_absorption_per_m",
+            &a.ozone_absorption_per_m,
+            0.0,
+            1.0e-3,
+        )?;
+        c.closed(
+            "atmosphere.ozone_peak_altitude_m",
+            a.ozone_peak_altitude_m,
+            0.0,
+            1.0e6,
+        )?;
+        c.closed(
+            "atmosphere.ozone_half_width_m",
+            a.ozone_half_width_m,
+            1.0,
+            1.0e6,
+        )?;
+        c.vector("atmosphere.ground_albedo", &a.ground_albedo, 0.0, 1.0)?;
 
         let t = &self.terrain;
         c.closed("terrain.extent_m", t.extent_m, 100.0, MAX_COORDINATE_M)?;

@@ -5,18 +5,6 @@
 
 const PI: f32 = 3.14159265358979;
 
-// Preetham sky model parameters (see nimbus_physics::sky::PreethamSky).
-struct SkyModel {
-    // Perez A, B, C, D for luminance Y, chromaticity x and chromaticity y.
-    perez_luminance: vec4<f32>,
-    perez_x: vec4<f32>,
-    perez_y: vec4<f32>,
-    // Perez E for (Y, x, y); w = twilight fade factor.
-    perez_e_and_fade: vec4<f32>,
-    // Y_z / F(0, θs) in cd/m², x_z / F(0, θs), y_z / F(0, θs); w unused.
-    zenith_over_perez: vec4<f32>,
-}
-
 struct Frame {
     clip_from_world: mat4x4<f32>,
     world_from_clip: mat4x4<f32>,
@@ -26,18 +14,15 @@ struct Frame {
     sun_direction: vec3<f32>,
     // Multiplies radiance (W·sr⁻¹·m⁻²) to give pre-exposed render-target values.
     exposure_scale: f32,
-    // Direct solar irradiance at the ground, W·m⁻² per channel.
-    sun_irradiance: vec3<f32>,
-    sun_cos_angular_radius: f32,
-    // Sky irradiance on a horizontal surface, W·m⁻² per channel.
-    sky_irradiance: vec3<f32>,
-    // Largest value written to the half-float HDR target.
-    max_pre_exposed: f32,
     viewport_size_px: vec2<f32>,
     // Angle subtended by one pixel at the image centre, rad.
     pixel_angle_rad: f32,
-    _padding: f32,
-    sky: SkyModel,
+    sun_cos_angular_radius: f32,
+    // Largest value written to the half-float HDR target.
+    max_pre_exposed: f32,
+    _padding0: f32,
+    _padding1: f32,
+    _padding2: f32,
 }
 
 @group(0) @binding(0) var<uniform> frame: Frame;

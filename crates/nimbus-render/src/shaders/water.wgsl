@@ -1,6 +1,6 @@
 // Shading of an open water surface: Fresnel reflection of the sky and the
 // sun (a GGX microfacet lobe), and the diffuse light from under the surface.
-// Needs common.wgsl and sky_model.wgsl.
+// Needs common.wgsl and the atmosphere lookups (atmosphere_lookup.wgsl).
 
 // Schlick's approximation with the normal-incidence reflectance of water, 0.02 (n = 1.33).
 fn water_fresnel(cos_theta: f32) -> f32 {
@@ -58,9 +58,10 @@ fn water_radiance(position_m: vec3<f32>, diffuse_albedo: vec3<f32>, sun_visibili
         // Microfacet specular with the implicit (Kelemen) visibility 1 / (4 cos_l cos_v) ≈ 1 / (4 (l·h)²).
         let lh = max(dot(l, h), 1e-3);
         let d = ggx_distribution(max(dot(n, h), 0.0), 0.06);
-        glint = frame.sun_irradiance * sun_visibility * cos_l * d * water_fresnel(lh) / (4.0 * lh * lh);
+        glint = sun_irradiance_at(position_m) * sun_visibility * cos_l * d * water_fresnel(lh) / (4.0 * lh * lh);
     }
-    let irradiance = frame.sun_irradiance * max(frame.sun_direction.y, 0.0) * sun_visibility + frame.sky_irradiance;
+    let irradiance = sun_irradiance_at(position_m) * max(frame.sun_direction.y, 0.0) * sun_visibility
+        + lighting.sky_irradiance_up.xyz;
     let body = diffuse_albedo / PI * irradiance * (1.0 - fresnel);
     return reflected_sky + glint + body;
 }

@@ -1,4 +1,5 @@
-//! Sky pass: the analytic sky, the sun disk and the open sea at the horizon.
+//! Sky pass: the physically based sky (from the sky-view LUT), the sun disk
+//! and the open sea at the horizon.
 //!
 //! Drawn first, as a full-screen triangle at the far plane; under reverse-Z
 //! its depth test passes only where nothing nearer has been drawn, so it also
@@ -15,13 +16,9 @@ const SKY_WGSL: WgslFile = WgslFile {
 
 /// The composed WGSL of this pass.
 pub fn shader_source() -> String {
-    shader::compose(&[
-        shader::COMMON,
-        shader::SKY_MODEL,
-        shader::FULLSCREEN,
-        shader::WATER,
-        SKY_WGSL,
-    ])
+    let mut files = shader::DRAWING_LIBRARIES.to_vec();
+    files.extend([shader::FULLSCREEN, shader::WATER, SKY_WGSL]);
+    shader::compose(&files)
 }
 
 /// Linear limb-darkening coefficient of the sun in the visible, u ≈ 0.6
@@ -72,13 +69,21 @@ pub struct SkyPass {
 
 impl SkyPass {
     /// Creates the pipeline; `frame_layout` is the shared group-0 layout.
-    pub fn new(device: &wgpu::Device, frame_layout: &wgpu::BindGroupLayout) -> Self {
+    pub fn new(
+        device: &wgpu::Device,
+        frame_layout: &wgpu::BindGroupLayout,
+        atmosphere_layout: &wgpu::BindGroupLayout,
+    ) -> Self {
         let params =
             crate::binding::UniformBinding::new(device, "sky params", wgpu::ShaderStages::FRAGMENT);
         let module = shader::create_module(device, "sky", &shader_source());
         let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
             label: Some("sky"),
-            bind_group_layouts: &[Some(frame_layout), Some(&params.layout)],
+            bind_group_layouts: &[
+                Some(frame_layout),
+                Some(&params.layout),
+                Some(atmosphere_layout),
+            ],
             immediate_size: 0,
         });
         let pipeline = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
@@ -117,10 +122,16 @@ impl SkyPass {
     }
 
     /// Records the pass into `pass`, which targets the HDR colour and the depth buffer.
-    pub fn draw(&self, pass: &mut wgpu::RenderPass<'_>, frame: &wgpu::BindGroup) {
+    pub fn draw(
+        &self,
+        pass: &mut wgpu::RenderPass<'_>,
+        frame: &wgpu::BindGroup,
+        atmosphere: &wgpu::BindGroup,
+    ) {
         pass.set_pipeline(&self.pipeline);
         pass.set_bind_group(0, frame, &[]);
         pass.set_bind_group(1, &self.params.bind_group, &[]);
+        pass.set_bind_group(2, atmosphere, &[]);
         pass.draw(0..3, 0..1);
     }
 }

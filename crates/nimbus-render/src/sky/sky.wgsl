@@ -1,5 +1,6 @@
-// Sky pass: Preetham sky radiance, the limb-darkened solar disk, and the open
-// sea at the water level below the horizon, beyond the terrain's edge.
+// Sky pass: sky radiance from the sky-view LUT, the limb-darkened solar disk
+// seen through the atmosphere, and the open sea at the water level below the
+// horizon, beyond the terrain's edge, seen through the aerial perspective.
 
 struct SkyPassParams {
     // Height of the open sea, m.
@@ -24,7 +25,7 @@ fn solar_disk(direction: vec3<f32>) -> vec3<f32> {
     let u = params.limb_darkening_u;
     let solid_angle = 2.0 * PI * (1.0 - frame.sun_cos_angular_radius);
     // The disk average of (1 − u (1 − μ)) is 1 − u / 3, so the disk still delivers sun_irradiance.
-    return frame.sun_irradiance / solid_angle * (1.0 - u * (1.0 - mu)) / (1.0 - u / 3.0);
+    return sun_irradiance_at(frame.camera_position_m) / solid_angle * (1.0 - u * (1.0 - mu)) / (1.0 - u / 3.0);
 }
 
 @fragment
@@ -34,7 +35,8 @@ fn sky_fragment(in: FullscreenOutput) -> @location(0) vec4<f32> {
     if (direction.y < 0.0 && height > 0.0) {
         let distance = height / -direction.y;
         let sea_point = frame.camera_position_m + direction * distance;
-        return to_target(water_radiance(sea_point, params.water_albedo.rgb, 1.0));
+        let sea = water_radiance(sea_point, params.water_albedo.rgb, 1.0);
+        return to_target(apply_aerial_perspective(sea, sea_point));
     }
     return to_target(sky_radiance(direction) + solar_disk(direction));
 }

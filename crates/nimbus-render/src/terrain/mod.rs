@@ -20,12 +20,9 @@ const TERRAIN_WGSL: WgslFile = WgslFile {
 
 /// The composed WGSL of this pass.
 pub fn shader_source() -> String {
-    shader::compose(&[
-        shader::COMMON,
-        shader::SKY_MODEL,
-        shader::WATER,
-        TERRAIN_WGSL,
-    ])
+    let mut files = shader::DRAWING_LIBRARIES.to_vec();
+    files.extend([shader::WATER, TERRAIN_WGSL]);
+    shader::compose(&files)
 }
 
 /// One mesh vertex (WGSL `TerrainVertex`).
@@ -101,7 +98,11 @@ pub struct TerrainPass {
 
 impl TerrainPass {
     /// Creates the pipeline; the mesh is built by [`Self::prepare`].
-    pub fn new(device: &wgpu::Device, frame_layout: &wgpu::BindGroupLayout) -> Self {
+    pub fn new(
+        device: &wgpu::Device,
+        frame_layout: &wgpu::BindGroupLayout,
+        atmosphere_layout: &wgpu::BindGroupLayout,
+    ) -> Self {
         let group_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("terrain albedo"),
             entries: &[
@@ -119,7 +120,11 @@ impl TerrainPass {
         let module = shader::create_module(device, "terrain", &shader_source());
         let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
             label: Some("terrain"),
-            bind_group_layouts: &[Some(frame_layout), Some(&group_layout)],
+            bind_group_layouts: &[
+                Some(frame_layout),
+                Some(&group_layout),
+                Some(atmosphere_layout),
+            ],
             immediate_size: 0,
         });
         let pipeline = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
@@ -304,11 +309,17 @@ impl TerrainPass {
     }
 
     /// Records the draw into `pass`.
-    pub fn draw(&self, pass: &mut wgpu::RenderPass<'_>, frame: &wgpu::BindGroup) {
+    pub fn draw(
+        &self,
+        pass: &mut wgpu::RenderPass<'_>,
+        frame: &wgpu::BindGroup,
+        atmosphere: &wgpu::BindGroup,
+    ) {
         let Some(mesh) = &self.mesh else { return };
         pass.set_pipeline(&self.pipeline);
         pass.set_bind_group(0, frame, &[]);
         pass.set_bind_group(1, &mesh.bind_group, &[]);
+        pass.set_bind_group(2, atmosphere, &[]);
         pass.set_vertex_buffer(0, mesh.vertices.slice(..));
         pass.set_index_buffer(mesh.indices.slice(..), wgpu::IndexFormat::Uint32);
         pass.draw_indexed(0..mesh.index_count, 0, 0..1);

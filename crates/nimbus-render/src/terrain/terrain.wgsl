@@ -1,6 +1,8 @@
-// Terrain pass: the heightfield lit by the sun (Lambert) and the sky
-// (isotropic sky view factor), with open water shaded by water.wgsl.
-// Needs common.wgsl, sky_model.wgsl and water.wgsl.
+// Terrain pass: the heightfield lit by the sun (Lambert, with terrain
+// shadows) and by the environment (sky and ground, from the lighting
+// inputs' spherical harmonics), with open water shaded by water.wgsl, seen
+// through the aerial perspective. Needs common.wgsl, the atmosphere lookups
+// and water.wgsl.
 
 // Group 1: the albedo map. RGB: linear albedo (sRGB-encoded storage);
 // A: water mask (1 = water).
@@ -33,19 +35,11 @@ fn terrain_vertex(v: TerrainVertex) -> TerrainVarying {
     return out;
 }
 
-// Mean albedo of the surroundings, for the light a tilted surface receives
-// from the ground around it.
-const SURROUNDING_ALBEDO: f32 = 0.15;
-
-// Radiance of a Lambertian surface of albedo `albedo` with unit normal `n`.
-fn lambert_radiance(albedo: vec3<f32>, n: vec3<f32>, sun_visibility: f32) -> vec3<f32> {
-    let direct = frame.sun_irradiance * max(dot(n, frame.sun_direction), 0.0) * sun_visibility;
-    // Isotropic sky: a surface tilted by θ sees the fraction (1 + cos θ) / 2 of the dome,
-    // and the ground the rest (1 − cos θ) / 2.
-    let sky = frame.sky_irradiance * (0.5 + 0.5 * n.y);
-    let horizontal = frame.sun_irradiance * max(frame.sun_direction.y, 0.0) + frame.sky_irradiance;
-    let ground = horizontal * SURROUNDING_ALBEDO * (0.5 - 0.5 * n.y);
-    return albedo / PI * (direct + sky + ground);
+// Radiance of a Lambertian surface of albedo `albedo` with unit normal `n` at `position_m`.
+fn lambert_radiance(albedo: vec3<f32>, position_m: vec3<f32>, n: vec3<f32>, sun_visibility: f32) -> vec3<f32> {
+    let direct = sun_irradiance_at(position_m) * max(dot(n, frame.sun_direction), 0.0) * sun_visibility;
+    let environment = sh_irradiance(lighting, n);
+    return albedo / PI * (direct + environment);
 }
 
 @fragment
@@ -53,8 +47,8 @@ fn terrain_fragment(in: TerrainVarying) -> @location(0) vec4<f32> {
     let texel = textureSample(albedo_map, albedo_sampler, in.uv);
     let sun_visibility = textureSample(sun_visibility_map, albedo_sampler, in.uv).r;
     let n = normalize(in.normal);
-    let land = lambert_radiance(texel.rgb, n, sun_visibility);
+    let land = lambert_radiance(texel.rgb, in.position_m, n, sun_visibility);
     // The water mask is filtered, so shorelines blend smoothly.
     let water = water_radiance(in.position_m, texel.rgb, sun_visibility);
-    return to_target(mix(land, water, texel.a));
+    return to_target(apply_aerial_perspective(mix(land, water, texel.a), in.position_m));
 }

@@ -1,0 +1,24 @@
+// The lighting inputs shared by the passes that shade clouds, terrain and
+// rain (written by atmosphere/lighting.wgsl; see its header for each field).
+// Radiance in W·sr⁻¹·m⁻², irradiance in W·m⁻², per RGB channel in xyz.
+
+struct Lighting {
+    sh: array<vec4<f32>, 9>,
+    sky_irradiance_up: vec4<f32>,
+    sun_irradiance: vec4<f32>,
+    ground_radiance: vec4<f32>,
+}
+
+// Irradiance on a surface of unit normal n from the SH environment
+// (Ramamoorthi & Hanrahan 2001, eq. 8: Â₀ = π, Â₁ = 2π/3, Â₂ = π/4).
+fn sh_irradiance(l: Lighting, n: vec3<f32>) -> vec3<f32> {
+    let a0 = 3.14159265;
+    let a1 = 2.0943951;
+    let a2 = 0.78539816;
+    var e = a0 * 0.282095 * l.sh[0].xyz;
+    e += a1 * 0.488603 * (l.sh[1].xyz * n.y + l.sh[2].xyz * n.z + l.sh[3].xyz * n.x);
+    e += a2 * (1.092548 * (l.sh[4].xyz * n.x * n.y + l.sh[5].xyz * n.y * n.z + l.sh[7].xyz * n.x * n.z)
+        + 0.315392 * l.sh[6].xyz * (3.0 * n.z * n.z - 1.0)
+        + 0.546274 * l.sh[8].xyz * (n.x * n.x - n.y * n.y));
+    return max(e, vec3<f32>(0.0));
+}

@@ -1,0 +1,250 @@
+//! The GPU atmosphere against its CPU reference (nimbus_physics::atmosphere):
+//! each LUT texel, the aerial-perspective froxels and the lighting inputs.
+//! Tolerances cover half-float storage (2⁻¹¹ relative), f32 arithmetic and
+//! the GPU's bilinear filtering of the LUTs the later passes read.
+
+use glam::{DMat4, DVec3, DVec4};
+use nimbus_physics::atmosphere::{
+    AERIAL_PERSPECTIVE_SIZE, AtmosphereTables, MULTIPLE_SCATTERING_LUT_SIZE, SKY_VIEW_LUT_SIZE,
+    TRANSMITTANCE_LUT_SIZE, aerial_perspective_distance_m, fibonacci_sphere, unit_of_texel,
+};
+use nimbus_physics::sh;
+use nimbus_render::atmosphere::solar_irradiance_top;
+use nimbus_render::frame::Camera;
+use nimbus_render::headless::{HeadlessRenderer, read_texture};
+use nimbus_render::{AdapterPreference, Scene};
+
+struct Fixture {
+    scene: Scene,
+    luts: [Vec<[f32; 4]>; 4],
+    lighting: Vec<f32>,
+    tables: AtmosphereTables,
+}
+
+fn fixture() -> Fixture {
+    let mut scene = Scene::default();
+    scene.camera.position_m = [0.0, 500.0, 0.0];
+    scene.camera.yaw_deg = Some(30.0);
+    scene.camera.pitch_deg = Some(5.0);
+    scene.sun.azimuth_deg = 120.0;
+    scene.sun.elevation_deg = 20.0;
+    scene.terrain.resolution = 32;
+    let mut h = HeadlessRenderer::new(AdapterPreference::Auto)
+        .unwrap_or_else(|e| panic!("GPU tests need an adapter: {e}"));
+    h.render_frame(&scene, 64, 36, 0.0).expect("render");
+    let read = |t: &wgpu::Texture| -> Vec<[f32; 4]> {
+        let bytes = read_texture(&h.gpu, t, 8).expect("read LUT");
+        let halves: &[half::f16] = bytemuck::cast_slice(&bytes);
+        halves
+            .chunks(4)
+            .map(|p| [p[0].to_f32(), p[1].to_f32(), p[2].to_f32(), p[3].to_f32()])
+            .collect()
+    };
+    let [t, m, s, a] = h.renderer.atmosphere().textures();
+    let luts = [read(t), read(m), read(s), read(a)];
+    let lighting = read_buffer(&h, h.renderer.atmosphere().lighting_buffer());
+    let tables = AtmosphereTables::new(&scene.atmosphere);
+    Fixture {
+        scene,
+        luts,
+        lighting,
+        tables,
+    }
+}
+
+fn read_buffer(h: &HeadlessRenderer, buffer: &wgpu::Buffer) -> Vec<f32> {
+    let staging = h.gpu.device.create_buffer(&wgpu::BufferDescriptor {
+        label: None,
+        size: buffer.size(),
+        usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+        mapped_at_creation: false,
+    });
+    let mut encoder = h.gpu.device.create_command_encoder(&Default::default());
+    encoder.copy_buffer_to_buffer(buffer, 0, &staging, 0, buffer.size());
+    h.gpu.queue.submit([encoder.finish()]);
+    staging.map_async(wgpu::MapMode::Read, .., |r| r.expect("map"));
+    h.gpu
+        .device
+        .poll(wgpu::PollType::wait_indefinitely())
+        .expect("poll");
+    bytemuck::cast_slice(&staging.get_mapped_range(..).expect("mapped")).to_vec()
+}
+
+fn assert_close(what: &str, gpu: [f32; 4], cpu: [f64; 3], relative: f64, absolute: f64) {
+    for c in 0..3 {
+        let (g, e) = (gpu[c] as f64, cpu[c]);
+        assert!(
+            (g - e).abs() <= relative * e.abs() + absolute,
+            "{what}: channel {c}: GPU {g} vs CPU {e}"
+        );
+    }
+}
+
+#[test]
+fn gpu_atmosphere_matches_the_cpu_reference() {
+    let f = fixture();
+    let p = &f.scene.atmosphere;
+    let e0 = solar_irradiance_top().map(f64::from);
+
+    // Transmittance: every 8th texel against the exact integral, within 1 %.
+    let [tw, th] = TRANSMITTANCE_LUT_SIZE;
+    for j in (0..th).step_by(7) {
+        for i in (0..tw).step_by(9) {
+            let (r, mu) =
+                p.transmittance_r_mu_from_unit(unit_of_texel(i, tw), unit_of_texel(j, th));
+            let exact = p
+                .optical_depth(r, mu, p.distance_to_top(r, mu), 4000)
+                .map(|t| (-t).exp());
+            assert_close(
+                &format!("transmittance ({i}, {j})"),
+                f.luts[0][(j * tw + i) as usize],
+                exact,
+                0.01,
+                1e-3,
+            );
+        }
+    }
+
+    // Multiple scattering: every texel against the CPU table, within 2 %.
+    let [mw, mh] = MULTIPLE_SCATTERING_LUT_SIZE;
+    for k in 0..mw * mh {
+        let cpu = f.tables.multiple_scattering.texels[k as usize];
+        assert_close(
+            &format!("multiple scattering texel {k}"),
+            f.luts[1][k as usize],
+            cpu,
+            0.02,
+            1e-6,
+        );
+    }
+
+    // Sky view: a grid of texels against the CPU integral, within 2 %.
+    let r = p.bottom_radius_m + f.scene.camera.position_m[1];
+    let mu_s = f.scene.sun.direction()[1];
+    let [sw, sh_] = SKY_VIEW_LUT_SIZE;
+    for j in (0..sh_).step_by(11) {
+        for i in (0..sw).step_by(13) {
+            let (zenith, cos_az) =
+                p.sky_view_angles_from_unit(r, unit_of_texel(i, sw), unit_of_texel(j, sh_));
+            let cpu = f.tables.sky_view_luminance(r, zenith, cos_az, mu_s);
+            let cpu = [0, 1, 2].map(|c| cpu[c] * e0[c]);
+            assert_close(
+                &format!("sky view ({i}, {j})"),
+                f.luts[2][(j * sw + i) as usize],
+                cpu,
+                0.02,
+                1e-4,
+            );
+        }
+    }
+
+    // Aerial perspective: froxels along the view, against the CPU march, within 2 %.
+    let [aw, ah, ad] = AERIAL_PERSPECTIVE_SIZE;
+    let camera = Camera::from_settings(&f.scene.camera, 64, 36);
+    let world_from_clip: DMat4 = camera.clip_from_world().inverse();
+    let sun = f.scene.sun.direction();
+    for (i, j) in [(0, 0), (16, 16), (31, 5), (7, 30)] {
+        let (u, v) = ((i as f64 + 0.5) / aw as f64, (j as f64 + 0.5) / ah as f64);
+        let near = world_from_clip * DVec4::new(u * 2.0 - 1.0, 1.0 - v * 2.0, 1.0, 1.0);
+        let view: DVec3 = (near.truncate() / near.w - camera.position_m).normalize();
+        for k in [0, 5, 15, 31] {
+            let w = (k as f64 + 0.5) / ad as f64;
+            let (l, t) = f.tables.scatter_along(
+                r,
+                view.to_array(),
+                sun,
+                aerial_perspective_distance_m(w),
+                16,
+            );
+            let gpu = f.luts[3][((k * ah + j) * aw + i) as usize];
+            let cpu = [0, 1, 2].map(|c| l[c] * e0[c]);
+            assert_close(
+                &format!("aerial perspective ({i}, {j}, {k})"),
+                gpu,
+                cpu,
+                0.02,
+                1e-4,
+            );
+            let mean_t = (t[0] + t[1] + t[2]) / 3.0;
+            assert!(
+                (gpu[3] as f64 - mean_t).abs() < 2e-3,
+                "froxel ({i}, {j}, {k}) transmittance {} vs {mean_t}",
+                gpu[3]
+            );
+        }
+    }
+}
+
+#[test]
+fn gpu_lighting_inputs_match_the_cpu_reference() {
+    let f = fixture();
+    let p = &f.scene.atmosphere;
+    let e0 = solar_irradiance_top().map(f64::from);
+    let r = p.bottom_radius_m + f.scene.camera.position_m[1];
+    let sun = f.scene.sun.direction();
+    let mu_s = sun[1];
+    let sky = |d: [f64; 3]| {
+        let zenith = d[1].clamp(-1.0, 1.0).acos();
+        let (h, s) = (
+            (d[0] * d[0] + d[2] * d[2]).sqrt(),
+            (sun[0] * sun[0] + sun[2] * sun[2]).sqrt(),
+        );
+        let cos_az = if h > 1e-9 && s > 1e-9 {
+            (d[0] * sun[0] + d[2] * sun[2]) / (h * s)
+        } else {
+            1.0
+        };
+        let l = f.tables.sky_view_luminance(r, zenith, cos_az, mu_s);
+        [0, 1, 2].map(|c| l[c] * e0[c])
+    };
+    let directions: Vec<[f64; 3]> = (0..1024).map(|k| fibonacci_sphere(k, 1024)).collect();
+    let weight = 4.0 * std::f64::consts::PI / 1024.0;
+    let mut sky_up = [0.0; 3];
+    for d in directions.iter().filter(|d| d[1] > 0.0) {
+        let l = sky(*d);
+        for c in 0..3 {
+            sky_up[c] += l[c] * d[1] * weight;
+        }
+    }
+    let sun_t = p.transmittance_to_top(r, mu_s);
+    let sun_e: [f64; 3] = [0, 1, 2].map(|c| e0[c] * sun_t[c]);
+    let ground: [f64; 3] = [0, 1, 2].map(|c| {
+        p.ground_albedo[c] / std::f64::consts::PI * (sun_e[c] * mu_s.max(0.0) + sky_up[c])
+    });
+    let coefficients = sh::project(&directions, |d| if d[1] > 0.0 { sky(d) } else { ground });
+
+    let gpu = |k: usize| {
+        [
+            f.lighting[4 * k],
+            f.lighting[4 * k + 1],
+            f.lighting[4 * k + 2],
+            0.0,
+        ]
+    };
+    assert_close("C_sky", gpu(9), sky_up, 0.03, 1e-3);
+    assert_close("C_sun", gpu(10), sun_e, 0.01, 1e-3);
+    assert_close("C_ground", gpu(11), ground, 0.03, 1e-3);
+    // SH: compare the irradiance they give on a few normals (the quantity the passes use).
+    let scale = sh::irradiance(&coefficients, [0.0, 1.0, 0.0])[2];
+    let gpu_coefficients: [[f64; 3]; 9] =
+        std::array::from_fn(|k| [0, 1, 2].map(|c| f.lighting[4 * k + c] as f64));
+    for n in [
+        [0.0, 1.0, 0.0],
+        [1.0, 0.0, 0.0],
+        [0.0, -1.0, 0.0],
+        [0.0, 0.6, 0.8],
+    ] {
+        let (g, c) = (
+            sh::irradiance(&gpu_coefficients, n),
+            sh::irradiance(&coefficients, n),
+        );
+        for k in 0..3 {
+            assert!(
+                (g[k] - c[k]).abs() < 0.03 * scale,
+                "SH irradiance on {n:?}, channel {k}: GPU {} vs CPU {}",
+                g[k],
+                c[k]
+            );
+        }
+    }
+}
