@@ -107,14 +107,13 @@ mod tests {
             let mu = elevation.to_radians().sin();
             let t = p.transmittance_to_top(r, mu);
             let m = relative_air_mass(90.0 - elevation);
-            for c in 0..3 {
+            for (c, t_c) in t.iter().enumerate() {
                 let tau = p.rayleigh_scattering_per_m[c] * p.rayleigh_scale_height_m
                     + p.aerosol_extinction_per_m()[c] * p.aerosol_scale_height_m;
                 let model = (-tau * m).exp();
                 assert!(
-                    (t[c] / model - 1.0).abs() < 0.02,
-                    "elevation {elevation}°, channel {c}: {} vs {model}",
-                    t[c]
+                    (t_c / model - 1.0).abs() < 0.02,
+                    "elevation {elevation}°, channel {c}: {t_c} vs {model}"
                 );
             }
         }
