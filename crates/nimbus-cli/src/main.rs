@@ -24,6 +24,8 @@ enum Command {
     Bench(commands::bench::BenchArgs),
     /// Print or check scene files.
     Scene(commands::scene::SceneArgs),
+    /// The sun's position for a date, time and place (NREL SPA).
+    Sun(commands::sun::SunArgs),
 }
 
 fn main() -> ExitCode {
@@ -44,10 +46,16 @@ fn main() -> ExitCode {
                     ExitCode::SUCCESS
                 };
             }
-            // One line: clap's first line, without its usage block.
+            // One line: clap's message without its usage block (the lines
+            // before the first blank one, e.g. a missing argument's name).
             let text = error.to_string();
-            let first = text.lines().next().unwrap_or("invalid arguments");
-            eprintln!("nimbus: error: {}", first.trim_start_matches("error: "));
+            let message: Vec<&str> = text
+                .lines()
+                .map(str::trim)
+                .take_while(|l| !l.is_empty() && !l.starts_with("Usage:"))
+                .collect();
+            let message = message.join(" ");
+            eprintln!("nimbus: error: {}", message.trim_start_matches("error: "));
             return ExitCode::from(2);
         }
     };
@@ -55,6 +63,7 @@ fn main() -> ExitCode {
         Command::Render(args) => commands::render::run(&args),
         Command::Bench(args) => commands::bench::run(&args),
         Command::Scene(args) => commands::scene::run(&args),
+        Command::Sun(args) => commands::sun::run(&args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -235,6 +235,76 @@ fn scene_print_default_round_trips() {
 }
 
 #[test]
+fn sun_reproduces_the_spa_worked_example_as_json() {
+    // Reda & Andreas (2008), table A5.1: azimuth 194.34024°; the report's
+    // zenith 50.11162° includes refraction at 820 mbar and 11 °C, the
+    // geometric zenith is 50.12795°.
+    let dir = temp_dir("sun");
+    let out = nimbus(
+        &[
+            "sun",
+            "--lat",
+            "39.742476",
+            "--lon",
+            "-105.1786",
+            "--time",
+            "2003-10-17T12:30:30-07:00",
+            "--elevation-m",
+            "1830.14",
+            "--json",
+        ],
+        &dir,
+    );
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let report: serde_json::Value = serde_json::from_slice(&out.stdout).expect("JSON");
+    let azimuth = report["azimuth_deg"].as_f64().expect("azimuth");
+    let zenith = report["zenith_deg"].as_f64().expect("zenith");
+    assert!((azimuth - 194.34024).abs() < 1e-3, "{azimuth}");
+    assert!((zenith - 50.12795).abs() < 1e-3, "{zenith}");
+    assert_fails_with(
+        &nimbus(
+            &[
+                "sun",
+                "--lat",
+                "91",
+                "--lon",
+                "0",
+                "--time",
+                "2026-06-21T12:00:00Z",
+            ],
+            &dir,
+        ),
+        &["--lat 91"],
+    );
+    assert_fails_with(
+        &nimbus(
+            &[
+                "sun",
+                "--lat",
+                "0",
+                "--lon",
+                "0",
+                "--time",
+                "2026-06-21T12:00",
+            ],
+            &dir,
+        ),
+        &["--time", "ISO 8601"],
+    );
+    assert_fails_with(
+        &nimbus(
+            &["sun", "--lat", "0", "--time", "2026-06-21T12:00:00Z"],
+            &dir,
+        ),
+        &["--lon"],
+    );
+}
+
+#[test]
 fn reserved_sections_warn_but_render() {
     let dir = temp_dir("reserved");
     std::fs::write(dir.join("rain.toml"), "[rain]\nintensity_mm_h = 4.0\n").expect("write");

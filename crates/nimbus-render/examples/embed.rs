@@ -52,7 +52,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         },
     );
     let mut scene = Scene::embedded_default();
-    scene.sun.elevation_deg = 35.0;
+    scene.sun.azimuth_deg = Some(150.0);
+    scene.sun.elevation_deg = Some(35.0);
 
     // 4. Each frame: prepare, encode, submit.
     renderer.prepare(&scene, width, height, 0.0)?;

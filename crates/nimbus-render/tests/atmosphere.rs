@@ -26,8 +26,8 @@ fn fixture() -> Fixture {
     scene.camera.position_m = [0.0, 500.0, 0.0];
     scene.camera.yaw_deg = Some(30.0);
     scene.camera.pitch_deg = Some(5.0);
-    scene.sun.azimuth_deg = 120.0;
-    scene.sun.elevation_deg = 20.0;
+    scene.sun.azimuth_deg = Some(120.0);
+    scene.sun.elevation_deg = Some(20.0);
     scene.terrain.resolution = 32;
     let mut h = HeadlessRenderer::new(AdapterPreference::Auto)
         .unwrap_or_else(|e| panic!("GPU tests need an adapter: {e}"));

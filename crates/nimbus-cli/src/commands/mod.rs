@@ -3,6 +3,7 @@
 pub mod bench;
 pub mod render;
 pub mod scene;
+pub mod sun;
 
 use anyhow::Context;
 use nimbus_render::{AdapterPreference, Scene};

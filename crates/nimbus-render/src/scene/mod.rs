@@ -104,29 +104,54 @@ impl Default for CameraSettings {
     }
 }
 
-/// The sun's position (`[sun]`), given directly as angles.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+/// The sun's position (`[sun]`): either by angles (`azimuth_deg`,
+/// `elevation_deg`) or by date, time and place (`time_utc`, `latitude_deg`,
+/// `longitude_deg`, computed with the NREL SPA), not both. Without either,
+/// azimuth 200° and elevation 30°.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct SunSettings {
     /// Azimuth, degrees clockwise from north, in [0, 360].
-    pub azimuth_deg: f64,
+    pub azimuth_deg: Option<f64>,
     /// Elevation above the horizon, degrees, in [−90, 90].
-    pub elevation_deg: f64,
+    pub elevation_deg: Option<f64>,
+    /// Date and time, ISO 8601 with a zone, e.g. "2026-06-21T12:00:00Z".
+    pub time_utc: Option<String>,
+    /// Latitude of the scene, degrees north, in [−90, 90].
+    pub latitude_deg: Option<f64>,
+    /// Longitude of the scene, degrees east, in [−180, 180].
+    pub longitude_deg: Option<f64>,
 }
+
+/// Sun angles used when a scene gives neither angles nor time and place.
+pub const DEFAULT_SUN_ANGLES_DEG: (f64, f64) = (200.0, 30.0);
 
 impl SunSettings {
+    /// Azimuth (clockwise from north) and elevation without refraction,
+    /// degrees. Assumes a validated scene: an unparsable time falls back to
+    /// the default angles.
+    pub fn angles_deg(&self) -> (f64, f64) {
+        if let (Some(time), Some(lat), Some(lon)) =
+            (&self.time_utc, self.latitude_deg, self.longitude_deg)
+        {
+            if let Ok(t) = nimbus_physics::sky::UtcDateTime::parse(time) {
+                let p = nimbus_physics::sky::solar_position(
+                    &t,
+                    &nimbus_physics::sky::Observer::at(lat, lon),
+                );
+                return (p.azimuth_deg, p.elevation_deg());
+            }
+        }
+        (
+            self.azimuth_deg.unwrap_or(DEFAULT_SUN_ANGLES_DEG.0),
+            self.elevation_deg.unwrap_or(DEFAULT_SUN_ANGLES_DEG.1),
+        )
+    }
+
     /// Unit vector towards the sun, world frame.
     pub fn direction(&self) -> [f64; 3] {
-        nimbus_physics::sky::sun_direction(self.azimuth_deg, self.elevation_deg)
-    }
-}
-
-impl Default for SunSettings {
-    fn default() -> Self {
-        Self {
-            azimuth_deg: 200.0,
-            elevation_deg: 30.0,
-        }
+        let (azimuth, elevation) = self.angles_deg();
+        nimbus_physics::sky::sun_direction(azimuth, elevation)
     }
 }
 

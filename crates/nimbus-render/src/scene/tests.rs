@@ -213,6 +213,53 @@ fn look_at_excludes_yaw_and_pitch_and_needs_a_horizontal_offset() {
 }
 
 #[test]
+fn the_sun_is_given_by_angles_or_by_time_and_place() {
+    let scene = Scene::from_toml_str(
+        "[sun]\ntime_utc = \"2003-10-17T12:30:30-07:00\"\nlatitude_deg = 39.742476\nlongitude_deg = -105.1786\n",
+        "s.toml",
+    )
+    .expect("scene");
+    let (azimuth, elevation) = scene.sun.angles_deg();
+    // NREL SPA worked example at sea level (the report's 194.34° azimuth, 39.87° elevation at 1830 m).
+    assert!(
+        (azimuth - 194.34).abs() < 0.01 && (elevation - 39.87).abs() < 0.02,
+        "{azimuth} {elevation}"
+    );
+    let cases = [
+        (
+            "[sun]\nazimuth_deg = 10.0\ntime_utc = \"2026-06-21T12:00:00Z\"\nlatitude_deg = 1.0\nlongitude_deg = 2.0",
+            "not be combined",
+        ),
+        (
+            "[sun]\ntime_utc = \"2026-06-21 noon\"\nlatitude_deg = 1.0\nlongitude_deg = 2.0",
+            "sun.time_utc = \"2026-06-21 noon\"",
+        ),
+        (
+            "[sun]\ntime_utc = \"2026-02-30T12:00:00Z\"\nlatitude_deg = 1.0\nlongitude_deg = 2.0",
+            "no such date",
+        ),
+        (
+            "[sun]\ntime_utc = \"2026-06-21T12:00:00Z\"\nlatitude_deg = 1.0",
+            "sun.longitude_deg = (missing)",
+        ),
+        (
+            "[sun]\nlatitude_deg = 1.0\nlongitude_deg = 2.0",
+            "sun.time_utc = (missing)",
+        ),
+        ("[sun]\nlatitude_deg = 95.0", "sun.latitude_deg = 95"),
+        ("[sun]\nlongitude_deg = -181.0", "sun.longitude_deg = -181"),
+        ("[sun]\nazimuth_deg = 10.0", "sun.elevation_deg = (missing)"),
+    ];
+    for (text, expected) in cases {
+        let m = error_of(text);
+        assert!(
+            m.contains(expected),
+            "`{text}` gave `{m}`, expected `{expected}`"
+        );
+    }
+}
+
+#[test]
 fn reserved_sections_are_parsed_and_listed() {
     let scene =
         Scene::from_toml_str("[rain]\nintensity_mm_h = 12.5\n[wind]\n", "s.toml").expect("scene");

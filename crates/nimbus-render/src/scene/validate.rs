@@ -164,6 +164,72 @@ impl Checker<'_> {
 const MAX_COORDINATE_M: f64 = 1.0e6;
 
 impl Scene {
+    fn validate_sun(&self, c: &Checker<'_>) -> Result<(), SceneError> {
+        let sun = &self.sun;
+        if let Some(azimuth) = sun.azimuth_deg {
+            c.closed("sun.azimuth_deg", azimuth, 0.0, 360.0)?;
+        }
+        if let Some(elevation) = sun.elevation_deg {
+            c.closed("sun.elevation_deg", elevation, -90.0, 90.0)?;
+        }
+        if let Some(latitude) = sun.latitude_deg {
+            c.closed("sun.latitude_deg", latitude, -90.0, 90.0)?;
+        }
+        if let Some(longitude) = sun.longitude_deg {
+            c.closed("sun.longitude_deg", longitude, -180.0, 180.0)?;
+        }
+        let by_angles = sun.azimuth_deg.is_some() || sun.elevation_deg.is_some();
+        let by_place =
+            sun.time_utc.is_some() || sun.latitude_deg.is_some() || sun.longitude_deg.is_some();
+        if by_angles && by_place {
+            let key = if sun.time_utc.is_some() {
+                "sun.time_utc"
+            } else {
+                "sun.latitude_deg"
+            };
+            let value = sun
+                .time_utc
+                .clone()
+                .map(|t| format!("{t:?}"))
+                .unwrap_or_else(|| format!("{:?}", sun.latitude_deg.or(sun.longitude_deg)));
+            return Err(c.invalid(key, value, "must not be combined with azimuth_deg/elevation_deg: give the sun either by angles or by time and place"));
+        }
+        if by_place {
+            match &sun.time_utc {
+                None => return Err(c.invalid("sun.time_utc", "(missing)", "must be given with latitude_deg and longitude_deg, e.g. \"2026-06-21T12:00:00Z\"")),
+                Some(time) => {
+                    if let Err(message) = nimbus_physics::sky::UtcDateTime::parse(time) {
+                        return Err(c.invalid("sun.time_utc", format!("{time:?}"), format!("must be an ISO 8601 date-time: {message}")));
+                    }
+                }
+            }
+            if sun.latitude_deg.is_none() || sun.longitude_deg.is_none() {
+                let key = if sun.latitude_deg.is_none() {
+                    "sun.latitude_deg"
+                } else {
+                    "sun.longitude_deg"
+                };
+                return Err(c.invalid(
+                    key,
+                    "(missing)",
+                    "must be given with sun.time_utc (degrees north / east)",
+                ));
+            }
+        } else if sun.azimuth_deg.is_some() != sun.elevation_deg.is_some() {
+            let key = if sun.azimuth_deg.is_none() {
+                "sun.azimuth_deg"
+            } else {
+                "sun.elevation_deg"
+            };
+            return Err(c.invalid(
+                key,
+                "(missing)",
+                "must be given together with the other sun angle",
+            ));
+        }
+        Ok(())
+    }
+
     /// Checks every value against its documented range.
     pub fn validate(&self, file: &str) -> Result<(), SceneError> {
         let c = Checker { file };
@@ -218,8 +284,7 @@ impl Scene {
         c.open("camera.fov_deg", cam.fov_deg, 0.0, 179.0)?;
         c.closed("camera.exposure_ev100", cam.exposure_ev100, -10.0, 30.0)?;
 
-        c.closed("sun.azimuth_deg", self.sun.azimuth_deg, 0.0, 360.0)?;
-        c.closed("sun.elevation_deg", self.sun.elevation_deg, -90.0, 90.0)?;
+        self.validate_sun(&c)?;
         let a = &self.atmosphere;
         c.closed(
             "atmosphere.bottom_radius_m",
