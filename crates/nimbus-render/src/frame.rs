@@ -41,12 +41,12 @@ pub struct FrameUniform {
     pub sun_cos_angular_radius: f32,
     /// Clamp of pre-exposed values, see [`MAX_PRE_EXPOSED`].
     pub max_pre_exposed: f32,
-    /// Padding.
-    pub _padding0: f32,
-    /// Padding.
-    pub _padding1: f32,
-    /// Padding.
-    pub _padding2: f32,
+    /// 1 for automatic exposure.
+    pub auto_exposure: u32,
+    /// Exposure compensation, EV (positive is brighter).
+    pub exposure_compensation_ev: f32,
+    /// Adaptation time constant, s.
+    pub adaptation_time_s: f32,
 }
 
 /// A pinhole camera in world space.
@@ -121,9 +121,9 @@ impl FrameUniform {
             pixel_angle_rad: (2.0 * (camera.fov_y_rad * 0.5).tan() / height.max(1) as f64) as f32,
             sun_cos_angular_radius: SOLAR_DISK_ANGULAR_RADIUS_RAD.cos() as f32,
             max_pre_exposed: MAX_PRE_EXPOSED,
-            _padding0: 0.0,
-            _padding1: 0.0,
-            _padding2: 0.0,
+            auto_exposure: u32::from(scene.camera.auto_exposure),
+            exposure_compensation_ev: scene.camera.exposure_compensation_ev as f32,
+            adaptation_time_s: scene.camera.adaptation_time_s as f32,
         }
     }
 

@@ -6,7 +6,6 @@ use crate::gpu::{AdapterPreference, GpuContext, GpuError};
 use crate::renderer::{FrameTargets, RenderError, Renderer, RendererDescriptor, TargetLoad};
 use crate::scene::Scene;
 use crate::targets::{DEPTH_FORMAT, Target};
-use nimbus_physics::photometry::exposure_scale_from_ev100;
 
 /// Format of the tone-mapped output.
 pub const OUTPUT_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba8Unorm;
@@ -162,8 +161,10 @@ impl HeadlessRenderer {
         };
         let bytes = read_texture(&self.gpu, &hdr.texture, 8)?;
         let halves: &[half::f16] = bytemuck::cast_slice(&bytes);
-        let inverse_exposure =
-            (1.0 / exposure_scale_from_ev100(scene.camera.exposure_ev100)) as f32;
+        // The drawing passes wrote radiance times the frame's pre-exposure.
+        let lighting: crate::atmosphere::LightingUniform =
+            self.read_buffer(self.renderer.atmosphere().lighting_buffer())?;
+        let inverse_exposure = 1.0 / lighting.exposure[0];
         let pixels = halves
             .chunks_exact(4)
             .map(|p| {
@@ -199,6 +200,47 @@ fn check_readback(
     let what = format!("reading back a {width}×{height} image");
     Renderer::check_buffer_size(&gpu.device, &what, bytes)?;
     Ok(())
+}
+
+impl HeadlessRenderer {
+    /// Reads a GPU buffer holding one `T` (e.g. the lighting inputs or the exposure state).
+    pub fn read_buffer<T: bytemuck::Pod>(&self, buffer: &wgpu::Buffer) -> Result<T, HeadlessError> {
+        let size = std::mem::size_of::<T>() as u64;
+        let staging = self.gpu.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("buffer readback"),
+            size,
+            usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        let mut encoder = self.gpu.device.create_command_encoder(&Default::default());
+        encoder.copy_buffer_to_buffer(buffer, 0, &staging, 0, size);
+        self.gpu.queue.submit([encoder.finish()]);
+        let (sender, receiver) = std::sync::mpsc::channel();
+        staging.map_async(wgpu::MapMode::Read, .., move |r| {
+            let _ = sender.send(r);
+        });
+        self.gpu
+            .device
+            .poll(wgpu::PollType::wait_indefinitely())
+            .map_err(|e| HeadlessError::Readback(e.to_string()))?;
+        receiver
+            .recv()
+            .map_err(|e| HeadlessError::Readback(e.to_string()))?
+            .map_err(|e| HeadlessError::Readback(e.to_string()))?;
+        let value = {
+            let view = staging
+                .get_mapped_range(..)
+                .map_err(|e| HeadlessError::Readback(e.to_string()))?;
+            bytemuck::pod_read_unaligned(&view)
+        };
+        staging.unmap();
+        Ok(value)
+    }
+
+    /// The exposure the last frame applied.
+    pub fn exposure_state(&self) -> Result<crate::exposure::ExposureState, HeadlessError> {
+        self.read_buffer(self.renderer.exposure().state_buffer())
+    }
 }
 
 /// Copies a 2D or 3D texture to the CPU, rows and layers tightly packed.

@@ -12,6 +12,7 @@
 
 pub mod atmosphere;
 pub mod binding;
+pub mod exposure;
 pub mod frame;
 pub mod gpu;
 pub mod headless;

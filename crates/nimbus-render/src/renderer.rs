@@ -6,6 +6,7 @@
 //! pass writes GPU timestamps when the device supports them.
 
 use crate::atmosphere::AtmospherePass;
+use crate::exposure::ExposurePass;
 use crate::frame::{FrameBinding, FrameUniform};
 use crate::scene::Scene;
 use crate::sky::{SkyPass, SkySettings};
@@ -15,7 +16,7 @@ use crate::timing::GpuTimer;
 use crate::tonemap::TonemapPass;
 
 /// Names of the passes in frame order, as reported by timings.
-pub const PASS_NAMES: [&str; 8] = [
+pub const PASS_NAMES: [&str; 9] = [
     "transmittance",
     "multiple_scattering",
     "sky_view",
@@ -23,6 +24,7 @@ pub const PASS_NAMES: [&str; 8] = [
     "lighting",
     "sky",
     "terrain",
+    "exposure",
     "tonemap",
 ];
 
@@ -98,6 +100,7 @@ pub struct Renderer {
     queue: wgpu::Queue,
     frame: FrameBinding,
     atmosphere: AtmospherePass,
+    exposure: ExposurePass,
     sky: SkyPass,
     terrain: TerrainPass,
     tonemap: TonemapPass,
@@ -123,6 +126,7 @@ impl Renderer {
         let sky = SkyPass::new(device, &frame.layout, atmosphere.lookup_layout());
         let terrain = TerrainPass::new(device, &frame.layout, atmosphere.lookup_layout());
         let tonemap = TonemapPass::new(device, queue, descriptor.output_format);
+        let exposure = ExposurePass::new(device, &frame.layout);
         let timer = if descriptor.timestamps {
             GpuTimer::new(device, queue, PASS_NAMES.len() as u32)
         } else {
@@ -133,6 +137,7 @@ impl Renderer {
             queue: queue.clone(),
             frame,
             atmosphere,
+            exposure,
             sky,
             terrain,
             tonemap,
@@ -207,7 +212,10 @@ impl Renderer {
                 height,
                 wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_SRC,
             );
-            self.tonemap.set_input(&self.device, &hdr.view);
+            self.exposure
+                .set_input(&self.device, &hdr.view, self.atmosphere.lighting_buffer());
+            self.tonemap
+                .set_input(&self.device, &hdr.view, self.exposure.state_buffer());
             self.hdr = Some(hdr);
         }
         let frame = FrameUniform::new(scene, width, height, time_s);
@@ -275,7 +283,18 @@ impl Renderer {
             );
             self.terrain.draw(&mut pass, frame, atmosphere);
         }
-        // 4. Exposure is already applied; tone map into the caller's output.
+        // 4. Exposure: meter the frame (automatic exposure) or pass the manual EV through.
+        {
+            let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                label: Some("exposure"),
+                timestamp_writes: self
+                    .timer
+                    .as_ref()
+                    .map(|t| t.compute_pass_writes(SKY_PASS_INDEX + 2)),
+            });
+            self.exposure.encode(&mut pass, frame);
+        }
+        // 5. Tone map into the caller's output.
         {
             let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
                 label: Some("tonemap"),
@@ -292,7 +311,7 @@ impl Renderer {
                 timestamp_writes: self
                     .timer
                     .as_ref()
-                    .map(|t| t.pass_writes(SKY_PASS_INDEX + 2)),
+                    .map(|t| t.pass_writes(SKY_PASS_INDEX + 3)),
                 occlusion_query_set: None,
                 multiview_mask: None,
             });
@@ -365,6 +384,11 @@ impl Renderer {
     /// Makes the next frame recompute every atmosphere LUT (for benchmarks).
     pub fn invalidate_atmosphere(&self) {
         self.atmosphere.invalidate();
+    }
+
+    /// The exposure pass (its state buffer holds the applied EV100).
+    pub fn exposure(&self) -> &ExposurePass {
+        &self.exposure
     }
 
     /// The atmosphere pass (LUTs and lighting inputs).

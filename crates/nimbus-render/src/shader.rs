@@ -48,6 +48,7 @@ pub fn all_modules() -> Vec<(&'static str, String)> {
     modules.extend([
         ("sky", crate::sky::shader_source()),
         ("terrain", crate::terrain::shader_source()),
+        ("exposure", crate::exposure::shader_source()),
         ("tonemap", crate::tonemap::shader_source()),
     ]);
     modules

@@ -86,9 +86,9 @@ fn frame_uniform_matches_wgsl_layout() {
             pixel_angle_rad,
             sun_cos_angular_radius,
             max_pre_exposed,
-            _padding0,
-            _padding1,
-            _padding2,
+            auto_exposure,
+            exposure_compensation_ev,
+            adaptation_time_s,
         ]
     );
 }
@@ -123,7 +123,32 @@ fn atmosphere_and_lighting_match_wgsl_layout() {
         module,
         "Lighting",
         LightingUniform,
-        [sh, sky_irradiance_up, sun_irradiance, ground_radiance]
+        [
+            sh,
+            sky_irradiance_up,
+            sun_irradiance,
+            ground_radiance,
+            exposure
+        ]
+    );
+}
+
+#[test]
+fn exposure_state_matches_wgsl_layout() {
+    assert_layout!(
+        module_named("exposure"),
+        "ExposureState",
+        nimbus_render::exposure::ExposureState,
+        [
+            ev100,
+            tonemap_scale,
+            average_luminance_cd_m2,
+            time_s,
+            valid,
+            _padding0,
+            _padding1,
+            _padding2
+        ]
     );
 }
 
@@ -141,4 +166,39 @@ fn pass_uniforms_match_wgsl_layout() {
         TonemapUniform,
         [encode_srgb, dither_lsb, code_values, _padding,]
     );
+}
+
+#[test]
+fn wgsl_lut_sizes_match_the_physics_constants() {
+    use nimbus_physics::atmosphere::*;
+    let source = nimbus_render::atmosphere::ATMOSPHERE.source;
+    let v2 = |name: &str, [w, h]: [u32; 2]| {
+        format!("const {name}: vec2<f32> = vec2<f32>({w}.0, {h}.0);")
+    };
+    let [x, y, z] = AERIAL_PERSPECTIVE_SIZE;
+    for expected in [
+        v2("TRANSMITTANCE_LUT_SIZE", TRANSMITTANCE_LUT_SIZE),
+        v2("MULTIPLE_SCATTERING_LUT_SIZE", MULTIPLE_SCATTERING_LUT_SIZE),
+        v2("SKY_VIEW_LUT_SIZE", SKY_VIEW_LUT_SIZE),
+        format!("const AERIAL_PERSPECTIVE_SIZE: vec3<f32> = vec3<f32>({x}.0, {y}.0, {z}.0);"),
+        format!(
+            "const AERIAL_PERSPECTIVE_MAX_DISTANCE_M: f32 = {}.0;",
+            AERIAL_PERSPECTIVE_MAX_DISTANCE_M
+        ),
+    ] {
+        assert!(
+            source.contains(&expected),
+            "shaders/atmosphere.wgsl lacks `{expected}`"
+        );
+    }
+    let all: String = all_modules().into_iter().map(|(_, s)| s).collect();
+    for expected in [
+        format!("const SKY_VIEW_STEPS: u32 = {SKY_VIEW_STEPS}u;"),
+        format!("const AERIAL_PERSPECTIVE_STEPS: u32 = {AERIAL_PERSPECTIVE_STEPS}u;"),
+        format!("const TRANSMITTANCE_STEPS: u32 = {TRANSMITTANCE_STEPS}u;"),
+        format!("const DIRECTIONS: u32 = {MULTIPLE_SCATTERING_DIRECTIONS}u;"),
+        format!("const STEPS: u32 = {MULTIPLE_SCATTERING_STEPS}u;"),
+    ] {
+        assert!(all.contains(&expected), "the WGSL lacks `{expected}`");
+    }
 }

@@ -19,7 +19,7 @@ use super::AtmosphereParams;
 /// Transmittance LUT size (μ, r).
 pub const TRANSMITTANCE_LUT_SIZE: [u32; 2] = [256, 64];
 /// Multiple-scattering LUT size (μ_s, altitude).
-pub const MULTIPLE_SCATTERING_LUT_SIZE: [u32; 2] = [32, 32];
+pub const MULTIPLE_SCATTERING_LUT_SIZE: [u32; 2] = [64, 32];
 /// Sky-view LUT size (azimuth, zenith).
 pub const SKY_VIEW_LUT_SIZE: [u32; 2] = [192, 108];
 /// Aerial-perspective volume size (x, y, depth slices).

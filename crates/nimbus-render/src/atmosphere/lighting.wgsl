@@ -113,5 +113,17 @@ fn lighting_main(@builtin(local_invocation_index) thread: u32) {
         lighting_out.sky_irradiance_up = vec4<f32>(sky_irradiance_up, 0.0);
         lighting_out.sun_irradiance = vec4<f32>(sun_irradiance, 0.0);
         lighting_out.ground_radiance = vec4<f32>(ground_radiance, 0.0);
+        // Incident-light meter (ISO 2720, calibration C = 250 lx·s for a flat
+        // receptor, ISO 100) on a horizontal surface at the camera:
+        // EV100 = log2(E S / C). Its exposure is the pre-exposure with
+        // automatic exposure; the exposure pass refines it from the image.
+        let illuminance_lux = 683.0 * dot(sun_irradiance * max(mu_s, 0.0) + sky_irradiance_up,
+            vec3<f32>(0.2126, 0.7152, 0.0722));
+        let incident_ev100 = log2(max(illuminance_lux, 1e-4) * 100.0 / 250.0);
+        var pre_exposure = frame.exposure_scale;
+        if (frame.auto_exposure != 0u) {
+            pre_exposure = 683.0 / (1.2 * exp2(incident_ev100 - frame.exposure_compensation_ev));
+        }
+        lighting_out.exposure = vec4<f32>(pre_exposure, incident_ev100, 0.0, 0.0);
     }
 }

@@ -7,6 +7,9 @@ struct Lighting {
     sky_irradiance_up: vec4<f32>,
     sun_irradiance: vec4<f32>,
     ground_radiance: vec4<f32>,
+    // x: pre-exposure of this frame's drawing passes (radiance to HDR target
+    // values); y: the incident-light meter's EV100 at the camera.
+    exposure: vec4<f32>,
 }
 
 // Irradiance on a surface of unit normal n from the SH environment

@@ -159,6 +159,8 @@ pub struct LightingUniform {
     pub sun_irradiance: [f32; 4],
     /// C_ground: radiance of the ground lit by sun and sky, W·sr⁻¹·m⁻².
     pub ground_radiance: [f32; 4],
+    /// x: pre-exposure of the drawing passes; y: incident-light EV100 at the camera.
+    pub exposure: [f32; 4],
 }
 
 /// Names of the atmosphere's passes, in the order they run.
@@ -176,13 +178,8 @@ struct ComputeStep {
     workgroups: [u32; 3],
 }
 
-/// What the view-dependent passes depend on.
-#[derive(Clone, Copy, Debug, PartialEq)]
-struct ViewKey {
-    clip_from_world: [[f32; 4]; 4],
-    camera_position_m: [f32; 3],
-    sun_direction: [f32; 3],
-}
+/// What the view-dependent passes depend on: the frame uniform without its time.
+type ViewKey = crate::frame::FrameUniform;
 
 /// GPU resources of the atmosphere.
 pub struct AtmospherePass {
@@ -572,9 +569,8 @@ impl AtmospherePass {
             self.view_pending.store(true, Ordering::Relaxed);
         }
         let key = ViewKey {
-            clip_from_world: frame.clip_from_world,
-            camera_position_m: frame.camera_position_m,
-            sun_direction: frame.sun_direction,
+            time_s: 0.0,
+            ..*frame
         };
         if self.view != Some(key) {
             self.view = Some(key);

@@ -88,7 +88,15 @@ pub struct CameraSettings {
     /// Vertical field of view, degrees, in (0, 179).
     pub fov_deg: f64,
     /// Exposure value at ISO 100; higher is darker. 15 suits a sunlit scene.
+    /// Used when `auto_exposure` is false.
     pub exposure_ev100: f64,
+    /// Meter the exposure from the image's average luminance (ISO 2720
+    /// reflected-light calibration K = 12.5) instead of `exposure_ev100`.
+    pub auto_exposure: bool,
+    /// Added to the metered exposure, EV, in [−10, 10]; positive is brighter.
+    pub exposure_compensation_ev: f64,
+    /// Time constant of the adaptation of automatic exposure in animations, s, in [0, 60].
+    pub adaptation_time_s: f64,
 }
 
 impl Default for CameraSettings {
@@ -100,6 +108,9 @@ impl Default for CameraSettings {
             pitch_deg: None,
             fov_deg: 60.0,
             exposure_ev100: 14.5,
+            auto_exposure: false,
+            exposure_compensation_ev: 0.0,
+            adaptation_time_s: 1.0,
         }
     }
 }

@@ -283,6 +283,13 @@ impl Scene {
         }
         c.open("camera.fov_deg", cam.fov_deg, 0.0, 179.0)?;
         c.closed("camera.exposure_ev100", cam.exposure_ev100, -10.0, 30.0)?;
+        c.closed(
+            "camera.exposure_compensation_ev",
+            cam.exposure_compensation_ev,
+            -10.0,
+            10.0,
+        )?;
+        c.closed("camera.adaptation_time_s", cam.adaptation_time_s, 0.0, 60.0)?;
 
         self.validate_sun(&c)?;
         let a = &self.atmosphere;

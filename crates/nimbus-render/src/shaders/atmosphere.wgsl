@@ -27,7 +27,7 @@ struct Atmosphere {
 }
 
 const TRANSMITTANCE_LUT_SIZE: vec2<f32> = vec2<f32>(256.0, 64.0);
-const MULTIPLE_SCATTERING_LUT_SIZE: vec2<f32> = vec2<f32>(32.0, 32.0);
+const MULTIPLE_SCATTERING_LUT_SIZE: vec2<f32> = vec2<f32>(64.0, 32.0);
 const SKY_VIEW_LUT_SIZE: vec2<f32> = vec2<f32>(192.0, 108.0);
 const AERIAL_PERSPECTIVE_SIZE: vec3<f32> = vec3<f32>(32.0, 32.0, 32.0);
 const AERIAL_PERSPECTIVE_MAX_DISTANCE_M: f32 = 128000.0;

@@ -44,6 +44,19 @@ fn aerial_perspective(position_m: vec3<f32>) -> vec4<f32> {
     return vec4<f32>(value.rgb * fade, mix(1.0, value.a, fade));
 }
 
+// Scale from radiance to this frame's HDR target values: the manual
+// exposure, or with automatic exposure the incident-light estimate made by
+// the lighting pass (the exposure pass then meters the frame and the tone
+// mapper corrects by the ratio).
+fn pre_exposure() -> f32 {
+    return lighting.exposure.x;
+}
+
+// Pre-exposed radiance for the HDR target, kept finite in half float.
+fn to_target(radiance: vec3<f32>) -> vec4<f32> {
+    return vec4<f32>(min(radiance * pre_exposure(), vec3<f32>(frame.max_pre_exposed)), 1.0);
+}
+
 // Radiance leaving a world point, as seen through the atmosphere from the camera.
 fn apply_aerial_perspective(radiance: vec3<f32>, position_m: vec3<f32>) -> vec3<f32> {
     let ap = aerial_perspective(position_m);

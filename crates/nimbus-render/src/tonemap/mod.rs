@@ -88,6 +88,16 @@ impl TonemapPass {
             entries: &[
                 crate::binding::texture_2d_entry(0, false),
                 crate::binding::uniform_layout_entry(1, wgpu::ShaderStages::FRAGMENT, size),
+                wgpu::BindGroupLayoutEntry {
+                    binding: 2,
+                    visibility: wgpu::ShaderStages::FRAGMENT,
+                    ty: wgpu::BindingType::Buffer {
+                        ty: wgpu::BufferBindingType::Storage { read_only: true },
+                        has_dynamic_offset: false,
+                        min_binding_size: wgpu::BufferSize::new(8),
+                    },
+                    count: None,
+                },
             ],
         });
         let params = device.create_buffer(&wgpu::BufferDescriptor {
@@ -136,8 +146,13 @@ impl TonemapPass {
         }
     }
 
-    /// Binds the HDR target to read (call when it is recreated).
-    pub fn set_input(&mut self, device: &wgpu::Device, hdr_view: &wgpu::TextureView) {
+    /// Binds the HDR target to read and the exposure state (call when the target is recreated).
+    pub fn set_input(
+        &mut self,
+        device: &wgpu::Device,
+        hdr_view: &wgpu::TextureView,
+        exposure: &wgpu::Buffer,
+    ) {
         self.bind_group = Some(device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("tonemap"),
             layout: &self.group_layout,
@@ -149,6 +164,10 @@ impl TonemapPass {
                 wgpu::BindGroupEntry {
                     binding: 1,
                     resource: self.params.as_entire_binding(),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 2,
+                    resource: exposure.as_entire_binding(),
                 },
             ],
         }));

@@ -16,6 +16,12 @@ struct TonemapParams {
 
 @group(0) @binding(0) var hdr: texture_2d<f32>;
 @group(0) @binding(1) var<uniform> params: TonemapParams;
+// Written by the exposure pass; only `tonemap_scale` is read here.
+struct ExposureScale {
+    ev100: f32,
+    tonemap_scale: f32,
+}
+@group(0) @binding(2) var<storage, read> exposure: ExposureScale;
 
 fn rrt_and_odt_fit(v: vec3<f32>) -> vec3<f32> {
     let a = v * (v + 0.0245786) - 0.000090537;
@@ -56,7 +62,7 @@ fn hash_unit(pixel: vec2<u32>, salt: u32) -> f32 {
 @fragment
 fn tonemap_fragment(in: FullscreenOutput) -> @location(0) vec4<f32> {
     let pixel = vec2<u32>(in.position.xy);
-    let radiance = textureLoad(hdr, pixel, 0).rgb;
+    let radiance = textureLoad(hdr, pixel, 0).rgb * exposure.tonemap_scale;
     let mapped = aces_fitted(radiance);
     if (params.encode_srgb == 0u) {
         return vec4<f32>(mapped, 1.0);
