@@ -131,18 +131,26 @@ fn golden_default_scene() {
     assert_matches_golden("default", &image);
 }
 
-#[test]
-fn golden_alpine_noon() {
-    let image = headless()
-        .render_rgba8(
-            &scene_file("alpine-noon.toml"),
-            GOLDEN_WIDTH,
-            GOLDEN_HEIGHT,
-            0.0,
-        )
-        .expect("render");
-    assert_matches_golden("alpine-noon", &image);
+/// One golden test per example scene: the sun high, low, setting and below
+/// the horizon, and the view from 10 km.
+macro_rules! golden_scene {
+    ($test:ident, $file:literal) => {
+        #[test]
+        fn $test() {
+            let scene = scene_file(concat!($file, ".toml"));
+            let image = headless()
+                .render_rgba8(&scene, GOLDEN_WIDTH, GOLDEN_HEIGHT, 0.0)
+                .expect("render");
+            assert_matches_golden($file, &image);
+        }
+    };
 }
+
+golden_scene!(golden_noon, "noon");
+golden_scene!(golden_low_sun, "golden-hour");
+golden_scene!(golden_sunset, "sunset");
+golden_scene!(golden_twilight_sun_5_degrees_below_horizon, "twilight");
+golden_scene!(golden_view_from_10_km, "high-altitude");
 
 #[test]
 fn rendering_twice_gives_identical_pixels() {
