@@ -8,6 +8,7 @@
 
 pub mod atmosphere;
 pub mod noise;
+pub mod optics;
 pub mod photometry;
 pub mod sh;
 pub mod sky;

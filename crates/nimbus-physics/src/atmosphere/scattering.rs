@@ -351,7 +351,10 @@ mod tests {
         );
         // The setting sun itself is reddened: red passes best, blue worst.
         let sun = t.sun_transmittance(r, 0.02);
-        assert!(sun[0] > sun[1] && sun[1] > sun[2] && sun[2] < 0.3 * sun[0], "{sun:?}");
+        assert!(
+            sun[0] > sun[1] && sun[1] > sun[2] && sun[2] < 0.3 * sun[0],
+            "{sun:?}"
+        );
         let sunset_near_sun = t.sky_view_luminance(r, 88f64.to_radians(), 1.0, 0.02);
         let ratio = sunset_near_sun[0] / sunset_near_sun[2];
         assert!(

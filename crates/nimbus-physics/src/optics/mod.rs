@@ -1,0 +1,6 @@
+//! Cloud droplet optics: Lorenz–Mie scattering by spheres, the refractive
+//! index of water, droplet size distributions and the phase functions built
+//! from them (Bouthors, Neyret & Lefebvre 2006, §3 and §4.1).
+
+pub mod mie;
+pub mod quadrature;
