@@ -56,6 +56,7 @@ pub fn series_length(x: f64) -> usize {
 
 impl MieCoefficients {
     /// Computes a_n, b_n for size parameter `x` > 0 and refractive index `m`.
+    #[allow(clippy::needless_range_loop)] // n is the order in every formula.
     pub fn new(x: f64, m: Complex64) -> Self {
         let n_max = series_length(x);
         let mx = m * x;
@@ -186,6 +187,7 @@ mod tests {
     }
 
     #[test]
+    #[allow(clippy::approx_constant)] // 0.785390 is a tabulated value, not π/4.
     fn bohren_huffman_appendix_a_water_droplet_case() {
         // BH appendix A: radius 0.525 µm, λ = 0.6328 µm, m = 1.55: Q_ext =
         // Q_sca = 3.10543, Q_back = 2.92534, g = 0.63314, and S11 normalised
