@@ -4,6 +4,8 @@
 
 pub mod dsd;
 pub mod mie;
+pub mod phase;
 pub mod quadrature;
+pub mod sampling;
 pub mod special;
 pub mod water;
