@@ -8,4 +8,5 @@ pub mod phase;
 pub mod quadrature;
 pub mod sampling;
 pub mod special;
+pub mod tables;
 pub mod water;
