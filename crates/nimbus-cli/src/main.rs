@@ -4,6 +4,7 @@
 
 mod commands;
 mod output;
+mod plot;
 
 use clap::{Parser, Subcommand};
 use std::process::ExitCode;
@@ -26,6 +27,8 @@ enum Command {
     Scene(commands::scene::SceneArgs),
     /// The sun's position for a date, time and place (NREL SPA).
     Sun(commands::sun::SunArgs),
+    /// Cloud droplet optics: Mie scattering and droplet size distributions.
+    Optics(commands::optics::OpticsArgs),
 }
 
 fn main() -> ExitCode {
@@ -64,6 +67,7 @@ fn main() -> ExitCode {
         Command::Bench(args) => commands::bench::run(&args),
         Command::Scene(args) => commands::scene::run(&args),
         Command::Sun(args) => commands::sun::run(&args),
+        Command::Optics(args) => commands::optics::run(&args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -305,6 +305,162 @@ fn sun_reproduces_the_spa_worked_example_as_json() {
 }
 
 #[test]
+fn optics_mie_reproduces_bohren_and_huffman_as_json() {
+    // Bohren & Huffman appendix A: r = 0.525 µm, λ = 632.8 nm, m = 1.55:
+    // Q_ext = Q_sca = 3.10543, Q_back = 2.92534, g = 0.63314.
+    let dir = temp_dir("optics-mie");
+    let out = nimbus(
+        &[
+            "optics",
+            "mie",
+            "--radius-um",
+            "0.525",
+            "--wavelength-nm",
+            "632.8",
+            "--refractive-index",
+            "1.55,0",
+            "--angle-step-deg",
+            "1",
+            "--json",
+        ],
+        &dir,
+    );
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let r: serde_json::Value = serde_json::from_slice(&out.stdout).expect("JSON");
+    for (key, expected) in [
+        ("q_ext", 3.10543),
+        ("q_sca", 3.10543),
+        ("q_back", 2.92534),
+        ("g", 0.63314),
+    ] {
+        let v = r[key].as_f64().expect(key);
+        assert!((v - expected).abs() < 1e-5, "{key} {v}");
+    }
+    let angles = r["angles_deg"].as_array().expect("angles");
+    let phase = r["phase"].as_array().expect("phase");
+    assert_eq!((angles.len(), phase.len()), (181, 181));
+    // Water by default, and bad input is refused on one line.
+    assert!(
+        nimbus(
+            &[
+                "optics",
+                "mie",
+                "--radius-um",
+                "5",
+                "--wavelength-nm",
+                "550",
+                "--json"
+            ],
+            &dir
+        )
+        .status
+        .success()
+    );
+    assert_fails_with(
+        &nimbus(
+            &[
+                "optics",
+                "mie",
+                "--radius-um",
+                "-1",
+                "--wavelength-nm",
+                "550",
+            ],
+            &dir,
+        ),
+        &["--radius-um -1"],
+    );
+    assert_fails_with(
+        &nimbus(
+            &[
+                "optics",
+                "mie",
+                "--radius-um",
+                "1",
+                "--wavelength-nm",
+                "5000",
+            ],
+            &dir,
+        ),
+        &["--wavelength-nm 5000"],
+    );
+    assert_fails_with(
+        &nimbus(
+            &[
+                "optics",
+                "mie",
+                "--radius-um",
+                "1",
+                "--wavelength-nm",
+                "550",
+                "--refractive-index",
+                "1.3",
+            ],
+            &dir,
+        ),
+        &["--refractive-index 1.3", "N,K"],
+    );
+}
+
+#[test]
+fn optics_dsd_writes_json_csv_and_plot() {
+    let dir = temp_dir("optics-dsd");
+    let out = nimbus(
+        &[
+            "optics",
+            "dsd",
+            "--wavelength-nm",
+            "650,450",
+            "--angle-step-deg",
+            "5",
+            "--tolerance",
+            "0.01",
+            "--json",
+            "--csv",
+            "phase.csv",
+            "--plot",
+            "phase.png",
+        ],
+        &dir,
+    );
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let r: serde_json::Value = serde_json::from_slice(&out.stdout).expect("JSON");
+    let results = r["results"].as_array().expect("results");
+    assert_eq!(results.len(), 2);
+    for e in results {
+        let kappa = e["extinction_per_m"].as_f64().expect("κ");
+        let g = e["g"].as_f64().expect("g");
+        let pf = e["forward_fraction_5deg"].as_f64().expect("P_f");
+        assert!(
+            (0.03..0.045).contains(&kappa) && (0.83..0.87).contains(&g) && (0.3..0.6).contains(&pf),
+            "{e}"
+        );
+        assert_eq!(e["phase"].as_array().expect("phase").len(), 37);
+    }
+    let csv = std::fs::read_to_string(dir.join("phase.csv")).expect("csv");
+    assert!(csv.starts_with("angle_deg,phase_per_sr_650nm,phase_per_sr_450nm"));
+    assert_eq!(csv.lines().count(), 38);
+    let plot = image::open(dir.join("phase.png")).expect("png");
+    assert!(plot.width() > 100);
+    assert_fails_with(
+        &nimbus(&["optics", "dsd", "--gamma", "0"], &dir),
+        &["--gamma 0"],
+    );
+    assert_fails_with(
+        &nimbus(&["optics", "dsd", "--wavelength-nm", "550,abc"], &dir),
+        &["--wavelength-nm"],
+    );
+}
+
+#[test]
 fn reserved_sections_warn_but_render() {
     let dir = temp_dir("reserved");
     std::fs::write(dir.join("rain.toml"), "[rain]\nintensity_mm_h = 4.0\n").expect("write");

@@ -177,7 +177,15 @@ pub struct BulkOptics {
     pub phase: Vec<f64>,
     /// Radius nodes of the converged integral.
     pub radius_intervals: usize,
+    /// The phase function on a fine grid (0.05° steps) from 0° to
+    /// [`FORWARD_TABLE_END_DEG`], computed with the requested angles so that
+    /// forward-peak fractions do not depend on how coarse those are.
+    pub forward_table: super::phase::PhaseTable,
 }
+
+/// End of the fine forward table, degrees.
+pub const FORWARD_TABLE_END_DEG: f64 = 15.0;
+const FORWARD_TABLE_STEP_DEG: f64 = 0.05;
 
 impl BulkOptics {
     /// Single-scattering albedo σ_sca / σ_ext.
@@ -188,6 +196,14 @@ impl BulkOptics {
     /// Photon mean free path 1/κ, m.
     pub fn mean_free_path_m(&self) -> f64 {
         1.0 / self.extinction_per_m
+    }
+
+    /// Fraction of scattered light within θ_f of the forward direction
+    /// (θ_f ≤ [`FORWARD_TABLE_END_DEG`]), from the fine forward table; the
+    /// phase function is normalised by σ_sca, so the whole sphere holds 1.
+    pub fn forward_fraction(&self, theta_f_deg: f64) -> f64 {
+        self.forward_table
+            .integral_between(0.0, theta_f_deg.min(FORWARD_TABLE_END_DEG))
     }
 }
 
@@ -324,24 +340,44 @@ pub fn bulk_optics(
     angles_deg: &[f64],
     tolerance: f64,
 ) -> BulkOptics {
+    bulk_optics_observed(dsd, wavelength_nm, m, angles_deg, tolerance, &mut |_| {})
+}
+
+/// [`bulk_optics`], reporting the number of radius nodes of each refinement
+/// level to `on_level` as it starts (for progress display).
+pub fn bulk_optics_observed(
+    dsd: &SizeDistribution,
+    wavelength_nm: f64,
+    m: Complex64,
+    angles_deg: &[f64],
+    tolerance: f64,
+    on_level: &mut dyn FnMut(usize),
+) -> BulkOptics {
     let k = 2.0 * std::f64::consts::PI / (wavelength_nm * 1e-9);
-    let mu: Vec<f64> = angles_deg.iter().map(|a| a.to_radians().cos()).collect();
+    // The requested angles, then the fine forward grid.
+    let forward_count = (FORWARD_TABLE_END_DEG / FORWARD_TABLE_STEP_DEG).round() as usize + 1;
+    let forward_angles: Vec<f64> = (0..forward_count)
+        .map(|i| i as f64 * FORWARD_TABLE_STEP_DEG)
+        .collect();
+    let all_angles: Vec<f64> = angles_deg.iter().chain(&forward_angles).copied().collect();
+    let mu: Vec<f64> = all_angles.iter().map(|a| a.to_radians().cos()).collect();
     let solid_angle = solid_angle_weights(angles_deg);
     let (r_lo, r_hi) = dsd.radius_range_m(1e-7);
     let x_range = (r_lo * k, r_hi * k);
     // Start with panels 4 units of size parameter wide (2 nodes per unit).
     let mut panels = (((x_range.1 - x_range.0) / 4.0).ceil() as usize).max(4);
     let finish = |sums: &Sums| {
-        let phase: Vec<f64> = sums
-            .differential
+        let phase: Vec<f64> = sums.differential[..angles_deg.len()]
             .iter()
             .map(|d| d / sums.scattering)
             .collect();
         (phase, sums.g_scattering / sums.scattering)
     };
+    on_level(panels * NODES_PER_PANEL);
     let mut previous = integrate(dsd, k, m, &mu, x_range, panels);
     loop {
         panels *= 2;
+        on_level(panels * NODES_PER_PANEL);
         let current = integrate(dsd, k, m, &mu, x_range, panels);
         let (phase, g) = finish(&current);
         let (old_phase, old_g) = finish(&previous);
@@ -358,7 +394,12 @@ pub fn bulk_optics(
             && (g - old_g).abs() <= tolerance
             && moved <= tolerance * total.max(1e-300);
         if converged || panels >= 1 << 16 {
+            let forward_values = current.differential[angles_deg.len()..]
+                .iter()
+                .map(|d| d / current.scattering)
+                .collect();
             return BulkOptics {
+                forward_table: super::phase::PhaseTable::new(forward_angles, forward_values),
                 wavelength_nm,
                 extinction_per_m: current.extinction,
                 scattering_per_m: current.scattering,

@@ -8,5 +8,6 @@ pub mod phase;
 pub mod quadrature;
 pub mod sampling;
 pub mod special;
+pub mod spectral;
 pub mod tables;
 pub mod water;

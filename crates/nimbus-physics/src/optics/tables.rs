@@ -126,7 +126,7 @@ impl CloudOpticsTables {
             );
             let table = PhaseTable::new(optics.angles_deg.clone(), optics.phase.clone());
             extinction[c] = optics.extinction_per_m as f32;
-            forward[c] = table.forward_fraction(params.forward_peak_deg) as f32;
+            forward[c] = optics.forward_fraction(params.forward_peak_deg) as f32;
             asymmetry[c] = optics.g as f32;
             let peak_removed = table.peak_removed(params.forward_peak_deg);
             let double = peak_removed.self_convolution(n.min(361), 120);
