@@ -42,7 +42,10 @@ fn fixture() -> Fixture {
     };
     let [t, m, s, a] = h.renderer.atmosphere().textures();
     let luts = [read(t), read(m), read(s), read(a)];
-    let lighting = read_buffer(&h, h.renderer.atmosphere().lighting_buffer());
+    let lighting_uniform: nimbus_render::atmosphere::LightingUniform = h
+        .read_buffer(h.renderer.atmosphere().lighting_buffer())
+        .expect("read lighting");
+    let lighting: Vec<f32> = bytemuck::cast_slice(&[lighting_uniform]).to_vec();
     let tables = AtmosphereTables::new(&scene.atmosphere);
     Fixture {
         scene,
@@ -50,24 +53,6 @@ fn fixture() -> Fixture {
         lighting,
         tables,
     }
-}
-
-fn read_buffer(h: &HeadlessRenderer, buffer: &wgpu::Buffer) -> Vec<f32> {
-    let staging = h.gpu.device.create_buffer(&wgpu::BufferDescriptor {
-        label: None,
-        size: buffer.size(),
-        usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
-        mapped_at_creation: false,
-    });
-    let mut encoder = h.gpu.device.create_command_encoder(&Default::default());
-    encoder.copy_buffer_to_buffer(buffer, 0, &staging, 0, buffer.size());
-    h.gpu.queue.submit([encoder.finish()]);
-    staging.map_async(wgpu::MapMode::Read, .., |r| r.expect("map"));
-    h.gpu
-        .device
-        .poll(wgpu::PollType::wait_indefinitely())
-        .expect("poll");
-    bytemuck::cast_slice(&staging.get_mapped_range(..).expect("mapped")).to_vec()
 }
 
 fn assert_close(what: &str, gpu: [f32; 4], cpu: [f64; 3], relative: f64, absolute: f64) {
