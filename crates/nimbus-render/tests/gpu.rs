@@ -255,7 +255,9 @@ fn gpu_terrain_shading_matches_the_cpu_lambert_reference() {
 
 #[test]
 fn gpu_tone_mapping_matches_the_cpu_aces_reference() {
-    let scene = Scene::embedded_default();
+    // Manual exposure, so that the tone mapper's input is radiance × the scene's EV100 scale.
+    let mut scene = Scene::embedded_default();
+    scene.camera.auto_exposure = false;
     let mut h = headless();
     let (w, ht) = (64, 36);
     let hdr = h.render_hdr(&scene, w, ht, 0.0).expect("render hdr");
