@@ -16,6 +16,7 @@ fn auto_scene(elevation_deg: f64) -> Scene {
     let mut scene = Scene::embedded_default();
     scene.terrain.resolution = 64;
     scene.camera.auto_exposure = true;
+    scene.camera.exposure_compensation_ev = 0.0;
     scene.sun.azimuth_deg = Some(140.0);
     scene.sun.elevation_deg = Some(elevation_deg);
     scene
