@@ -54,17 +54,18 @@ impl<T: Pod> UniformBinding<T> {
     }
 }
 
-/// A layout entry for a uniform buffer of `size` bytes.
-pub fn uniform_layout_entry(
+/// A layout entry for a buffer of `size` bytes (its `min_binding_size`).
+pub fn buffer_entry(
     binding: u32,
-    visibility: wgpu::ShaderStages,
+    ty: wgpu::BufferBindingType,
     size: u64,
+    visibility: wgpu::ShaderStages,
 ) -> wgpu::BindGroupLayoutEntry {
     wgpu::BindGroupLayoutEntry {
         binding,
         visibility,
         ty: wgpu::BindingType::Buffer {
-            ty: wgpu::BufferBindingType::Uniform,
+            ty,
             has_dynamic_offset: false,
             min_binding_size: wgpu::BufferSize::new(size),
         },
@@ -72,26 +73,94 @@ pub fn uniform_layout_entry(
     }
 }
 
-/// A layout entry for a 2D float texture read by fragment shaders.
-pub fn texture_2d_entry(binding: u32, filterable: bool) -> wgpu::BindGroupLayoutEntry {
+/// A layout entry for a uniform buffer of `size` bytes.
+pub fn uniform_layout_entry(
+    binding: u32,
+    visibility: wgpu::ShaderStages,
+    size: u64,
+) -> wgpu::BindGroupLayoutEntry {
+    buffer_entry(binding, wgpu::BufferBindingType::Uniform, size, visibility)
+}
+
+/// A layout entry for a float texture of any dimension.
+pub fn texture_entry(
+    binding: u32,
+    dimension: wgpu::TextureViewDimension,
+    filterable: bool,
+    visibility: wgpu::ShaderStages,
+) -> wgpu::BindGroupLayoutEntry {
     wgpu::BindGroupLayoutEntry {
         binding,
-        visibility: wgpu::ShaderStages::FRAGMENT,
+        visibility,
         ty: wgpu::BindingType::Texture {
             sample_type: wgpu::TextureSampleType::Float { filterable },
-            view_dimension: wgpu::TextureViewDimension::D2,
+            view_dimension: dimension,
             multisampled: false,
         },
         count: None,
     }
 }
 
-/// A layout entry for a filtering sampler used by fragment shaders.
-pub fn filtering_sampler_entry(binding: u32) -> wgpu::BindGroupLayoutEntry {
+/// A layout entry for a 2D float texture read by fragment shaders.
+pub fn texture_2d_entry(binding: u32, filterable: bool) -> wgpu::BindGroupLayoutEntry {
+    texture_entry(
+        binding,
+        wgpu::TextureViewDimension::D2,
+        filterable,
+        wgpu::ShaderStages::FRAGMENT,
+    )
+}
+
+/// A layout entry for a write-only `Rgba16Float` storage texture of compute shaders.
+pub fn storage_texture_entry(
+    binding: u32,
+    dimension: wgpu::TextureViewDimension,
+) -> wgpu::BindGroupLayoutEntry {
     wgpu::BindGroupLayoutEntry {
         binding,
-        visibility: wgpu::ShaderStages::FRAGMENT,
+        visibility: wgpu::ShaderStages::COMPUTE,
+        ty: wgpu::BindingType::StorageTexture {
+            access: wgpu::StorageTextureAccess::WriteOnly,
+            format: wgpu::TextureFormat::Rgba16Float,
+            view_dimension: dimension,
+        },
+        count: None,
+    }
+}
+
+/// A layout entry for a filtering sampler.
+pub fn sampler_entry(binding: u32, visibility: wgpu::ShaderStages) -> wgpu::BindGroupLayoutEntry {
+    wgpu::BindGroupLayoutEntry {
+        binding,
+        visibility,
         ty: wgpu::BindingType::Sampler(wgpu::SamplerBindingType::Filtering),
         count: None,
     }
+}
+
+/// A layout entry for a filtering sampler used by fragment shaders.
+pub fn filtering_sampler_entry(binding: u32) -> wgpu::BindGroupLayoutEntry {
+    sampler_entry(binding, wgpu::ShaderStages::FRAGMENT)
+}
+
+/// Maps a `MAP_READ` buffer after its copies were submitted, waits for the
+/// device, and returns its bytes (the buffer is unmapped again).
+pub fn read_mapped(device: &wgpu::Device, buffer: &wgpu::Buffer) -> Result<Vec<u8>, String> {
+    let (sender, receiver) = std::sync::mpsc::channel();
+    buffer.map_async(wgpu::MapMode::Read, .., move |r| {
+        let _ = sender.send(r);
+    });
+    device
+        .poll(wgpu::PollType::wait_indefinitely())
+        .map_err(|e| e.to_string())?;
+    receiver
+        .recv()
+        .map_err(|e| e.to_string())?
+        .map_err(|e| e.to_string())?;
+    let bytes = buffer
+        .get_mapped_range(..)
+        .map_err(|e| e.to_string())?
+        .to_vec();
+    buffer.unmap();
+    Ok(bytes)
 }

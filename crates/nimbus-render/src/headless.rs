@@ -215,25 +215,9 @@ impl HeadlessRenderer {
         let mut encoder = self.gpu.device.create_command_encoder(&Default::default());
         encoder.copy_buffer_to_buffer(buffer, 0, &staging, 0, size);
         self.gpu.queue.submit([encoder.finish()]);
-        let (sender, receiver) = std::sync::mpsc::channel();
-        staging.map_async(wgpu::MapMode::Read, .., move |r| {
-            let _ = sender.send(r);
-        });
-        self.gpu
-            .device
-            .poll(wgpu::PollType::wait_indefinitely())
-            .map_err(|e| HeadlessError::Readback(e.to_string()))?;
-        receiver
-            .recv()
-            .map_err(|e| HeadlessError::Readback(e.to_string()))?
-            .map_err(|e| HeadlessError::Readback(e.to_string()))?;
-        let value = {
-            let view = staging
-                .get_mapped_range(..)
-                .map_err(|e| HeadlessError::Readback(e.to_string()))?;
-            bytemuck::pod_read_unaligned(&view)
-        };
-        staging.unmap();
+        let bytes = crate::binding::read_mapped(&self.gpu.device, &staging)
+            .map_err(HeadlessError::Readback)?;
+        let value = bytemuck::pod_read_unaligned(&bytes);
         Ok(value)
     }
 
@@ -277,26 +261,11 @@ pub fn read_texture(
         },
     );
     gpu.queue.submit([encoder.finish()]);
-    let (sender, receiver) = std::sync::mpsc::channel();
-    buffer.map_async(wgpu::MapMode::Read, .., move |r| {
-        let _ = sender.send(r);
-    });
-    gpu.device
-        .poll(wgpu::PollType::wait_indefinitely())
-        .map_err(|e| HeadlessError::Readback(e.to_string()))?;
-    receiver
-        .recv()
-        .map_err(|e| HeadlessError::Readback(e.to_string()))?
-        .map_err(|e| HeadlessError::Readback(e.to_string()))?;
+    let bytes =
+        crate::binding::read_mapped(&gpu.device, &buffer).map_err(HeadlessError::Readback)?;
     let mut out = Vec::with_capacity((row_bytes * height * layers) as usize);
-    {
-        let view = buffer
-            .get_mapped_range(..)
-            .map_err(|e| HeadlessError::Readback(e.to_string()))?;
-        for row in view.chunks(padded_row as usize) {
-            out.extend_from_slice(&row[..row_bytes as usize]);
-        }
+    for row in bytes.chunks(padded_row as usize) {
+        out.extend_from_slice(&row[..row_bytes as usize]);
     }
-    buffer.unmap();
     Ok(out)
 }

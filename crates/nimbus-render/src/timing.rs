@@ -70,23 +70,11 @@ impl GpuTimer {
         encoder.copy_buffer_to_buffer(&self.resolve, 0, &self.readback, 0, self.resolve.size());
     }
 
-    /// Waits for the frame and returns each pass's GPU time in milliseconds.
-    pub fn read_ms(&self, device: &wgpu::Device) -> Result<Vec<f64>, wgpu::BufferAsyncError> {
-        let (sender, receiver) = std::sync::mpsc::channel();
-        self.readback.map_async(wgpu::MapMode::Read, .., move |r| {
-            let _ = sender.send(r);
-        });
-        // A device loss shows up as a failed mapping below.
-        let _ = device.poll(wgpu::PollType::wait_indefinitely());
-        receiver.recv().map_err(|_| wgpu::BufferAsyncError)??;
-        let times: Vec<u64> = {
-            let view = self
-                .readback
-                .get_mapped_range(..)
-                .map_err(|_| wgpu::BufferAsyncError)?;
-            bytemuck::cast_slice(&view).to_vec()
-        };
-        self.readback.unmap();
+    /// Waits for the frame and returns each pass's GPU time in milliseconds
+    /// (an error message if the read-back failed, e.g. on device loss).
+    pub fn read_ms(&self, device: &wgpu::Device) -> Result<Vec<f64>, String> {
+        let bytes = crate::binding::read_mapped(device, &self.readback)?;
+        let times: Vec<u64> = bytemuck::pod_collect_to_vec(&bytes);
         Ok(times
             .chunks(2)
             .map(|pair| pair[1].saturating_sub(pair[0]) as f64 * self.period_ns * 1e-6)

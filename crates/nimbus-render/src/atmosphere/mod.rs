@@ -8,6 +8,7 @@
 //! compose `shaders/atmosphere_lookup.wgsl` to read the sky radiance, the
 //! sun's transmittance, the aerial perspective and the [`LightingUniform`].
 
+use crate::binding::{buffer_entry, sampler_entry, storage_texture_entry, texture_entry};
 use crate::shader::{self, WgslFile};
 use crate::timing::GpuTimer;
 use bytemuck::{Pod, Zeroable};
@@ -230,66 +231,6 @@ fn lut_texture(
     })
 }
 
-fn texture_entry(
-    binding: u32,
-    dimension: wgpu::TextureViewDimension,
-    visibility: wgpu::ShaderStages,
-) -> wgpu::BindGroupLayoutEntry {
-    wgpu::BindGroupLayoutEntry {
-        binding,
-        visibility,
-        ty: wgpu::BindingType::Texture {
-            sample_type: wgpu::TextureSampleType::Float { filterable: true },
-            view_dimension: dimension,
-            multisampled: false,
-        },
-        count: None,
-    }
-}
-
-fn storage_texture_entry(
-    binding: u32,
-    dimension: wgpu::TextureViewDimension,
-) -> wgpu::BindGroupLayoutEntry {
-    wgpu::BindGroupLayoutEntry {
-        binding,
-        visibility: wgpu::ShaderStages::COMPUTE,
-        ty: wgpu::BindingType::StorageTexture {
-            access: wgpu::StorageTextureAccess::WriteOnly,
-            format: wgpu::TextureFormat::Rgba16Float,
-            view_dimension: dimension,
-        },
-        count: None,
-    }
-}
-
-fn buffer_entry(
-    binding: u32,
-    ty: wgpu::BufferBindingType,
-    size: u64,
-    visibility: wgpu::ShaderStages,
-) -> wgpu::BindGroupLayoutEntry {
-    wgpu::BindGroupLayoutEntry {
-        binding,
-        visibility,
-        ty: wgpu::BindingType::Buffer {
-            ty,
-            has_dynamic_offset: false,
-            min_binding_size: wgpu::BufferSize::new(size),
-        },
-        count: None,
-    }
-}
-
-fn sampler_entry(binding: u32, visibility: wgpu::ShaderStages) -> wgpu::BindGroupLayoutEntry {
-    wgpu::BindGroupLayoutEntry {
-        binding,
-        visibility,
-        ty: wgpu::BindingType::Sampler(wgpu::SamplerBindingType::Filtering),
-        count: None,
-    }
-}
-
 /// A bind-group resource for each entry kind used here.
 enum Resource<'a> {
     Buffer(&'a wgpu::Buffer),
@@ -408,7 +349,7 @@ impl AtmospherePass {
                 vec![
                     uniform_entry,
                     sampler_entry(1, compute),
-                    texture_entry(2, Dim::D2, compute),
+                    texture_entry(2, Dim::D2, true, compute),
                     storage_texture_entry(3, Dim::D2),
                 ],
                 vec![
@@ -426,8 +367,8 @@ impl AtmospherePass {
                 vec![
                     uniform_entry,
                     sampler_entry(1, compute),
-                    texture_entry(2, Dim::D2, compute),
-                    texture_entry(3, Dim::D2, compute),
+                    texture_entry(2, Dim::D2, true, compute),
+                    texture_entry(3, Dim::D2, true, compute),
                     storage_texture_entry(4, Dim::D2),
                 ],
                 vec![
@@ -446,8 +387,8 @@ impl AtmospherePass {
                 vec![
                     uniform_entry,
                     sampler_entry(1, compute),
-                    texture_entry(2, Dim::D2, compute),
-                    texture_entry(3, Dim::D2, compute),
+                    texture_entry(2, Dim::D2, true, compute),
+                    texture_entry(3, Dim::D2, true, compute),
                     storage_texture_entry(4, Dim::D3),
                 ],
                 vec![
@@ -466,8 +407,8 @@ impl AtmospherePass {
                 vec![
                     uniform_entry,
                     sampler_entry(1, compute),
-                    texture_entry(2, Dim::D2, compute),
-                    texture_entry(3, Dim::D2, compute),
+                    texture_entry(2, Dim::D2, true, compute),
+                    texture_entry(3, Dim::D2, true, compute),
                     buffer_entry(
                         4,
                         wgpu::BufferBindingType::Storage { read_only: false },
@@ -492,9 +433,9 @@ impl AtmospherePass {
             entries: &[
                 buffer_entry(0, wgpu::BufferBindingType::Uniform, uniform_size, fragment),
                 sampler_entry(1, fragment),
-                texture_entry(2, Dim::D2, fragment),
-                texture_entry(3, Dim::D2, fragment),
-                texture_entry(4, Dim::D3, fragment),
+                texture_entry(2, Dim::D2, true, fragment),
+                texture_entry(3, Dim::D2, true, fragment),
+                texture_entry(4, Dim::D3, true, fragment),
                 buffer_entry(
                     5,
                     wgpu::BufferBindingType::Storage { read_only: true },

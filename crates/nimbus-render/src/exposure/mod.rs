@@ -88,18 +88,16 @@ impl ExposurePass {
     /// Creates the pipeline and the state buffer.
     pub fn new(device: &wgpu::Device, frame_layout: &wgpu::BindGroupLayout) -> Self {
         let compute = wgpu::ShaderStages::COMPUTE;
-        let storage = |binding, read_only, size| wgpu::BindGroupLayoutEntry {
-            binding,
-            visibility: compute,
-            ty: wgpu::BindingType::Buffer {
-                ty: wgpu::BufferBindingType::Storage { read_only },
-                has_dynamic_offset: false,
-                min_binding_size: wgpu::BufferSize::new(size),
-            },
-            count: None,
+        let storage = |binding, read_only, size| {
+            crate::binding::buffer_entry(
+                binding,
+                wgpu::BufferBindingType::Storage { read_only },
+                size,
+                compute,
+            )
         };
-        let mut hdr_entry = crate::binding::texture_2d_entry(0, false);
-        hdr_entry.visibility = compute;
+        let hdr_entry =
+            crate::binding::texture_entry(0, wgpu::TextureViewDimension::D2, false, compute);
         let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("exposure"),
             entries: &[

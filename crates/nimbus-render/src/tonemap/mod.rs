@@ -88,16 +88,13 @@ impl TonemapPass {
             entries: &[
                 crate::binding::texture_2d_entry(0, false),
                 crate::binding::uniform_layout_entry(1, wgpu::ShaderStages::FRAGMENT, size),
-                wgpu::BindGroupLayoutEntry {
-                    binding: 2,
-                    visibility: wgpu::ShaderStages::FRAGMENT,
-                    ty: wgpu::BindingType::Buffer {
-                        ty: wgpu::BufferBindingType::Storage { read_only: true },
-                        has_dynamic_offset: false,
-                        min_binding_size: wgpu::BufferSize::new(8),
-                    },
-                    count: None,
-                },
+                // The exposure state; the shader reads its first two f32.
+                crate::binding::buffer_entry(
+                    2,
+                    wgpu::BufferBindingType::Storage { read_only: true },
+                    8,
+                    wgpu::ShaderStages::FRAGMENT,
+                ),
             ],
         });
         let params = device.create_buffer(&wgpu::BufferDescriptor {
