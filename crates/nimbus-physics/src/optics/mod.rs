@@ -2,6 +2,7 @@
 //! index of water, droplet size distributions and the phase functions built
 //! from them (Bouthors, Neyret & Lefebvre 2006, §3 and §4.1).
 
+pub mod angular;
 pub mod dsd;
 pub mod mie;
 pub mod phase;
