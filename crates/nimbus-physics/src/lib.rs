@@ -13,3 +13,4 @@ pub mod photometry;
 pub mod sh;
 pub mod sky;
 pub mod terrain;
+pub mod transport;
