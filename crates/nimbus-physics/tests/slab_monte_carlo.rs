@@ -48,16 +48,88 @@ fn fluxes_match_disort_test_problems() {
     // (name, τ, ϖ, phase, μ0, R, T (total, direct included)).
     let mu0_01 = 0.1f64.acos().to_degrees();
     let cases = [
-        ("1a", 0.03125, 0.2, PhaseModel::Isotropic, mu0_01, 0.02545, 0.75689),
-        ("1b", 0.03125, 1.0, PhaseModel::Isotropic, mu0_01, 0.13462, 0.86538),
+        (
+            "1a",
+            0.03125,
+            0.2,
+            PhaseModel::Isotropic,
+            mu0_01,
+            0.02545,
+            0.75689,
+        ),
+        (
+            "1b",
+            0.03125,
+            1.0,
+            PhaseModel::Isotropic,
+            mu0_01,
+            0.13462,
+            0.86538,
+        ),
         ("1d", 32.0, 0.2, PhaseModel::Isotropic, mu0_01, 0.08266, 0.0),
-        ("1e", 32.0, 1.0, PhaseModel::Isotropic, mu0_01, 0.97845, 0.02155),
-        ("3a", 1.0, 0.2, PhaseModel::HenyeyGreenstein { g: 0.75 }, mu0_01, 0.05410, 0.01502),
-        ("3b", 1.0, 1.0, PhaseModel::HenyeyGreenstein { g: 0.75 }, mu0_01, 0.58152, 0.41848),
-        ("3e", 8.0, 1.0, PhaseModel::HenyeyGreenstein { g: 0.75 }, mu0_01, 0.81157, 0.18843),
-        ("c3a", 1.0, 1.0, PhaseModel::HenyeyGreenstein { g: 0.75 }, 0.0, 0.07874, 0.92126),
-        ("c3b", 8.0, 1.0, PhaseModel::HenyeyGreenstein { g: 0.75 }, 0.0, 0.50642, 0.49358),
-        ("mcml", 2.0, 0.9, PhaseModel::HenyeyGreenstein { g: 0.75 }, 0.0, 0.09739, 0.66096),
+        (
+            "1e",
+            32.0,
+            1.0,
+            PhaseModel::Isotropic,
+            mu0_01,
+            0.97845,
+            0.02155,
+        ),
+        (
+            "3a",
+            1.0,
+            0.2,
+            PhaseModel::HenyeyGreenstein { g: 0.75 },
+            mu0_01,
+            0.05410,
+            0.01502,
+        ),
+        (
+            "3b",
+            1.0,
+            1.0,
+            PhaseModel::HenyeyGreenstein { g: 0.75 },
+            mu0_01,
+            0.58152,
+            0.41848,
+        ),
+        (
+            "3e",
+            8.0,
+            1.0,
+            PhaseModel::HenyeyGreenstein { g: 0.75 },
+            mu0_01,
+            0.81157,
+            0.18843,
+        ),
+        (
+            "c3a",
+            1.0,
+            1.0,
+            PhaseModel::HenyeyGreenstein { g: 0.75 },
+            0.0,
+            0.07874,
+            0.92126,
+        ),
+        (
+            "c3b",
+            8.0,
+            1.0,
+            PhaseModel::HenyeyGreenstein { g: 0.75 },
+            0.0,
+            0.50642,
+            0.49358,
+        ),
+        (
+            "mcml",
+            2.0,
+            0.9,
+            PhaseModel::HenyeyGreenstein { g: 0.75 },
+            0.0,
+            0.09739,
+            0.66096,
+        ),
     ];
     for (name, tau, albedo, phase, sun, r, t) in cases {
         let result = run(tau, albedo, phase, sun, 100_000, Vec::new());
@@ -70,7 +142,14 @@ fn fluxes_match_disort_test_problems() {
 #[test]
 fn direct_transmittance_is_the_beers_law_fraction() {
     // DISORT 1a/1b: rfldir / (μ0 F) = e^{−τ/μ0} = 0.73162.
-    let result = run(0.03125, 1.0, PhaseModel::Isotropic, 0.1f64.acos().to_degrees(), 100_000, Vec::new());
+    let result = run(
+        0.03125,
+        1.0,
+        PhaseModel::Isotropic,
+        0.1f64.acos().to_degrees(),
+        100_000,
+        Vec::new(),
+    );
     let direct = result.transmittance.order0;
     assert_close("direct", direct.value, direct.std_error, (-0.3125f64).exp());
 }
@@ -82,7 +161,10 @@ fn local_estimates_match_disort_intensities() {
     let mu0 = 0.1f64.acos().to_degrees();
     let views: Vec<ViewDirection> = [1.0f64, 0.5, 0.1]
         .iter()
-        .map(|mu| ViewDirection { zenith_deg: mu.acos().to_degrees(), relative_azimuth_deg: 37.0 })
+        .map(|mu| ViewDirection {
+            zenith_deg: mu.acos().to_degrees(),
+            relative_azimuth_deg: 37.0,
+        })
         .chain([1.0f64, 0.5].iter().map(|mu| ViewDirection {
             zenith_deg: 180.0 - mu.acos().to_degrees(),
             relative_azimuth_deg: 37.0,
@@ -110,12 +192,90 @@ fn local_estimates_match_disort_intensities() {
 #[test]
 fn conservative_slabs_conserve_energy_and_seeds_reproduce() {
     for tau in [0.5, 5.0, 50.0] {
-        let result = run(tau, 1.0, PhaseModel::HenyeyGreenstein { g: 0.85 }, 60.0, 20_000, Vec::new());
+        let result = run(
+            tau,
+            1.0,
+            PhaseModel::HenyeyGreenstein { g: 0.85 },
+            60.0,
+            20_000,
+            Vec::new(),
+        );
         let sum = result.reflectance.total.value + result.transmittance.total.value;
         assert!((sum - 1.0).abs() < 1e-12, "τ {tau}: R + T = {sum}");
     }
-    let a = run(3.0, 0.99, PhaseModel::HenyeyGreenstein { g: 0.85 }, 30.0, 8192, Vec::new());
-    let b = run(3.0, 0.99, PhaseModel::HenyeyGreenstein { g: 0.85 }, 30.0, 8192, Vec::new());
+    let a = run(
+        3.0,
+        0.99,
+        PhaseModel::HenyeyGreenstein { g: 0.85 },
+        30.0,
+        8192,
+        Vec::new(),
+    );
+    let b = run(
+        3.0,
+        0.99,
+        PhaseModel::HenyeyGreenstein { g: 0.85 },
+        30.0,
+        8192,
+        Vec::new(),
+    );
     assert_eq!(a.reflectance, b.reflectance);
     assert_eq!(a.scattering_events, b.scattering_events);
+}
+
+/// In a thin slab the analytic single-scattering radiance (§4.3,
+/// reconstructed without the misprinted κ) is the tracer's order 1, for
+/// reflection and transmission. The double-scattering reconstruction (§4.4)
+/// only has the right order of magnitude: it keeps the second event on the
+/// singly scattered path, while in a thin slab the intermediate path runs
+/// mostly sideways, so it underestimates the tracer's order 2 by a factor of
+/// about 2 (within a factor of 3 is checked).
+#[test]
+fn thin_slab_single_scattering_matches_the_analytic_model() {
+    use nimbus_physics::optics::phase::PhaseTable;
+    use nimbus_physics::transport::stratus::{StratusModel, StratusOptics};
+    let g = 0.7;
+    let phase = PhaseModel::HenyeyGreenstein { g };
+    let table: PhaseTable = phase.to_table(3601);
+    // κ = 1 m⁻¹, so H in metres is the optical depth; no peak split.
+    let model = StratusModel::new(StratusOptics::from_phase(&table, 1.0, 0.0));
+    let tau = 0.05;
+    let sun = 40.0;
+    let views = vec![
+        ViewDirection {
+            zenith_deg: 20.0,
+            relative_azimuth_deg: 0.0,
+        },
+        ViewDirection {
+            zenith_deg: 60.0,
+            relative_azimuth_deg: 120.0,
+        },
+        ViewDirection {
+            zenith_deg: 150.0,
+            relative_azimuth_deg: 180.0,
+        },
+        ViewDirection {
+            zenith_deg: 120.0,
+            relative_azimuth_deg: 60.0,
+        },
+    ];
+    let result = run(tau, 1.0, phase, sun, 150_000, views.clone());
+    for (view, mc) in views.iter().zip(&result.radiance) {
+        let analytic = model.radiance(tau, sun, *view);
+        let allowed = 4.0 * mc.order1.std_error + 1e-3 * analytic.order1;
+        assert!(
+            (mc.order1.value - analytic.order1).abs() <= allowed,
+            "{view:?}: order 1 MC {} ± {} vs analytic {}",
+            mc.order1.value,
+            mc.order1.std_error,
+            analytic.order1
+        );
+        assert!(
+            analytic.order2 > mc.order2.value / 3.0 && analytic.order2 < mc.order2.value * 3.0,
+            "{view:?}: order 2 MC {} ± {} vs analytic {}",
+            mc.order2.value,
+            mc.order2.std_error,
+            analytic.order2
+        );
+    }
 }

@@ -6,3 +6,4 @@
 pub mod monte_carlo;
 pub mod phase_model;
 pub mod rng;
+pub mod stratus;

@@ -348,8 +348,8 @@ fn trace_photon(
 /// azimuth relative to the sun's, folded to 0–180°.
 fn exit_bin(direction: [f64; 3], zenith_bins: usize, azimuth_bins: usize) -> usize {
     let theta = direction[2].abs().min(1.0).acos();
-    let zenith = ((theta / std::f64::consts::FRAC_PI_2 * zenith_bins as f64) as usize)
-        .min(zenith_bins - 1);
+    let zenith =
+        ((theta / std::f64::consts::FRAC_PI_2 * zenith_bins as f64) as usize).min(zenith_bins - 1);
     // The sun's azimuth is along −x; the exit direction's azimuth from it.
     let phi = direction[1].abs().atan2(-direction[0]);
     let azimuth =
@@ -380,11 +380,7 @@ fn finish(total: &Sums, photons: u64, settings: &TraceSettings) -> TraceResult {
                 order1: e(1),
                 order2: e(2),
                 order3plus: e(3),
-                total: estimate(
-                    total.local[v].iter().sum(),
-                    total.local_total_sq[v],
-                    n,
-                ),
+                total: estimate(total.local[v].iter().sum(), total.local_total_sq[v], n),
             }
         })
         .collect();
@@ -400,7 +396,8 @@ fn finish(total: &Sums, photons: u64, settings: &TraceSettings) -> TraceResult {
                         std::f64::consts::FRAC_PI_2 * (zi + 1) as f64 / nz as f64,
                     );
                     // ∫ μ dΩ over the bin, both azimuth halves (the fold).
-                    let projected = 0.5 * (t1.sin().powi(2) - t0.sin().powi(2))
+                    let projected = 0.5
+                        * (t1.sin().powi(2) - t0.sin().powi(2))
                         * 2.0
                         * (std::f64::consts::PI / na as f64);
                     let _ = ai;
