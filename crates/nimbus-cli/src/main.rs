@@ -29,6 +29,10 @@ enum Command {
     Sun(commands::sun::SunArgs),
     /// Cloud droplet optics: Mie scattering and droplet size distributions.
     Optics(commands::optics::OpticsArgs),
+    /// Light through a homogeneous cloud slab lit by the sun: the analytic
+    /// stratiform model or Monte-Carlo photon tracing. Radiance is per unit
+    /// flux incident on the slab's top (1/sr); fluxes are fractions of it.
+    Slab(commands::slab::SlabArgs),
 }
 
 fn main() -> ExitCode {
@@ -68,6 +72,7 @@ fn main() -> ExitCode {
         Command::Scene(args) => commands::scene::run(&args),
         Command::Sun(args) => commands::sun::run(&args),
         Command::Optics(args) => commands::optics::run(&args),
+        Command::Slab(args) => commands::slab::run(&args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

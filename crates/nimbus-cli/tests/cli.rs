@@ -71,6 +71,7 @@ fn help_is_available_for_every_subcommand() {
         &["render", "--help"],
         &["bench", "--help"],
         &["scene", "--help"],
+        &["slab", "--help"],
     ] {
         let out = nimbus(sub, &dir);
         assert!(out.status.success(), "{sub:?}");
@@ -584,4 +585,106 @@ fn bench_prints_one_json_document_with_per_pass_times() {
                 .is_some_and(|n| n.contains("timestamp"))
         );
     }
+}
+
+#[test]
+fn slab_prints_fluxes_and_radiance_for_both_methods() {
+    let dir = temp_dir("slab");
+    // DISORT test problem 3 (cdisort 2.1, case 3a): HG g = 0.75, τ = 1,
+    // conservative, overhead sun: R = 0.07874, T = 0.92126.
+    let out = nimbus(
+        &[
+            "slab",
+            "--optical-depth",
+            "1",
+            "--sun-zenith-deg",
+            "0",
+            "--view-zenith-deg",
+            "30",
+            "--phase",
+            "hg:0.75",
+            "--method",
+            "monte-carlo",
+            "--photons",
+            "200000",
+            "--seed",
+            "3",
+            "--json",
+        ],
+        &dir,
+    );
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let report: serde_json::Value = serde_json::from_slice(&out.stdout).expect("json");
+    let r = report["reflectance"].as_f64().expect("R");
+    let t = report["transmittance"].as_f64().expect("T");
+    let se = report["std_error"]["reflectance"].as_f64().expect("se");
+    assert!((r - 0.07874).abs() < 4.0 * se + 2e-4, "{report}");
+    assert!((r + t - 1.0).abs() < 1e-9);
+    for key in ["order0", "order1", "order2", "order3plus", "total"] {
+        assert!(report["radiance"][key].as_f64().is_some(), "{key}");
+        assert!(
+            report["std_error"]["radiance"][key].as_f64().is_some(),
+            "{key}"
+        );
+    }
+    // The analytic model for the paper's cloud (computes its Mie phase function).
+    let out = nimbus(
+        &[
+            "slab",
+            "--thickness-m",
+            "100",
+            "--sun-zenith-deg",
+            "70",
+            "--view-zenith-deg",
+            "70",
+            "--json",
+        ],
+        &dir,
+    );
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let report: serde_json::Value = serde_json::from_slice(&out.stdout).expect("json");
+    assert!((report["scattering_angle_deg"].as_f64().expect("angle") - 180.0).abs() < 1e-3);
+    let total = report["radiance"]["total"].as_f64().expect("total");
+    assert!(total > 0.0 && total.is_finite(), "{report}");
+    assert_fails_with(
+        &nimbus(
+            &[
+                "slab",
+                "--optical-depth",
+                "1",
+                "--sun-zenith-deg",
+                "95",
+                "--view-zenith-deg",
+                "0",
+            ],
+            &dir,
+        ),
+        &["--sun-zenith-deg 95"],
+    );
+    assert_fails_with(
+        &nimbus(
+            &[
+                "slab",
+                "--optical-depth",
+                "1",
+                "--sun-zenith-deg",
+                "0",
+                "--view-zenith-deg",
+                "0",
+                "--phase",
+                "hg:2",
+            ],
+            &dir,
+        ),
+        &["--phase hg:2"],
+    );
+    assert!(files_in(&dir).is_empty());
 }

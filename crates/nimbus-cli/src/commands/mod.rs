@@ -4,6 +4,7 @@ pub mod bench;
 pub mod optics;
 pub mod render;
 pub mod scene;
+pub mod slab;
 pub mod sun;
 
 use anyhow::Context;

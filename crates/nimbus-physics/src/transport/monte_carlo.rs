@@ -335,10 +335,10 @@ fn trace_photon(
     }
     for (v, l) in local.iter().enumerate() {
         let mut photon_total = 0.0;
-        for k in 0..ORDER_CLASSES {
-            sums.local[v][k] += l[k];
-            sums.local_sq[v][k] += l[k] * l[k];
-            photon_total += l[k];
+        for (k, x) in l.iter().enumerate() {
+            sums.local[v][k] += x;
+            sums.local_sq[v][k] += x * x;
+            photon_total += x;
         }
         sums.local_total_sq[v] += photon_total * photon_total;
     }
@@ -390,7 +390,7 @@ fn finish(total: &Sums, photons: u64, settings: &TraceSettings) -> TraceResult {
             let bins = &total.bins[side][k];
             (0..bins.len())
                 .map(|i| {
-                    let (zi, ai) = (i / na.max(1), i % na.max(1));
+                    let zi = i / na.max(1);
                     let (t0, t1) = (
                         std::f64::consts::FRAC_PI_2 * zi as f64 / nz as f64,
                         std::f64::consts::FRAC_PI_2 * (zi + 1) as f64 / nz as f64,
@@ -400,7 +400,6 @@ fn finish(total: &Sums, photons: u64, settings: &TraceSettings) -> TraceResult {
                         * (t1.sin().powi(2) - t0.sin().powi(2))
                         * 2.0
                         * (std::f64::consts::PI / na as f64);
-                    let _ = ai;
                     bins[i] / (n * projected)
                 })
                 .collect()
@@ -420,4 +419,10 @@ fn finish(total: &Sums, photons: u64, settings: &TraceSettings) -> TraceResult {
         reflected: binned(0),
         transmitted: binned(1),
     }
+}
+
+/// Number of threads [`trace`] runs on (rayon's pool; `RAYON_NUM_THREADS`
+/// sets it).
+pub fn worker_threads() -> usize {
+    rayon::current_num_threads()
 }

@@ -1,0 +1,450 @@
+//! `nimbus slab`: light transport through a homogeneous cloud slab lit by
+//! the sun, by the analytic stratiform model (Bouthors et al. 2006, §4) or
+//! by Monte-Carlo photon tracing.
+
+use clap::{Args, ValueEnum};
+use nimbus_physics::optics::dsd::{SizeDistribution, bulk_optics};
+use nimbus_physics::optics::phase::PhaseTable;
+use nimbus_physics::optics::water::{VALID_WAVELENGTH_NM, water_refractive_index};
+use nimbus_physics::transport::monte_carlo::{
+    ByOrder, SlabMedium, TraceSettings, ViewDirection, trace,
+};
+use nimbus_physics::transport::phase_model::PhaseModel;
+use nimbus_physics::transport::stratus::{StratusModel, StratusOptics};
+use serde::Serialize;
+use std::io::{IsTerminal, Write};
+
+/// Arguments of `nimbus slab`.
+#[derive(Debug, Args)]
+pub struct SlabArgs {
+    /// Geometric thickness H, m (the extinction comes from the droplet size
+    /// distribution at the wavelength).
+    #[arg(
+        long,
+        value_name = "M",
+        allow_negative_numbers = true,
+        conflicts_with = "optical_depth",
+        required_unless_present = "optical_depth"
+    )]
+    thickness_m: Option<f64>,
+    /// Optical depth κH, set directly.
+    #[arg(long, value_name = "TAU", allow_negative_numbers = true)]
+    optical_depth: Option<f64>,
+    /// Sun zenith angle, degrees in [0, 89].
+    #[arg(long, value_name = "DEG", allow_negative_numbers = true)]
+    sun_zenith_deg: f64,
+    /// Zenith angle of the direction from the slab to the viewer, degrees:
+    /// below 90 the viewer is above the slab (reflection), above 90 below it
+    /// (transmission).
+    #[arg(long, value_name = "DEG", allow_negative_numbers = true)]
+    view_zenith_deg: f64,
+    /// Azimuth of the viewer relative to the sun's, degrees: 0 with the sun
+    /// behind the viewer (glory at view zenith = sun zenith), 180 opposite.
+    #[arg(
+        long,
+        value_name = "DEG",
+        default_value_t = 0.0,
+        allow_negative_numbers = true
+    )]
+    relative_azimuth_deg: f64,
+    /// Phase function: mie (the droplet size distribution's), hg:G
+    /// (Henyey–Greenstein with asymmetry G) or isotropic.
+    #[arg(long, default_value = "mie")]
+    phase: String,
+    /// Effective radius r_e of the modified gamma distribution, µm.
+    #[arg(long, default_value_t = 7.0, value_name = "UM")]
+    effective_radius_um: f64,
+    /// Shape parameter γ of the modified gamma distribution.
+    #[arg(long, default_value_t = 2.0, allow_negative_numbers = true)]
+    gamma: f64,
+    /// Droplet number density N₀, cm⁻³.
+    #[arg(long, default_value_t = 300.0, value_name = "PER_CM3")]
+    number_density_cm3: f64,
+    /// Vacuum wavelength, nm.
+    #[arg(long, default_value_t = 550.0, value_name = "NM")]
+    wavelength_nm: f64,
+    /// Half-angle θ_f of the forward peak folded into extinction, degrees
+    /// (analytic model and `--mie-mode modified`).
+    #[arg(long, default_value_t = 5.0, value_name = "DEG")]
+    forward_peak_deg: f64,
+    /// analytic (§4 model) or monte-carlo (photon tracing).
+    #[arg(long, value_enum, default_value_t = Method::Analytic)]
+    method: Method,
+    /// Monte-Carlo phase function: full (the Mie phase function and κ) or
+    /// modified (forward peak folded into extinction, §4.1: P_S and κ_S).
+    #[arg(long, value_enum, default_value_t = MieMode::Full)]
+    mie_mode: MieMode,
+    /// Monte-Carlo photons.
+    #[arg(long, default_value_t = 1_000_000, value_name = "N")]
+    photons: u64,
+    /// Monte-Carlo random seed.
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
+    /// Print one JSON document on standard output.
+    #[arg(long)]
+    json: bool,
+    /// Report the run time and scattering events per second on standard error.
+    #[arg(long)]
+    timing: bool,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+enum Method {
+    Analytic,
+    MonteCarlo,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+enum MieMode {
+    Full,
+    Modified,
+}
+
+/// The parsed `--phase`.
+enum PhaseChoice {
+    Mie,
+    HenyeyGreenstein(f64),
+    Isotropic,
+}
+
+fn parse_phase(text: &str) -> anyhow::Result<PhaseChoice> {
+    let bad = || anyhow::anyhow!("--phase {text}: must be mie, isotropic or hg:G with −1 < G < 1");
+    match text {
+        "mie" => Ok(PhaseChoice::Mie),
+        "isotropic" => Ok(PhaseChoice::Isotropic),
+        _ => {
+            let g: f64 = text
+                .strip_prefix("hg:")
+                .ok_or_else(bad)?
+                .trim()
+                .parse()
+                .map_err(|_| bad())?;
+            if g.is_finite() && g.abs() < 1.0 {
+                Ok(PhaseChoice::HenyeyGreenstein(g))
+            } else {
+                Err(bad())
+            }
+        }
+    }
+}
+
+/// Angles of the Mie computation: 0.05° through the forward peak, 0.25° beyond.
+fn mie_angles() -> Vec<f64> {
+    let mut angles: Vec<f64> = (0..200).map(|i| i as f64 * 0.05).collect();
+    angles.extend((0..=680).map(|i| 10.0 + i as f64 * 0.25));
+    angles
+}
+
+#[derive(Serialize, Default)]
+struct Orders {
+    order0: f64,
+    order1: f64,
+    order2: f64,
+    order3plus: f64,
+    total: f64,
+}
+
+#[derive(Serialize)]
+struct Errors {
+    reflectance: f64,
+    transmittance: f64,
+    direct_transmittance: f64,
+    radiance: Orders,
+}
+
+#[derive(Serialize)]
+struct Report {
+    method: &'static str,
+    optical_depth: f64,
+    thickness_m: Option<f64>,
+    single_scattering_albedo: f64,
+    scattering_angle_deg: f64,
+    reflectance: f64,
+    transmittance: f64,
+    direct_transmittance: f64,
+    radiance: Orders,
+    std_error: Option<Errors>,
+    photons: Option<u64>,
+    scattering_events: Option<u64>,
+}
+
+fn orders_value(o: &ByOrder) -> Orders {
+    Orders {
+        order0: o.order0.value,
+        order1: o.order1.value,
+        order2: o.order2.value,
+        order3plus: o.order3plus.value,
+        total: o.total.value,
+    }
+}
+
+fn orders_error(o: &ByOrder) -> Orders {
+    Orders {
+        order0: o.order0.std_error,
+        order1: o.order1.std_error,
+        order2: o.order2.std_error,
+        order3plus: o.order3plus.std_error,
+        total: o.total.std_error,
+    }
+}
+
+/// Runs the command.
+pub fn run(args: &SlabArgs) -> anyhow::Result<()> {
+    anyhow::ensure!(
+        args.sun_zenith_deg.is_finite() && (0.0..=89.0).contains(&args.sun_zenith_deg),
+        "--sun-zenith-deg {}: must be in [0, 89]",
+        args.sun_zenith_deg
+    );
+    anyhow::ensure!(
+        args.view_zenith_deg.is_finite()
+            && (0.0..=180.0).contains(&args.view_zenith_deg)
+            && (args.view_zenith_deg - 90.0).abs() >= 0.1,
+        "--view-zenith-deg {}: must be in [0, 89.9] (reflection) or [90.1, 180] (transmission)",
+        args.view_zenith_deg
+    );
+    anyhow::ensure!(
+        args.relative_azimuth_deg.is_finite() && args.relative_azimuth_deg.abs() <= 360.0,
+        "--relative-azimuth-deg {}: must be in [−360, 360]",
+        args.relative_azimuth_deg
+    );
+    anyhow::ensure!(
+        args.effective_radius_um.is_finite() && (0.5..=50.0).contains(&args.effective_radius_um),
+        "--effective-radius-um {}: must be in [0.5, 50]",
+        args.effective_radius_um
+    );
+    anyhow::ensure!(
+        args.gamma.is_finite() && (0.5..=50.0).contains(&args.gamma),
+        "--gamma {}: must be in [0.5, 50]",
+        args.gamma
+    );
+    anyhow::ensure!(
+        args.number_density_cm3.is_finite()
+            && args.number_density_cm3 > 0.0
+            && args.number_density_cm3 <= 1e5,
+        "--number-density-cm3 {}: must be in (0, 100000]",
+        args.number_density_cm3
+    );
+    let (lo, hi) = VALID_WAVELENGTH_NM;
+    anyhow::ensure!(
+        args.wavelength_nm.is_finite() && (lo..=hi).contains(&args.wavelength_nm),
+        "--wavelength-nm {}: must be in [{lo}, {hi}]",
+        args.wavelength_nm
+    );
+    anyhow::ensure!(
+        args.forward_peak_deg.is_finite() && (0.0..=15.0).contains(&args.forward_peak_deg),
+        "--forward-peak-deg {}: must be in [0, 15]",
+        args.forward_peak_deg
+    );
+    anyhow::ensure!(
+        (1..=10_000_000_000).contains(&args.photons),
+        "--photons {}: must be in [1, 10000000000]",
+        args.photons
+    );
+    if let Some(h) = args.thickness_m {
+        anyhow::ensure!(
+            h.is_finite() && h > 0.0 && h <= 100_000.0,
+            "--thickness-m {h}: must be in (0, 100000]"
+        );
+    }
+    if let Some(t) = args.optical_depth {
+        anyhow::ensure!(
+            t.is_finite() && t > 0.0 && t <= 10_000.0,
+            "--optical-depth {t}: must be in (0, 10000]"
+        );
+    }
+    let choice = parse_phase(&args.phase)?;
+    // The droplet population's optics at the wavelength (needed for the Mie
+    // phase function and for converting a thickness into an optical depth).
+    let needs_mie = matches!(choice, PhaseChoice::Mie) || args.thickness_m.is_some();
+    let mie = needs_mie.then(|| {
+        let dsd = SizeDistribution::ModifiedGamma {
+            number_density_per_m3: args.number_density_cm3 * 1e6,
+            gamma: args.gamma,
+            effective_radius_m: args.effective_radius_um * 1e-6,
+        };
+        bulk_optics(
+            &dsd,
+            args.wavelength_nm,
+            water_refractive_index(args.wavelength_nm),
+            &mie_angles(),
+            1e-3,
+        )
+    });
+    let (phase_table, extinction_per_m, albedo) = match (&choice, &mie) {
+        (PhaseChoice::Mie, Some(o)) => (
+            PhaseTable::new(o.angles_deg.clone(), o.phase.clone()),
+            o.extinction_per_m,
+            o.single_scattering_albedo(),
+        ),
+        (PhaseChoice::HenyeyGreenstein(g), _) => (
+            PhaseModel::HenyeyGreenstein { g: *g }.to_table(3601),
+            mie.as_ref().map_or(1.0, |o| o.extinction_per_m),
+            1.0,
+        ),
+        _ => (
+            PhaseModel::Isotropic.to_table(181),
+            mie.as_ref().map_or(1.0, |o| o.extinction_per_m),
+            1.0,
+        ),
+    };
+    let optical_depth = args
+        .optical_depth
+        .unwrap_or_else(|| extinction_per_m * args.thickness_m.unwrap_or(0.0));
+    let thickness_m = optical_depth / extinction_per_m;
+    let view = ViewDirection {
+        zenith_deg: args.view_zenith_deg,
+        relative_azimuth_deg: args.relative_azimuth_deg,
+    };
+    let scattering_angle_deg =
+        nimbus_physics::transport::monte_carlo::scattering_cosine(args.sun_zenith_deg, view)
+            .clamp(-1.0, 1.0)
+            .acos()
+            .to_degrees();
+    let is_mie = matches!(choice, PhaseChoice::Mie);
+    let report = match args.method {
+        Method::Analytic => {
+            let theta_f = if is_mie { args.forward_peak_deg } else { 0.0 };
+            let model = StratusModel::new(StratusOptics::from_phase(
+                &phase_table,
+                extinction_per_m,
+                theta_f,
+            ));
+            let radiance = model.radiance(thickness_m, args.sun_zenith_deg, view);
+            let fluxes = model.fluxes(thickness_m, args.sun_zenith_deg);
+            Report {
+                method: "analytic",
+                optical_depth,
+                thickness_m: Some(thickness_m),
+                single_scattering_albedo: albedo,
+                scattering_angle_deg,
+                reflectance: fluxes.reflectance,
+                transmittance: fluxes.transmittance,
+                direct_transmittance: fluxes.t0,
+                radiance: Orders {
+                    order0: radiance.order0,
+                    order1: radiance.order1,
+                    order2: radiance.order2,
+                    order3plus: radiance.order3plus,
+                    total: radiance.total,
+                },
+                std_error: None,
+                photons: None,
+                scattering_events: None,
+            }
+        }
+        Method::MonteCarlo => {
+            let modified = is_mie && args.mie_mode == MieMode::Modified;
+            let (table, depth) = if modified {
+                let p_f = phase_table.forward_fraction(args.forward_peak_deg);
+                (
+                    phase_table.peak_removed(args.forward_peak_deg),
+                    optical_depth * (1.0 - p_f),
+                )
+            } else {
+                (phase_table.clone(), optical_depth)
+            };
+            let phase = match choice {
+                PhaseChoice::HenyeyGreenstein(g) => PhaseModel::HenyeyGreenstein { g },
+                PhaseChoice::Isotropic => PhaseModel::Isotropic,
+                PhaseChoice::Mie => PhaseModel::tabulated(&table),
+            };
+            let medium = SlabMedium {
+                optical_depth: depth,
+                single_scattering_albedo: albedo,
+                phase,
+            };
+            let settings = TraceSettings {
+                photons: args.photons,
+                seed: args.seed,
+                sun_zenith_deg: args.sun_zenith_deg,
+                views: vec![view],
+                ..TraceSettings::default()
+            };
+            let start = std::time::Instant::now();
+            let total = args
+                .photons
+                .div_ceil(nimbus_physics::transport::monte_carlo::BATCH_PHOTONS)
+                * nimbus_physics::transport::monte_carlo::BATCH_PHOTONS;
+            // Redraw at most four times a second, and only on a terminal.
+            let show = std::io::stderr().is_terminal();
+            let last_draw = std::sync::Mutex::new(0.0f64);
+            let progress = |done: u64| {
+                let elapsed = start.elapsed().as_secs_f64();
+                {
+                    let mut last = last_draw.lock().unwrap_or_else(|e| e.into_inner());
+                    if !show || (elapsed - *last < 0.25 && done < total) {
+                        return;
+                    }
+                    *last = elapsed;
+                }
+                let eta = elapsed * (total.saturating_sub(done)) as f64 / done.max(1) as f64;
+                let mut stderr = std::io::stderr();
+                let _ = write!(
+                    stderr,
+                    "\rnimbus: slab: {done}/{total} photons ({:.0} %), {elapsed:.1} s, ETA {eta:.1} s   ",
+                    100.0 * done as f64 / total as f64
+                );
+                let _ = stderr.flush();
+            };
+            let result = trace(&medium, &settings, &progress);
+            if show {
+                eprintln!();
+            }
+            let seconds = start.elapsed().as_secs_f64();
+            if args.timing {
+                let threads = nimbus_physics::transport::monte_carlo::worker_threads();
+                eprintln!(
+                    "nimbus: timing: {:.3} s, {} scattering events, {:.2e} events/s on {threads} threads ({:.2e} per thread)",
+                    seconds,
+                    result.scattering_events,
+                    result.scattering_events as f64 / seconds,
+                    result.scattering_events as f64 / seconds / threads as f64
+                );
+            }
+            let radiance = &result.radiance[0];
+            Report {
+                method: "monte-carlo",
+                optical_depth: depth,
+                thickness_m: args.thickness_m,
+                single_scattering_albedo: albedo,
+                scattering_angle_deg,
+                reflectance: result.reflectance.total.value,
+                transmittance: result.transmittance.total.value,
+                direct_transmittance: result.transmittance.order0.value,
+                radiance: orders_value(radiance),
+                std_error: Some(Errors {
+                    reflectance: result.reflectance.total.std_error,
+                    transmittance: result.transmittance.total.std_error,
+                    direct_transmittance: result.transmittance.order0.std_error,
+                    radiance: orders_error(radiance),
+                }),
+                photons: Some(result.photons),
+                scattering_events: Some(result.scattering_events),
+            }
+        }
+    };
+    if args.json {
+        println!("{}", serde_json::to_string(&report)?);
+    } else {
+        println!(
+            "{} slab, optical depth {:.4}, scattering angle {:.2}°",
+            report.method, report.optical_depth, report.scattering_angle_deg
+        );
+        println!(
+            "reflectance {:.6}  transmittance {:.6}  direct {:.6}",
+            report.reflectance, report.transmittance, report.direct_transmittance
+        );
+        let r = &report.radiance;
+        println!(
+            "radiance (1/sr per unit incident flux): order 0 {:.6e}  1 {:.6e}  2 {:.6e}  3+ {:.6e}  total {:.6e}",
+            r.order0, r.order1, r.order2, r.order3plus, r.total
+        );
+        if let Some(e) = &report.std_error {
+            println!(
+                "standard errors: reflectance {:.2e}  transmittance {:.2e}  radiance total {:.2e}",
+                e.reflectance, e.transmittance, e.radiance.total
+            );
+        }
+    }
+    Ok(())
+}
