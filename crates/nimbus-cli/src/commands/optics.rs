@@ -124,7 +124,7 @@ fn angles(step_deg: f64) -> anyhow::Result<Vec<f64>> {
     Ok(a)
 }
 
-fn check_wavelength(nm: f64) -> anyhow::Result<()> {
+pub(crate) fn check_wavelength(nm: f64) -> anyhow::Result<()> {
     let (lo, hi) = VALID_WAVELENGTH_NM;
     anyhow::ensure!(
         nm.is_finite() && (lo..=hi).contains(&nm),
@@ -238,24 +238,37 @@ fn entry(optics: &BulkOptics, forward_peak_deg: f64) -> DsdEntry {
     }
 }
 
+/// Checks the droplet-population flags that `optics dsd` and `slab` share:
+/// the effective radius against `radius_range_um`, γ and N₀.
+pub(crate) fn check_droplet_flags(
+    effective_radius_um: f64,
+    radius_range_um: (f64, f64),
+    gamma: f64,
+    number_density_cm3: f64,
+) -> anyhow::Result<()> {
+    let (lo, hi) = radius_range_um;
+    anyhow::ensure!(
+        effective_radius_um.is_finite() && (lo..=hi).contains(&effective_radius_um),
+        "--effective-radius-um {effective_radius_um}: must be in [{lo}, {hi}]"
+    );
+    anyhow::ensure!(
+        gamma.is_finite() && (0.5..=50.0).contains(&gamma),
+        "--gamma {gamma}: must be in [0.5, 50]"
+    );
+    anyhow::ensure!(
+        number_density_cm3.is_finite() && number_density_cm3 > 0.0 && number_density_cm3 <= 1e5,
+        "--number-density-cm3 {number_density_cm3}: must be in (0, 100000]"
+    );
+    Ok(())
+}
+
 fn run_dsd(args: &DsdArgs) -> anyhow::Result<()> {
-    anyhow::ensure!(
-        args.effective_radius_um.is_finite() && (0.1..=100.0).contains(&args.effective_radius_um),
-        "--effective-radius-um {}: must be in [0.1, 100]",
-        args.effective_radius_um
-    );
-    anyhow::ensure!(
-        args.gamma.is_finite() && (0.5..=50.0).contains(&args.gamma),
-        "--gamma {}: must be in [0.5, 50]",
-        args.gamma
-    );
-    anyhow::ensure!(
-        args.number_density_cm3.is_finite()
-            && args.number_density_cm3 > 0.0
-            && args.number_density_cm3 <= 1e5,
-        "--number-density-cm3 {}: must be in (0, 100000]",
-        args.number_density_cm3
-    );
+    check_droplet_flags(
+        args.effective_radius_um,
+        (0.1, 100.0),
+        args.gamma,
+        args.number_density_cm3,
+    )?;
     anyhow::ensure!(
         args.tolerance.is_finite() && (1e-6..=0.1).contains(&args.tolerance),
         "--tolerance {}: must be in [1e-6, 0.1]",

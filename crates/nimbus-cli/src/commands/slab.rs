@@ -5,7 +5,8 @@
 use clap::{Args, ValueEnum};
 use nimbus_physics::optics::dsd::{SizeDistribution, bulk_optics};
 use nimbus_physics::optics::phase::PhaseTable;
-use nimbus_physics::optics::water::{VALID_WAVELENGTH_NM, water_refractive_index};
+use nimbus_physics::optics::tables::computation_angles;
+use nimbus_physics::optics::water::water_refractive_index;
 use nimbus_physics::transport::monte_carlo::{
     ByOrder, SlabMedium, TraceSettings, ViewDirection, trace,
 };
@@ -128,13 +129,6 @@ fn parse_phase(text: &str) -> anyhow::Result<PhaseChoice> {
     }
 }
 
-/// Angles of the Mie computation: 0.05° through the forward peak, 0.25° beyond.
-fn mie_angles() -> Vec<f64> {
-    let mut angles: Vec<f64> = (0..200).map(|i| i as f64 * 0.05).collect();
-    angles.extend((0..=680).map(|i| 10.0 + i as f64 * 0.25));
-    angles
-}
-
 #[derive(Serialize, Default)]
 struct Orders {
     order0: f64,
@@ -207,29 +201,13 @@ pub fn run(args: &SlabArgs) -> anyhow::Result<()> {
         "--relative-azimuth-deg {}: must be in [−360, 360]",
         args.relative_azimuth_deg
     );
-    anyhow::ensure!(
-        args.effective_radius_um.is_finite() && (0.5..=50.0).contains(&args.effective_radius_um),
-        "--effective-radius-um {}: must be in [0.5, 50]",
-        args.effective_radius_um
-    );
-    anyhow::ensure!(
-        args.gamma.is_finite() && (0.5..=50.0).contains(&args.gamma),
-        "--gamma {}: must be in [0.5, 50]",
-        args.gamma
-    );
-    anyhow::ensure!(
-        args.number_density_cm3.is_finite()
-            && args.number_density_cm3 > 0.0
-            && args.number_density_cm3 <= 1e5,
-        "--number-density-cm3 {}: must be in (0, 100000]",
-        args.number_density_cm3
-    );
-    let (lo, hi) = VALID_WAVELENGTH_NM;
-    anyhow::ensure!(
-        args.wavelength_nm.is_finite() && (lo..=hi).contains(&args.wavelength_nm),
-        "--wavelength-nm {}: must be in [{lo}, {hi}]",
-        args.wavelength_nm
-    );
+    super::optics::check_droplet_flags(
+        args.effective_radius_um,
+        (0.5, 50.0),
+        args.gamma,
+        args.number_density_cm3,
+    )?;
+    super::optics::check_wavelength(args.wavelength_nm)?;
     anyhow::ensure!(
         args.forward_peak_deg.is_finite() && (0.0..=15.0).contains(&args.forward_peak_deg),
         "--forward-peak-deg {}: must be in [0, 15]",
@@ -266,7 +244,7 @@ pub fn run(args: &SlabArgs) -> anyhow::Result<()> {
             &dsd,
             args.wavelength_nm,
             water_refractive_index(args.wavelength_nm),
-            &mie_angles(),
+            &computation_angles(args.forward_peak_deg.max(5.0)),
             1e-3,
         )
     });

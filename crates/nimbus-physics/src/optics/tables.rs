@@ -86,9 +86,10 @@ fn resample(table: &PhaseTable, from_deg: f64, to_deg: f64, count: usize) -> Vec
         .collect()
 }
 
-/// Angles for the bulk computation: 0.05° steps through the forward peak,
+/// Angles for the bulk computation of a phase function whose forward peak
+/// reaches `forward_peak_deg`: 0.05° steps to twice that (at most 30°),
 /// 0.25° beyond.
-fn computation_angles(forward_peak_deg: f64) -> Vec<f64> {
+pub fn computation_angles(forward_peak_deg: f64) -> Vec<f64> {
     let fine_end = (2.0 * forward_peak_deg).min(30.0);
     let mut angles: Vec<f64> = (0..)
         .map(|i| i as f64 * 0.05)

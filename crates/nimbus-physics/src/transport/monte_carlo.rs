@@ -88,10 +88,16 @@ impl ViewDirection {
 /// Cosine of the scattering angle from the sun's beam into the view
 /// direction: cos Θ = −L·V with L towards the sun.
 pub fn scattering_cosine(sun_zenith_deg: f64, view: ViewDirection) -> f64 {
-    let (st, ct) = sun_zenith_deg.to_radians().sin_cos();
-    let incident = [st, 0.0, ct];
+    let incident = incident_direction(sun_zenith_deg);
     let v = view.vector();
     incident[0] * v[0] + incident[1] * v[1] + incident[2] * v[2]
+}
+
+/// The direction of the sun's beam in the tracer's frame (z down, the sun
+/// on the −x side).
+fn incident_direction(sun_zenith_deg: f64) -> [f64; 3] {
+    let (st, ct) = sun_zenith_deg.to_radians().sin_cos();
+    [st, 0.0, ct]
 }
 
 /// What to trace.
@@ -252,6 +258,7 @@ pub fn trace(
     let batches = settings.photons.div_ceil(BATCH_PHOTONS).max(1);
     let photons = batches * BATCH_PHOTONS;
     let views: Vec<[f64; 3]> = settings.views.iter().map(|v| v.vector()).collect();
+    let incident = incident_direction(settings.sun_zenith_deg);
     let bin_count = settings.zenith_bins * settings.azimuth_bins;
     let done = AtomicU64::new(0);
     let batch_sums: Vec<Sums> = (0..batches)
@@ -261,7 +268,9 @@ pub fn trace(
             let mut sums = Sums::new(views.len(), bin_count);
             let mut local = vec![[0.0; ORDER_CLASSES]; views.len()];
             for _ in 0..BATCH_PHOTONS {
-                trace_photon(medium, settings, &views, &mut rng, &mut sums, &mut local);
+                trace_photon(
+                    medium, settings, incident, &views, &mut rng, &mut sums, &mut local,
+                );
             }
             progress(done.fetch_add(BATCH_PHOTONS, Ordering::Relaxed) + BATCH_PHOTONS);
             sums
@@ -279,6 +288,7 @@ pub fn trace(
 fn trace_photon(
     medium: &SlabMedium,
     settings: &TraceSettings,
+    incident: [f64; 3],
     views: &[[f64; 3]],
     rng: &mut Rng,
     sums: &mut Sums,
@@ -286,8 +296,7 @@ fn trace_photon(
 ) {
     let tau = medium.optical_depth;
     let albedo = medium.single_scattering_albedo;
-    let (st, ct) = settings.sun_zenith_deg.to_radians().sin_cos();
-    let mut direction = [st, 0.0, ct];
+    let mut direction = incident;
     let mut z = 0.0;
     let mut weight = 1.0;
     let mut order = 0usize;

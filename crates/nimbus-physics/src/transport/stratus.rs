@@ -116,14 +116,13 @@ impl OneDimensionalTable {
     /// constant beyond the first and last.
     pub fn at(&self, sun_zenith_deg: f64) -> OneDimensionalParams {
         let rows = &self.rows;
-        let x = sun_zenith_deg.clamp(rows[0].sun_zenith_deg, rows[rows.len() - 1].sun_zenith_deg);
-        let i = rows
-            .partition_point(|r| r.sun_zenith_deg <= x)
-            .clamp(1, rows.len().max(2) - 1)
-            .min(rows.len() - 1);
         if rows.len() == 1 {
             return rows[0];
         }
+        let x = sun_zenith_deg.clamp(rows[0].sun_zenith_deg, rows[rows.len() - 1].sun_zenith_deg);
+        let i = rows
+            .partition_point(|r| r.sun_zenith_deg <= x)
+            .clamp(1, rows.len() - 1);
         let (a, b) = (rows[i - 1], rows[i]);
         let f = (x - a.sun_zenith_deg) / (b.sun_zenith_deg - a.sun_zenith_deg);
         let lerp = |p: f64, q: f64| p + f * (q - p);
