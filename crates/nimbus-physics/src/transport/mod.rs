@@ -3,6 +3,7 @@
 //! stratiform model of Bouthors, Neyret & Lefebvre (2006, §4 and
 //! appendices A–B) that the tracer validates.
 
+pub mod adding_doubling;
 pub mod monte_carlo;
 pub mod phase_model;
 pub mod rng;
