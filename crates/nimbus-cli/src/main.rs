@@ -32,7 +32,7 @@ enum Command {
     /// Light through a homogeneous cloud slab lit by the sun: the analytic
     /// stratiform model or Monte-Carlo photon tracing. Radiance is per unit
     /// flux incident on the slab's top (1/sr); fluxes are fractions of it.
-    Slab(commands::slab::SlabArgs),
+    Slab(commands::slab::SlabCommand),
 }
 
 fn main() -> ExitCode {

@@ -72,6 +72,9 @@ fn help_is_available_for_every_subcommand() {
         &["bench", "--help"],
         &["scene", "--help"],
         &["slab", "--help"],
+        &["slab", "fit", "--help"],
+        &["slab", "plot", "--help"],
+        &["optics", "dsd", "--help"],
     ] {
         let out = nimbus(sub, &dir);
         assert!(out.status.success(), "{sub:?}");
@@ -687,4 +690,109 @@ fn slab_prints_fluxes_and_radiance_for_both_methods() {
         &["--phase hg:2"],
     );
     assert!(files_in(&dir).is_empty());
+}
+
+#[test]
+fn slab_fit_writes_a_table_the_library_reads_and_plot_writes_png_and_csv() {
+    let dir = temp_dir("slab-fit");
+    let table = dir.join("table.toml");
+    let out = nimbus(
+        &[
+            "slab",
+            "fit",
+            "--out",
+            table.to_str().expect("utf-8"),
+            "--photons",
+            "8192",
+            "--sun-zenith-deg",
+            "0,60",
+            "--thickness-m",
+            "2,20,200,2000,5",
+            "--json",
+        ],
+        &dir,
+    );
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let report: serde_json::Value = serde_json::from_slice(&out.stdout).expect("json");
+    let loaded = nimbus_physics::transport::stratus::OneDimensionalTable::from_file(&table)
+        .expect("the written table loads");
+    assert_eq!(loaded.rows.len(), 2);
+    assert!((loaded.beta - report["beta"].as_f64().expect("beta")).abs() < 1e-5);
+    // β = T_ms(1 m) of the paper's droplets: the paper fitted 0.9961.
+    assert!((0.99..0.999).contains(&loaded.beta), "β {}", loaded.beta);
+    assert_eq!(report["paper"].as_array().expect("paper rows").len(), 10);
+
+    let figure = dir.join("fig.png");
+    let csv = dir.join("fig.csv");
+    let out = nimbus(
+        &[
+            "slab",
+            "plot",
+            "--thickness-m",
+            "100",
+            "--sun-zenith-deg",
+            "70",
+            "--out",
+            figure.to_str().expect("utf-8"),
+            "--csv",
+            csv.to_str().expect("utf-8"),
+            "--photons",
+            "4096",
+            "--step-deg",
+            "5",
+        ],
+        &dir,
+    );
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let image = image::open(&figure).expect("png");
+    assert_eq!((image.width(), image.height()), (1200, 640));
+    let text = std::fs::read_to_string(&csv).expect("csv");
+    // Header and view angles −85° … 85° in 5° steps.
+    assert_eq!(text.lines().count(), 1 + 35);
+    // The glory row (x = 70°, view = sun): scattering angle 180°.
+    let glory = text
+        .lines()
+        .find(|l| l.starts_with("70,"))
+        .expect("glory row");
+    let scattering_angle: f64 = glory
+        .split(',')
+        .nth(3)
+        .expect("column")
+        .parse()
+        .expect("number");
+    assert!((scattering_angle - 180.0).abs() < 1e-3, "{glory}");
+
+    let before = files_in(&dir);
+    assert_fails_with(
+        &nimbus(
+            &[
+                "slab",
+                "plot",
+                "--thickness-m",
+                "-1",
+                "--sun-zenith-deg",
+                "70",
+                "--out",
+                "x.png",
+            ],
+            &dir,
+        ),
+        &["--thickness-m -1"],
+    );
+    assert_fails_with(
+        &nimbus(
+            &["slab", "fit", "--out", "t.toml", "--sun-zenith-deg", "0,95"],
+            &dir,
+        ),
+        &["--sun-zenith-deg 0,95", "95"],
+    );
+    assert_eq!(files_in(&dir), before);
 }

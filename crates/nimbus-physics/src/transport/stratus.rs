@@ -83,7 +83,8 @@ pub struct OneDimensionalTable {
 
 impl OneDimensionalTable {
     /// Bouthors et al. (2006), appendix B, for N₀ = 300 cm⁻³, γ = 2,
-    /// r_e = 7 µm.
+    /// r_e = 7 µm, all ten rows (the 90° row, for grazing sun, cannot come
+    /// from a slab simulation and looks set by hand; it is kept as printed).
     pub fn bouthors_2006() -> Self {
         let rows = [
             (0.0, 1.1796, 0.0138, 0.0265, 0.8389, 0.0547),
@@ -95,6 +96,7 @@ impl OneDimensionalTable {
             (60.0, 0.7987, 0.0207, 0.0471, 0.7506, 0.0984),
             (70.0, 0.6629, 0.0133, 0.0616, 0.7165, 0.1700),
             (80.0, 0.5043, 0.0280, 0.0700, 0.7149, 0.3554),
+            (90.0, 0.3021, 0.0783, 0.0700, 0.1000, 0.9500),
         ]
         .map(
             |(sun_zenith_deg, b, c, kappa_c, t, r)| OneDimensionalParams {

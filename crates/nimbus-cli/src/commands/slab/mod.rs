@@ -2,22 +2,208 @@
 //! the sun, by the analytic stratiform model (Bouthors et al. 2006, §4) or
 //! by Monte-Carlo photon tracing.
 
-use clap::{Args, ValueEnum};
+mod fit;
+mod plot;
+
+use clap::{Args, Subcommand, ValueEnum};
 use nimbus_physics::optics::dsd::{SizeDistribution, bulk_optics};
 use nimbus_physics::optics::phase::PhaseTable;
 use nimbus_physics::optics::tables::computation_angles;
 use nimbus_physics::optics::water::water_refractive_index;
 use nimbus_physics::transport::monte_carlo::{
-    ByOrder, SlabMedium, TraceSettings, ViewDirection, trace,
+    BATCH_PHOTONS, ByOrder, SlabMedium, TraceSettings, ViewDirection, trace,
 };
 use nimbus_physics::transport::phase_model::PhaseModel;
 use nimbus_physics::transport::stratus::{StratusModel, StratusOptics};
 use serde::Serialize;
 use std::io::{IsTerminal, Write};
 
-/// Arguments of `nimbus slab`.
+/// `nimbus slab`: one slab and view direction, or a subcommand.
 #[derive(Debug, Args)]
-pub struct SlabArgs {
+#[command(args_conflicts_with_subcommands = true, subcommand_negates_reqs = true)]
+pub struct SlabCommand {
+    #[command(subcommand)]
+    action: Option<SlabAction>,
+    #[command(flatten)]
+    point: SlabArgs,
+}
+
+#[derive(Debug, Subcommand)]
+enum SlabAction {
+    /// Fit the 1-D model's parameters (β; b, c, κ_c, t, r per sun angle) to
+    /// Monte-Carlo fluxes over grids of thickness and sun angle, like the
+    /// paper's appendix B, and write them as a table file.
+    Fit(fit::FitArgs),
+    /// Plot radiance against view angle in the sun's plane, stacked per
+    /// scattering order, analytic against Monte-Carlo (like the paper's
+    /// figs 6 and 9).
+    Plot(plot::PlotArgs),
+}
+
+/// The droplet population and the forward-peak split, shared by the slab
+/// commands.
+#[derive(Clone, Debug, Args)]
+struct DropletArgs {
+    /// Effective radius r_e of the modified gamma distribution, µm.
+    #[arg(long, default_value_t = 7.0, value_name = "UM")]
+    effective_radius_um: f64,
+    /// Shape parameter γ of the modified gamma distribution.
+    #[arg(long, default_value_t = 2.0, allow_negative_numbers = true)]
+    gamma: f64,
+    /// Droplet number density N₀, cm⁻³.
+    #[arg(long, default_value_t = 300.0, value_name = "PER_CM3")]
+    number_density_cm3: f64,
+    /// Vacuum wavelength, nm.
+    #[arg(long, default_value_t = 550.0, value_name = "NM")]
+    wavelength_nm: f64,
+    /// Half-angle θ_f of the forward peak folded into extinction, degrees
+    /// (analytic model and the modified Mie model of Monte-Carlo tracing).
+    #[arg(long, default_value_t = 5.0, value_name = "DEG")]
+    forward_peak_deg: f64,
+}
+
+impl DropletArgs {
+    /// Checks the flags' ranges.
+    fn check(&self) -> anyhow::Result<()> {
+        super::optics::check_droplet_flags(
+            self.effective_radius_um,
+            (0.5, 50.0),
+            self.gamma,
+            self.number_density_cm3,
+        )?;
+        super::optics::check_wavelength(self.wavelength_nm)?;
+        anyhow::ensure!(
+            self.forward_peak_deg.is_finite() && (0.0..=15.0).contains(&self.forward_peak_deg),
+            "--forward-peak-deg {}: must be in [0, 15]",
+            self.forward_peak_deg
+        );
+        Ok(())
+    }
+
+    /// The population's phase function (normalised to 1 over the sphere)
+    /// and extinction at the wavelength.
+    fn mie(&self) -> DropletOptics {
+        let dsd = SizeDistribution::ModifiedGamma {
+            number_density_per_m3: self.number_density_cm3 * 1e6,
+            gamma: self.gamma,
+            effective_radius_m: self.effective_radius_um * 1e-6,
+        };
+        let o = bulk_optics(
+            &dsd,
+            self.wavelength_nm,
+            water_refractive_index(self.wavelength_nm),
+            &computation_angles(self.forward_peak_deg.max(5.0)),
+            1e-3,
+        );
+        DropletOptics {
+            albedo: o.single_scattering_albedo(),
+            phase: PhaseTable::new(o.angles_deg, o.phase),
+            extinction_per_m: o.extinction_per_m,
+        }
+    }
+}
+
+/// What the slab commands need of the droplets' optics.
+struct DropletOptics {
+    phase: PhaseTable,
+    extinction_per_m: f64,
+    albedo: f64,
+}
+
+impl DropletOptics {
+    /// The Monte-Carlo medium: full Mie (phase function and κ) or modified
+    /// (P_S and κ_S = (1 − P_f) κ, §4.1). Building the phase function's
+    /// sampler takes a while, so it is done once for all slabs.
+    fn traced(&self, modified_peak_deg: Option<f64>) -> TracedMedium {
+        match modified_peak_deg {
+            Some(theta_f) => TracedMedium {
+                extinction_per_m: self.extinction_per_m
+                    * (1.0 - self.phase.forward_fraction(theta_f)),
+                albedo: self.albedo,
+                phase: PhaseModel::tabulated(&self.phase.peak_removed(theta_f)),
+            },
+            None => TracedMedium {
+                extinction_per_m: self.extinction_per_m,
+                albedo: self.albedo,
+                phase: PhaseModel::tabulated(&self.phase),
+            },
+        }
+    }
+}
+
+/// A medium ready for tracing slabs of any thickness.
+struct TracedMedium {
+    phase: PhaseModel,
+    /// Extinction as traced (κ or κ_S), m⁻¹.
+    extinction_per_m: f64,
+    albedo: f64,
+}
+
+impl TracedMedium {
+    /// A slab of `thickness_m`.
+    fn slab(&self, thickness_m: f64) -> SlabMedium {
+        SlabMedium {
+            optical_depth: self.extinction_per_m * thickness_m,
+            single_scattering_albedo: self.albedo,
+            phase: self.phase.clone(),
+        }
+    }
+}
+
+/// A progress line with an ETA on standard error, redrawn at most four
+/// times a second and only on a terminal; `total` is the amount of work.
+struct Progress {
+    label: String,
+    total: u64,
+    start: std::time::Instant,
+    show: bool,
+    last_draw: std::sync::Mutex<f64>,
+}
+
+impl Progress {
+    fn new(label: impl Into<String>, total: u64) -> Self {
+        Self {
+            label: label.into(),
+            total,
+            start: std::time::Instant::now(),
+            show: std::io::stderr().is_terminal(),
+            last_draw: std::sync::Mutex::new(f64::NEG_INFINITY),
+        }
+    }
+
+    /// Reports `done` units of work.
+    fn update(&self, done: u64) {
+        let elapsed = self.start.elapsed().as_secs_f64();
+        {
+            let mut last = self.last_draw.lock().unwrap_or_else(|e| e.into_inner());
+            if !self.show || (elapsed - *last < 0.25 && done < self.total) {
+                return;
+            }
+            *last = elapsed;
+        }
+        let eta = elapsed * (self.total.saturating_sub(done)) as f64 / done.max(1) as f64;
+        let mut stderr = std::io::stderr();
+        let _ = write!(
+            stderr,
+            "\rnimbus: {}: {done}/{} ({:.0} %), {elapsed:.1} s, ETA {eta:.1} s   ",
+            self.label,
+            self.total,
+            100.0 * done as f64 / self.total.max(1) as f64
+        );
+        let _ = stderr.flush();
+    }
+
+    /// Ends the progress line.
+    fn finish(&self) {
+        if self.show {
+            eprintln!();
+        }
+    }
+}
+
+/// Arguments of `nimbus slab` for one slab and view direction.
+#[derive(Debug, Args)]
+struct SlabArgs {
     /// Geometric thickness H, m (the extinction comes from the droplet size
     /// distribution at the wavelength).
     #[arg(
@@ -32,13 +218,23 @@ pub struct SlabArgs {
     #[arg(long, value_name = "TAU", allow_negative_numbers = true)]
     optical_depth: Option<f64>,
     /// Sun zenith angle, degrees in [0, 89].
-    #[arg(long, value_name = "DEG", allow_negative_numbers = true)]
-    sun_zenith_deg: f64,
+    #[arg(
+        long,
+        value_name = "DEG",
+        allow_negative_numbers = true,
+        required = true
+    )]
+    sun_zenith_deg: Option<f64>,
     /// Zenith angle of the direction from the slab to the viewer, degrees:
     /// below 90 the viewer is above the slab (reflection), above 90 below it
     /// (transmission).
-    #[arg(long, value_name = "DEG", allow_negative_numbers = true)]
-    view_zenith_deg: f64,
+    #[arg(
+        long,
+        value_name = "DEG",
+        allow_negative_numbers = true,
+        required = true
+    )]
+    view_zenith_deg: Option<f64>,
     /// Azimuth of the viewer relative to the sun's, degrees: 0 with the sun
     /// behind the viewer (glory at view zenith = sun zenith), 180 opposite.
     #[arg(
@@ -52,22 +248,8 @@ pub struct SlabArgs {
     /// (Henyey–Greenstein with asymmetry G) or isotropic.
     #[arg(long, default_value = "mie")]
     phase: String,
-    /// Effective radius r_e of the modified gamma distribution, µm.
-    #[arg(long, default_value_t = 7.0, value_name = "UM")]
-    effective_radius_um: f64,
-    /// Shape parameter γ of the modified gamma distribution.
-    #[arg(long, default_value_t = 2.0, allow_negative_numbers = true)]
-    gamma: f64,
-    /// Droplet number density N₀, cm⁻³.
-    #[arg(long, default_value_t = 300.0, value_name = "PER_CM3")]
-    number_density_cm3: f64,
-    /// Vacuum wavelength, nm.
-    #[arg(long, default_value_t = 550.0, value_name = "NM")]
-    wavelength_nm: f64,
-    /// Half-angle θ_f of the forward peak folded into extinction, degrees
-    /// (analytic model and `--mie-mode modified`).
-    #[arg(long, default_value_t = 5.0, value_name = "DEG")]
-    forward_peak_deg: f64,
+    #[command(flatten)]
+    droplets: DropletArgs,
     /// analytic (§4 model) or monte-carlo (photon tracing).
     #[arg(long, value_enum, default_value_t = Method::Analytic)]
     method: Method,
@@ -183,46 +365,67 @@ fn orders_error(o: &ByOrder) -> Orders {
 }
 
 /// Runs the command.
-pub fn run(args: &SlabArgs) -> anyhow::Result<()> {
+pub fn run(command: &SlabCommand) -> anyhow::Result<()> {
+    match &command.action {
+        Some(SlabAction::Fit(args)) => fit::run(args),
+        Some(SlabAction::Plot(args)) => plot::run(args),
+        None => run_point(&command.point),
+    }
+}
+
+/// Checks a sun zenith angle flag: [0, 89]°.
+fn check_sun_zenith(deg: f64) -> anyhow::Result<()> {
     anyhow::ensure!(
-        args.sun_zenith_deg.is_finite() && (0.0..=89.0).contains(&args.sun_zenith_deg),
-        "--sun-zenith-deg {}: must be in [0, 89]",
-        args.sun_zenith_deg
+        deg.is_finite() && (0.0..=89.0).contains(&deg),
+        "--sun-zenith-deg {deg}: must be in [0, 89]"
     );
+    Ok(())
+}
+
+/// Checks a photon-count flag.
+fn check_photons(photons: u64) -> anyhow::Result<()> {
     anyhow::ensure!(
-        args.view_zenith_deg.is_finite()
-            && (0.0..=180.0).contains(&args.view_zenith_deg)
-            && (args.view_zenith_deg - 90.0).abs() >= 0.1,
+        (1..=10_000_000_000).contains(&photons),
+        "--photons {photons}: must be in [1, 10000000000]"
+    );
+    Ok(())
+}
+
+/// Checks a thickness flag, m.
+fn check_thickness(flag: &str, h: f64) -> anyhow::Result<()> {
+    anyhow::ensure!(
+        h.is_finite() && h > 0.0 && h <= 100_000.0,
+        "{flag} {h}: must be in (0, 100000]"
+    );
+    Ok(())
+}
+
+fn run_point(args: &SlabArgs) -> anyhow::Result<()> {
+    // Both are required by the parser unless a subcommand is given.
+    let missing = |flag: &str| anyhow::anyhow!("{flag} is required");
+    let sun_zenith_deg = args
+        .sun_zenith_deg
+        .ok_or_else(|| missing("--sun-zenith-deg"))?;
+    let view_zenith_deg = args
+        .view_zenith_deg
+        .ok_or_else(|| missing("--view-zenith-deg"))?;
+    check_sun_zenith(sun_zenith_deg)?;
+    anyhow::ensure!(
+        view_zenith_deg.is_finite()
+            && (0.0..=180.0).contains(&view_zenith_deg)
+            && (view_zenith_deg - 90.0).abs() >= 0.1,
         "--view-zenith-deg {}: must be in [0, 89.9] (reflection) or [90.1, 180] (transmission)",
-        args.view_zenith_deg
+        view_zenith_deg
     );
     anyhow::ensure!(
         args.relative_azimuth_deg.is_finite() && args.relative_azimuth_deg.abs() <= 360.0,
         "--relative-azimuth-deg {}: must be in [−360, 360]",
         args.relative_azimuth_deg
     );
-    super::optics::check_droplet_flags(
-        args.effective_radius_um,
-        (0.5, 50.0),
-        args.gamma,
-        args.number_density_cm3,
-    )?;
-    super::optics::check_wavelength(args.wavelength_nm)?;
-    anyhow::ensure!(
-        args.forward_peak_deg.is_finite() && (0.0..=15.0).contains(&args.forward_peak_deg),
-        "--forward-peak-deg {}: must be in [0, 15]",
-        args.forward_peak_deg
-    );
-    anyhow::ensure!(
-        (1..=10_000_000_000).contains(&args.photons),
-        "--photons {}: must be in [1, 10000000000]",
-        args.photons
-    );
+    args.droplets.check()?;
+    check_photons(args.photons)?;
     if let Some(h) = args.thickness_m {
-        anyhow::ensure!(
-            h.is_finite() && h > 0.0 && h <= 100_000.0,
-            "--thickness-m {h}: must be in (0, 100000]"
-        );
+        check_thickness("--thickness-m", h)?;
     }
     if let Some(t) = args.optical_depth {
         anyhow::ensure!(
@@ -234,26 +437,9 @@ pub fn run(args: &SlabArgs) -> anyhow::Result<()> {
     // The droplet population's optics at the wavelength (needed for the Mie
     // phase function and for converting a thickness into an optical depth).
     let needs_mie = matches!(choice, PhaseChoice::Mie) || args.thickness_m.is_some();
-    let mie = needs_mie.then(|| {
-        let dsd = SizeDistribution::ModifiedGamma {
-            number_density_per_m3: args.number_density_cm3 * 1e6,
-            gamma: args.gamma,
-            effective_radius_m: args.effective_radius_um * 1e-6,
-        };
-        bulk_optics(
-            &dsd,
-            args.wavelength_nm,
-            water_refractive_index(args.wavelength_nm),
-            &computation_angles(args.forward_peak_deg.max(5.0)),
-            1e-3,
-        )
-    });
+    let mie = needs_mie.then(|| args.droplets.mie());
     let (phase_table, extinction_per_m, albedo) = match (&choice, &mie) {
-        (PhaseChoice::Mie, Some(o)) => (
-            PhaseTable::new(o.angles_deg.clone(), o.phase.clone()),
-            o.extinction_per_m,
-            o.single_scattering_albedo(),
-        ),
+        (PhaseChoice::Mie, Some(o)) => (o.phase.clone(), o.extinction_per_m, o.albedo),
         (PhaseChoice::HenyeyGreenstein(g), _) => (
             PhaseModel::HenyeyGreenstein { g: *g }.to_table(3601),
             mie.as_ref().map_or(1.0, |o| o.extinction_per_m),
@@ -270,25 +456,29 @@ pub fn run(args: &SlabArgs) -> anyhow::Result<()> {
         .unwrap_or_else(|| extinction_per_m * args.thickness_m.unwrap_or(0.0));
     let thickness_m = optical_depth / extinction_per_m;
     let view = ViewDirection {
-        zenith_deg: args.view_zenith_deg,
+        zenith_deg: view_zenith_deg,
         relative_azimuth_deg: args.relative_azimuth_deg,
     };
     let scattering_angle_deg =
-        nimbus_physics::transport::monte_carlo::scattering_cosine(args.sun_zenith_deg, view)
+        nimbus_physics::transport::monte_carlo::scattering_cosine(sun_zenith_deg, view)
             .clamp(-1.0, 1.0)
             .acos()
             .to_degrees();
     let is_mie = matches!(choice, PhaseChoice::Mie);
     let report = match args.method {
         Method::Analytic => {
-            let theta_f = if is_mie { args.forward_peak_deg } else { 0.0 };
+            let theta_f = if is_mie {
+                args.droplets.forward_peak_deg
+            } else {
+                0.0
+            };
             let model = StratusModel::new(StratusOptics::from_phase(
                 &phase_table,
                 extinction_per_m,
                 theta_f,
             ));
-            let radiance = model.radiance(thickness_m, args.sun_zenith_deg, view);
-            let fluxes = model.fluxes(thickness_m, args.sun_zenith_deg);
+            let radiance = model.radiance(thickness_m, sun_zenith_deg, view);
+            let fluxes = model.fluxes(thickness_m, sun_zenith_deg);
             Report {
                 method: "analytic",
                 optical_depth,
@@ -313,9 +503,9 @@ pub fn run(args: &SlabArgs) -> anyhow::Result<()> {
         Method::MonteCarlo => {
             let modified = is_mie && args.mie_mode == MieMode::Modified;
             let (table, depth) = if modified {
-                let p_f = phase_table.forward_fraction(args.forward_peak_deg);
+                let p_f = phase_table.forward_fraction(args.droplets.forward_peak_deg);
                 (
-                    phase_table.peak_removed(args.forward_peak_deg),
+                    phase_table.peak_removed(args.droplets.forward_peak_deg),
                     optical_depth * (1.0 - p_f),
                 )
             } else {
@@ -334,40 +524,17 @@ pub fn run(args: &SlabArgs) -> anyhow::Result<()> {
             let settings = TraceSettings {
                 photons: args.photons,
                 seed: args.seed,
-                sun_zenith_deg: args.sun_zenith_deg,
+                sun_zenith_deg,
                 views: vec![view],
                 ..TraceSettings::default()
             };
             let start = std::time::Instant::now();
-            let total = args
-                .photons
-                .div_ceil(nimbus_physics::transport::monte_carlo::BATCH_PHOTONS)
-                * nimbus_physics::transport::monte_carlo::BATCH_PHOTONS;
-            // Redraw at most four times a second, and only on a terminal.
-            let show = std::io::stderr().is_terminal();
-            let last_draw = std::sync::Mutex::new(0.0f64);
-            let progress = |done: u64| {
-                let elapsed = start.elapsed().as_secs_f64();
-                {
-                    let mut last = last_draw.lock().unwrap_or_else(|e| e.into_inner());
-                    if !show || (elapsed - *last < 0.25 && done < total) {
-                        return;
-                    }
-                    *last = elapsed;
-                }
-                let eta = elapsed * (total.saturating_sub(done)) as f64 / done.max(1) as f64;
-                let mut stderr = std::io::stderr();
-                let _ = write!(
-                    stderr,
-                    "\rnimbus: slab: {done}/{total} photons ({:.0} %), {elapsed:.1} s, ETA {eta:.1} s   ",
-                    100.0 * done as f64 / total as f64
-                );
-                let _ = stderr.flush();
-            };
-            let result = trace(&medium, &settings, &progress);
-            if show {
-                eprintln!();
-            }
+            let progress = Progress::new(
+                "slab: photons",
+                args.photons.div_ceil(BATCH_PHOTONS) * BATCH_PHOTONS,
+            );
+            let result = trace(&medium, &settings, &|done| progress.update(done));
+            progress.finish();
             let seconds = start.elapsed().as_secs_f64();
             if args.timing {
                 let threads = nimbus_physics::transport::monte_carlo::worker_threads();
