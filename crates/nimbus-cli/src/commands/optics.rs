@@ -330,6 +330,8 @@ fn run_dsd(args: &DsdArgs) -> anyhow::Result<()> {
     }
     let total_start = std::time::Instant::now();
     let mut results = Vec::new();
+    // The progress line is for people watching a terminal, not for logs.
+    let show_progress = std::io::IsTerminal::is_terminal(&std::io::stderr());
     for (i, wl) in wavelengths.iter().enumerate() {
         let start = std::time::Instant::now();
         let mut stderr = std::io::stderr();
@@ -340,6 +342,9 @@ fn run_dsd(args: &DsdArgs) -> anyhow::Result<()> {
             &angles,
             args.tolerance,
             &mut |nodes| {
+                if !show_progress {
+                    return;
+                }
                 let _ = write!(
                     stderr,
                     "\rnimbus: optics: {wl} nm ({}/{}): {nodes} radius nodes…      ",
@@ -349,7 +354,9 @@ fn run_dsd(args: &DsdArgs) -> anyhow::Result<()> {
                 let _ = stderr.flush();
             },
         );
-        eprintln!();
+        if show_progress {
+            eprintln!();
+        }
         if args.timing {
             eprintln!(
                 "nimbus: timing: {wl} nm: {:.3} s ({} radius nodes, {} angles)",
