@@ -10,6 +10,7 @@ pub mod atmosphere;
 pub mod noise;
 pub mod optics;
 pub mod photometry;
+pub mod radiosity;
 pub mod sh;
 pub mod sky;
 pub mod terrain;
