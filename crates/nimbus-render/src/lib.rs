@@ -16,6 +16,7 @@ pub mod exposure;
 pub mod frame;
 pub mod gpu;
 pub mod headless;
+pub mod radiosity;
 pub mod renderer;
 pub mod scene;
 pub mod shader;

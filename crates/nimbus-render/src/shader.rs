@@ -50,6 +50,7 @@ pub fn all_modules() -> Vec<(&'static str, String)> {
         ("terrain", crate::terrain::shader_source()),
         ("exposure", crate::exposure::shader_source()),
         ("tonemap", crate::tonemap::shader_source()),
+        ("radiosity", crate::radiosity::shader_source()),
     ]);
     modules
 }
