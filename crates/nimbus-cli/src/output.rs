@@ -65,6 +65,15 @@ pub fn write_atomically(
     result
 }
 
+/// Writes `bytes` to `path` atomically; `flag` names the option that gave
+/// the path, for the error message.
+pub fn write_bytes_atomically(path: &Path, flag: &str, bytes: &[u8]) -> anyhow::Result<()> {
+    write_atomically(path, |temporary| {
+        std::fs::write(temporary, bytes)
+            .with_context(|| format!("{flag} {}: write failed", path.display()))
+    })
+}
+
 /// Writes a tone-mapped image as PNG.
 pub fn write_png(path: &Path, image: &Rgba8Image) -> anyhow::Result<()> {
     use image::ImageEncoder;

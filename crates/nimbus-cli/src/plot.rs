@@ -5,7 +5,7 @@
 //! `nimbus optics dsd --plot` (like Bouthors et al. 2006, fig. 4) and the
 //! per-order radiance plots of `nimbus slab plot` (like figs 6 and 9).
 
-use crate::output::write_atomically;
+use crate::output::write_bytes_atomically;
 use anyhow::Context;
 use image::ImageEncoder;
 
@@ -308,10 +308,7 @@ impl Chart {
         image::codecs::png::PngEncoder::new(&mut encoded)
             .write_image(self.img.as_raw(), w, h, image::ExtendedColorType::Rgb8)
             .with_context(|| format!("{flag} {}: PNG encoding failed", path.display()))?;
-        write_atomically(path, |temporary| {
-            std::fs::write(temporary, &encoded)
-                .with_context(|| format!("{flag} {}: write failed", path.display()))
-        })
+        write_bytes_atomically(path, flag, &encoded)
     }
 }
 

@@ -1,8 +1,7 @@
 //! `nimbus optics`: Mie scattering by one sphere, and the bulk optics of a
 //! droplet size distribution.
 
-use crate::output::write_atomically;
-use anyhow::Context;
+use crate::output::write_bytes_atomically;
 use clap::{Args, Subcommand};
 use nimbus_physics::optics::dsd::{BulkOptics, SizeDistribution, bulk_optics_observed};
 use nimbus_physics::optics::mie::{MAX_SIZE_PARAMETER, MieCoefficients};
@@ -486,8 +485,5 @@ fn write_csv(path: &std::path::Path, entries: &[DsdEntry]) -> anyhow::Result<()>
         }
         text.push('\n');
     }
-    write_atomically(path, |temporary| {
-        std::fs::write(temporary, &text)
-            .with_context(|| format!("--csv {}: write failed", path.display()))
-    })
+    write_bytes_atomically(path, "--csv", text.as_bytes())
 }

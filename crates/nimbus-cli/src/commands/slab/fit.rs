@@ -7,7 +7,7 @@ use super::{DropletArgs, Progress, check_photons};
 use clap::Args;
 use nimbus_physics::transport::fit::{FluxSample, fit_one_dimensional};
 use nimbus_physics::transport::monte_carlo::{BATCH_PHOTONS, TraceSettings, trace};
-use nimbus_physics::transport::stratus::OneDimensionalTable;
+use nimbus_physics::transport::stratus::{OneDimensionalParams, OneDimensionalTable};
 use serde::Serialize;
 use std::path::PathBuf;
 
@@ -75,6 +75,21 @@ struct Row {
     r: f64,
     rms_transmittance: f64,
     rms_orders: f64,
+}
+
+impl Row {
+    fn new(p: &OneDimensionalParams, rms_transmittance: f64, rms_orders: f64) -> Self {
+        Self {
+            sun_zenith_deg: p.sun_zenith_deg,
+            b: p.b,
+            c: p.c,
+            kappa_c: p.kappa_c,
+            t: p.t,
+            r: p.r,
+            rms_transmittance,
+            rms_orders,
+        }
+    }
 }
 
 #[derive(Serialize)]
@@ -161,10 +176,7 @@ pub fn run(args: &FitArgs) -> anyhow::Result<()> {
         ("thicknesses_m", list(&thicknesses)),
     ];
     let text = fit.table.to_toml(&source);
-    crate::output::write_atomically(&args.out, |temporary| {
-        std::fs::write(temporary, &text)
-            .map_err(|e| anyhow::anyhow!("--out {}: write failed: {e}", args.out.display()))
-    })?;
+    crate::output::write_bytes_atomically(&args.out, "--out", text.as_bytes())?;
 
     let paper = OneDimensionalTable::bouthors_2006();
     let rows: Vec<Row> = fit
@@ -172,16 +184,7 @@ pub fn run(args: &FitArgs) -> anyhow::Result<()> {
         .rows
         .iter()
         .zip(fit.rms_transmittance.iter().zip(&fit.rms_orders))
-        .map(|(p, (rt, ro))| Row {
-            sun_zenith_deg: p.sun_zenith_deg,
-            b: p.b,
-            c: p.c,
-            kappa_c: p.kappa_c,
-            t: p.t,
-            r: p.r,
-            rms_transmittance: *rt,
-            rms_orders: *ro,
-        })
+        .map(|(p, (rt, ro))| Row::new(p, *rt, *ro))
         .collect();
     if args.json {
         let report = Report {
@@ -189,16 +192,7 @@ pub fn run(args: &FitArgs) -> anyhow::Result<()> {
             paper: paper
                 .rows
                 .iter()
-                .map(|p| Row {
-                    sun_zenith_deg: p.sun_zenith_deg,
-                    b: p.b,
-                    c: p.c,
-                    kappa_c: p.kappa_c,
-                    t: p.t,
-                    r: p.r,
-                    rms_transmittance: f64::NAN,
-                    rms_orders: f64::NAN,
-                })
+                .map(|p| Row::new(p, f64::NAN, f64::NAN))
                 .collect(),
             rows,
             paper_beta: paper.beta,

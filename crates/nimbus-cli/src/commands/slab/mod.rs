@@ -502,25 +502,22 @@ fn run_point(args: &SlabArgs) -> anyhow::Result<()> {
         }
         Method::MonteCarlo => {
             let modified = is_mie && args.mie_mode == MieMode::Modified;
-            let (table, depth) = if modified {
-                let p_f = phase_table.forward_fraction(args.droplets.forward_peak_deg);
-                (
-                    phase_table.peak_removed(args.droplets.forward_peak_deg),
-                    optical_depth * (1.0 - p_f),
-                )
-            } else {
-                (phase_table.clone(), optical_depth)
+            let medium = match (&choice, &mie) {
+                (PhaseChoice::Mie, Some(o)) => o
+                    .traced(modified.then_some(args.droplets.forward_peak_deg))
+                    .slab(thickness_m),
+                (PhaseChoice::HenyeyGreenstein(g), _) => SlabMedium {
+                    optical_depth,
+                    single_scattering_albedo: albedo,
+                    phase: PhaseModel::HenyeyGreenstein { g: *g },
+                },
+                _ => SlabMedium {
+                    optical_depth,
+                    single_scattering_albedo: albedo,
+                    phase: PhaseModel::Isotropic,
+                },
             };
-            let phase = match choice {
-                PhaseChoice::HenyeyGreenstein(g) => PhaseModel::HenyeyGreenstein { g },
-                PhaseChoice::Isotropic => PhaseModel::Isotropic,
-                PhaseChoice::Mie => PhaseModel::tabulated(&table),
-            };
-            let medium = SlabMedium {
-                optical_depth: depth,
-                single_scattering_albedo: albedo,
-                phase,
-            };
+            let depth = medium.optical_depth;
             let settings = TraceSettings {
                 photons: args.photons,
                 seed: args.seed,

@@ -326,10 +326,7 @@ pub fn run(args: &PlotArgs) -> anyhow::Result<()> {
                 f.total.std_error
             ));
         }
-        crate::output::write_atomically(path, |temporary| {
-            std::fs::write(temporary, &text)
-                .map_err(|e| anyhow::anyhow!("--csv {}: write failed: {e}", path.display()))
-        })?;
+        crate::output::write_bytes_atomically(path, "--csv", text.as_bytes())?;
     }
     eprintln!(
         "nimbus: slab plot: wrote {} ({} view angles, {} photons per tracing)",
