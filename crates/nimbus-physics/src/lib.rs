@@ -7,6 +7,7 @@
 //! per linear Rec.709 channel as described in [`photometry`].
 
 pub mod atmosphere;
+pub mod cloud_layer;
 pub mod noise;
 pub mod optics;
 pub mod photometry;

@@ -114,6 +114,73 @@ pub fn ridged(x: f64, y: f64, seed: u32, fractal: Fractal) -> f64 {
     if norm > 0.0 { sum / norm } else { 0.0 }
 }
 
+/// Hash of a 3-D lattice cell and a seed.
+fn hash_cell_3d(ix: i32, iy: i32, iz: i32, seed: u32) -> u32 {
+    hash_u32(
+        (ix as u32)
+            ^ hash_u32(
+                (iy as u32) ^ hash_u32((iz as u32) ^ hash_u32(seed.wrapping_add(0x9e37_79b9))),
+            ),
+    )
+}
+
+/// The twelve gradients of Perlin's improved noise: the midpoints of a
+/// cube's edges (Perlin 2002, §3), which avoid the clumping of random
+/// unit vectors.
+const EDGE_GRADIENTS: [(f64, f64, f64); 12] = [
+    (1.0, 1.0, 0.0),
+    (-1.0, 1.0, 0.0),
+    (1.0, -1.0, 0.0),
+    (-1.0, -1.0, 0.0),
+    (1.0, 0.0, 1.0),
+    (-1.0, 0.0, 1.0),
+    (1.0, 0.0, -1.0),
+    (-1.0, 0.0, -1.0),
+    (0.0, 1.0, 1.0),
+    (0.0, -1.0, 1.0),
+    (0.0, 1.0, -1.0),
+    (0.0, -1.0, -1.0),
+];
+
+/// 3-D gradient noise at (x, y, z) (Perlin 2002), in about [−1, 1], zero at
+/// every lattice point. The WGSL twin is `gradient_noise_3d` in
+/// `nimbus-render`'s `stratus/layer.wgsl`; both use only integer hashing and
+/// the same arithmetic so that they agree to float rounding.
+pub fn gradient_noise_3d(x: f64, y: f64, z: f64, seed: u32) -> f64 {
+    let (x0, y0, z0) = (x.floor(), y.floor(), z.floor());
+    let (ix, iy, iz) = (x0 as i32, y0 as i32, z0 as i32);
+    let (fx, fy, fz) = (x - x0, y - y0, z - z0);
+    let corner = |cx: i32, cy: i32, cz: i32| {
+        let (gx, gy, gz) =
+            EDGE_GRADIENTS[(hash_cell_3d(ix + cx, iy + cy, iz + cz, seed) % 12) as usize];
+        gx * (fx - cx as f64) + gy * (fy - cy as f64) + gz * (fz - cz as f64)
+    };
+    let (u, v, w) = (fade(fx), fade(fy), fade(fz));
+    let lerp = |a: f64, b: f64, t: f64| a + t * (b - a);
+    let x00 = lerp(corner(0, 0, 0), corner(1, 0, 0), u);
+    let x10 = lerp(corner(0, 1, 0), corner(1, 1, 0), u);
+    let x01 = lerp(corner(0, 0, 1), corner(1, 0, 1), u);
+    let x11 = lerp(corner(0, 1, 1), corner(1, 1, 1), u);
+    lerp(lerp(x00, x10, v), lerp(x01, x11, v), w)
+}
+
+/// Fractal sum of 3-D gradient noise normalised to about [−1, 1]. The
+/// octaves are rotated in the (x, y) plane like [`fbm`]'s, and the third
+/// coordinate is scaled with the others, so finer octaves also change
+/// faster along it (time, for the cloud layer: small cells evolve faster).
+pub fn fbm_3d(x: f64, y: f64, z: f64, seed: u32, fractal: Fractal) -> f64 {
+    let (mut px, mut py, mut pz) = (x, y, z);
+    let (mut sum, mut amplitude, mut norm) = (0.0, 1.0, 0.0);
+    for octave in 0..fractal.octaves {
+        sum += amplitude * gradient_noise_3d(px, py, pz, seed.wrapping_add(octave * 7919));
+        norm += amplitude;
+        amplitude *= fractal.gain;
+        (px, py) = rotate(px * fractal.lacunarity, py * fractal.lacunarity);
+        pz *= fractal.lacunarity;
+    }
+    if norm > 0.0 { sum / norm } else { 0.0 }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -152,5 +219,25 @@ mod tests {
         }
         mean /= n as f64;
         assert!(mean.abs() < 0.05, "mean {mean}");
+    }
+
+    #[test]
+    fn noise_3d_vanishes_on_the_lattice_is_bounded_and_continuous() {
+        for i in -3..3 {
+            for j in -3..3 {
+                assert_eq!(gradient_noise_3d(i as f64, j as f64, 2.0, 5), 0.0);
+            }
+        }
+        let mut max = 0.0f64;
+        for k in 0..20_000 {
+            let t = k as f64 * 0.0137;
+            let (x, y, z) = (t, (t * 0.731).sin() * 40.0, (t * 0.37).cos() * 9.0);
+            let n = gradient_noise_3d(x, y, z, 11);
+            max = max.max(n.abs());
+            // Lipschitz: the gradient of improved noise is bounded (≤ about 3).
+            let d = gradient_noise_3d(x + 1e-4, y, z, 11) - n;
+            assert!(d.abs() < 5e-4, "jump {d} at {x} {y} {z}");
+        }
+        assert!(max <= 1.1 && max > 0.5, "max |noise| = {max}");
     }
 }
