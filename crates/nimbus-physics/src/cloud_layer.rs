@@ -34,7 +34,7 @@ pub const OCTAVE_STD_DEV: f64 = 0.2682;
 
 /// Width of the ramp from the cloud's edge to its full thickness, in
 /// standard deviations of the noise.
-pub const EDGE_RAMP_STD_DEVS: f64 = 0.8;
+pub const EDGE_RAMP_STD_DEVS: f64 = 2.5;
 
 /// Amplitude ratio between octaves.
 const GAIN: f64 = 0.5;

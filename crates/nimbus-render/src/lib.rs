@@ -21,6 +21,7 @@ pub mod renderer;
 pub mod scene;
 pub mod shader;
 pub mod sky;
+pub mod stratus;
 pub mod targets;
 pub mod terrain;
 pub mod timing;

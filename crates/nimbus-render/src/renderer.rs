@@ -2,34 +2,43 @@
 //!
 //! The frame's pass order lives in [`Renderer::encode`] and nowhere else:
 //! the atmosphere's LUTs and lighting inputs (when their inputs changed),
-//! sky, terrain, then tone mapping into the caller's output target. Every
-//! pass writes GPU timestamps when the device supports them.
+//! the stratus layer's field and radiosity, sky, terrain, the stratus layer,
+//! exposure, then tone mapping into the caller's output target. Every pass
+//! writes GPU timestamps when the device supports them.
 
 use crate::atmosphere::AtmospherePass;
 use crate::exposure::ExposurePass;
 use crate::frame::{FrameBinding, FrameUniform};
 use crate::scene::Scene;
 use crate::sky::{SkyPass, SkySettings};
+use crate::stratus::StratusPass;
 use crate::targets::{FAR_DEPTH, HDR_FORMAT, Target};
 use crate::terrain::TerrainPass;
 use crate::timing::GpuTimer;
 use crate::tonemap::TonemapPass;
 
 /// Names of the passes in frame order, as reported by timings.
-pub const PASS_NAMES: [&str; 9] = [
+pub const PASS_NAMES: [&str; 11] = [
     "transmittance",
     "multiple_scattering",
     "sky_view",
     "aerial_perspective",
     "lighting",
+    "stratus_lighting",
     "sky",
     "terrain",
+    "stratus",
     "exposure",
     "tonemap",
 ];
 
-/// Timer slot of the first drawing pass (after the atmosphere's).
-const SKY_PASS_INDEX: u32 = crate::atmosphere::PASS_NAMES.len() as u32;
+/// Timer slots of the passes after the atmosphere's.
+const STRATUS_LIGHTING_PASS_INDEX: u32 = crate::atmosphere::PASS_NAMES.len() as u32;
+const SKY_PASS_INDEX: u32 = STRATUS_LIGHTING_PASS_INDEX + 1;
+const TERRAIN_PASS_INDEX: u32 = SKY_PASS_INDEX + 1;
+const STRATUS_PASS_INDEX: u32 = TERRAIN_PASS_INDEX + 1;
+const EXPOSURE_PASS_INDEX: u32 = STRATUS_PASS_INDEX + 1;
+const TONEMAP_PASS_INDEX: u32 = EXPOSURE_PASS_INDEX + 1;
 
 /// How the renderer is set up.
 #[derive(Clone, Copy, Debug)]
@@ -90,6 +99,9 @@ pub enum RenderError {
         /// The device's `max_buffer_size`.
         max: u64,
     },
+    /// The stratus layer's resources could not be built.
+    #[error(transparent)]
+    Stratus(#[from] crate::stratus::StratusError),
 }
 
 /// Lighting depends only on these scene values; recomputed when they change.
@@ -103,6 +115,7 @@ pub struct Renderer {
     exposure: ExposurePass,
     sky: SkyPass,
     terrain: TerrainPass,
+    stratus: StratusPass,
     tonemap: TonemapPass,
     hdr: Option<Target>,
     timer: Option<GpuTimer>,
@@ -124,7 +137,13 @@ impl Renderer {
         );
         let atmosphere = AtmospherePass::new(device, &frame.layout);
         let sky = SkyPass::new(device, &frame.layout, atmosphere.lookup_layout());
-        let terrain = TerrainPass::new(device, &frame.layout, atmosphere.lookup_layout());
+        let stratus = StratusPass::new(device, &frame.layout, atmosphere.lookup_layout());
+        let terrain = TerrainPass::new(
+            device,
+            &frame.layout,
+            atmosphere.lookup_layout(),
+            stratus.lookup_layout(),
+        );
         let tonemap = TonemapPass::new(device, queue, descriptor.output_format);
         let exposure = ExposurePass::new(device, &frame.layout);
         let timer = if descriptor.timestamps {
@@ -140,6 +159,7 @@ impl Renderer {
             exposure,
             sky,
             terrain,
+            stratus,
             tonemap,
             hdr: None,
             timer,
@@ -232,6 +252,10 @@ impl Renderer {
         self.terrain
             .prepare(&self.device, &self.queue, &scene.terrain)?;
         self.terrain.prepare_sun(&self.queue, scene.sun.direction());
+        if let Some(terrain) = self.terrain.terrain() {
+            self.stratus
+                .prepare(&self.device, &self.queue, scene, terrain, time_s)?;
+        }
         Ok(())
     }
 
@@ -245,9 +269,6 @@ impl Renderer {
             self.atmosphere
                 .encode(encoder, &self.frame.bind_group, self.timer.as_ref(), 0);
         run[..atmosphere_run.len()].copy_from_slice(&atmosphere_run);
-        if let Ok(mut last) = self.passes_run.lock() {
-            *last = run;
-        }
         let atmosphere = self.atmosphere.lookup_bind_group();
         let (color_load, depth_load) = match targets.load {
             TargetLoad::Clear => (
@@ -257,7 +278,27 @@ impl Renderer {
             TargetLoad::Keep => (wgpu::LoadOp::Load, wgpu::LoadOp::Load),
         };
         let frame = &self.frame.bind_group;
-        // 2. Sky, sun and open sea, at the far plane.
+        let Some(stratus) = self.stratus.lookup_group() else {
+            return;
+        };
+        // 2. The stratus layer's thickness field and ground–cloud radiosity.
+        if self.stratus.enabled() {
+            let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                label: Some("stratus lighting"),
+                timestamp_writes: self
+                    .timer
+                    .as_ref()
+                    .map(|t| t.compute_pass_writes(STRATUS_LIGHTING_PASS_INDEX)),
+            });
+            self.stratus.encode_compute(&mut pass, frame, atmosphere);
+        } else {
+            run[STRATUS_LIGHTING_PASS_INDEX as usize] = false;
+            run[STRATUS_PASS_INDEX as usize] = false;
+        }
+        if let Ok(mut last) = self.passes_run.lock() {
+            *last = run;
+        }
+        // 3. Sky, sun and open sea, at the far plane.
         {
             let mut pass = self.hdr_pass(
                 encoder,
@@ -270,31 +311,44 @@ impl Renderer {
             );
             self.sky.draw(&mut pass, frame, atmosphere);
         }
-        // 3. Terrain, depth-tested.
+        // 4. Terrain, depth-tested.
         {
             let mut pass = self.hdr_pass(
                 encoder,
                 "terrain",
-                SKY_PASS_INDEX + 1,
+                TERRAIN_PASS_INDEX,
                 hdr,
                 targets.depth,
                 wgpu::LoadOp::Load,
                 wgpu::LoadOp::Load,
             );
-            self.terrain.draw(&mut pass, frame, atmosphere);
+            self.terrain.draw(&mut pass, frame, atmosphere, stratus);
         }
-        // 4. Exposure: meter the frame (automatic exposure) or pass the manual EV through.
+        // 5. The stratus layer, blended over sky and terrain, depth-tested.
+        if self.stratus.enabled() {
+            let mut pass = self.hdr_pass(
+                encoder,
+                "stratus",
+                STRATUS_PASS_INDEX,
+                hdr,
+                targets.depth,
+                wgpu::LoadOp::Load,
+                wgpu::LoadOp::Load,
+            );
+            self.stratus.draw(&mut pass, frame, atmosphere);
+        }
+        // 6. Exposure: meter the frame (automatic exposure) or pass the manual EV through.
         {
             let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
                 label: Some("exposure"),
                 timestamp_writes: self
                     .timer
                     .as_ref()
-                    .map(|t| t.compute_pass_writes(SKY_PASS_INDEX + 2)),
+                    .map(|t| t.compute_pass_writes(EXPOSURE_PASS_INDEX)),
             });
             self.exposure.encode(&mut pass, frame);
         }
-        // 5. Tone map into the caller's output.
+        // 7. Tone map into the caller's output.
         {
             let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
                 label: Some("tonemap"),
@@ -311,7 +365,7 @@ impl Renderer {
                 timestamp_writes: self
                     .timer
                     .as_ref()
-                    .map(|t| t.pass_writes(SKY_PASS_INDEX + 3)),
+                    .map(|t| t.pass_writes(TONEMAP_PASS_INDEX)),
                 occlusion_query_set: None,
                 multiview_mask: None,
             });
@@ -399,6 +453,11 @@ impl Renderer {
     /// The HDR colour target (pre-exposed linear radiance), once prepared.
     pub fn hdr_target(&self) -> Option<&Target> {
         self.hdr.as_ref()
+    }
+
+    /// The stratus pass (its radiosity and uniform).
+    pub fn stratus(&self) -> &StratusPass {
+        &self.stratus
     }
 
     /// The terrain's albedo map (RGB albedo, A water mask), once prepared.

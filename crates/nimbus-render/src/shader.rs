@@ -51,6 +51,8 @@ pub fn all_modules() -> Vec<(&'static str, String)> {
         ("exposure", crate::exposure::shader_source()),
         ("tonemap", crate::tonemap::shader_source()),
         ("radiosity", crate::radiosity::shader_source()),
+        ("stratus layer", crate::stratus::layer_shader_source()),
+        ("stratus compute", crate::stratus::compute_shader_source()),
     ]);
     modules
 }

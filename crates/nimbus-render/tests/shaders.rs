@@ -166,6 +166,24 @@ fn pass_uniforms_match_wgsl_layout() {
         TonemapUniform,
         [encode_srgb, dither_lsb, code_values, _padding,]
     );
+    assert_layout!(
+        module_named("stratus layer"),
+        "Stratus",
+        nimbus_render::stratus::StratusUniform,
+        [
+            shape,
+            motion,
+            window,
+            extinction,
+            forward_fraction,
+            forward_spread,
+            slab,
+            slab_r_beta,
+            radiosity,
+            flags,
+            sizes,
+        ]
+    );
 }
 
 #[test]

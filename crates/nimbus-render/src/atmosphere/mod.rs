@@ -427,7 +427,8 @@ impl AtmospherePass {
             ),
         ];
 
-        let fragment = wgpu::ShaderStages::FRAGMENT | wgpu::ShaderStages::VERTEX;
+        let fragment =
+            wgpu::ShaderStages::FRAGMENT | wgpu::ShaderStages::VERTEX | wgpu::ShaderStages::COMPUTE;
         let lookup_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("atmosphere lookup"),
             entries: &[

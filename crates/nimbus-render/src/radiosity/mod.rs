@@ -91,6 +91,24 @@ fn level_offsets(size: u32) -> [u32; 5] {
     offsets
 }
 
+/// The input buffers of the pass, one `vec4<f32>` (RGB, unused) per texel,
+/// row-major.
+#[derive(Clone, Copy, Debug)]
+pub struct RadiosityInputBuffers<'a> {
+    /// ρ_G.
+    pub ground_reflectance: &'a wgpu::Buffer,
+    /// ρ_C.
+    pub cloud_reflectance: &'a wgpu::Buffer,
+    /// S_G^d + S_G^sky: the ground's own light before the first bounce.
+    pub ground_extra: &'a wgpu::Buffer,
+    /// R_G, starting at S_G^sky.
+    pub ground_received: &'a wgpu::Buffer,
+    /// R_C, starting at 0.
+    pub cloud_received: &'a wgpu::Buffer,
+    /// The cloud's pyramid; its level 0 (the first size² texels) starts at S_C.
+    pub cloud_emitted: &'a wgpu::Buffer,
+}
+
 /// R_G and R_C read back, one `[R, G, B, unused]` per texel.
 pub type ReadBack = (Vec<[f32; 4]>, Vec<[f32; 4]>);
 
@@ -355,14 +373,21 @@ impl RadiosityPass {
     }
 
     /// Records the initialisation and `iterations` ground → cloud → ground
-    /// iterations.
+    /// iterations in a compute pass of its own.
     pub fn encode(&self, encoder: &mut wgpu::CommandEncoder, iterations: u32) {
-        const GROUND: usize = 0;
-        const CLOUD: usize = 1;
         let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
             label: Some("radiosity"),
             timestamp_writes: None,
         });
+        self.encode_into(&mut pass, iterations);
+    }
+
+    /// Records the initialisation and `iterations` ground → cloud → ground
+    /// iterations into `pass` (the inputs must have been written before,
+    /// by [`Self::upload`] or a shader writing [`Self::input_buffers`]).
+    pub fn encode_into(&self, pass: &mut wgpu::ComputePass<'_>, iterations: u32) {
+        const GROUND: usize = 0;
+        const CLOUD: usize = 1;
         let groups = |side: u32| side.div_ceil(8);
         // MIP levels 1..=3 of the emitter's pyramid, then the gather into
         // the receiver; `step` 3 is the initial gather, 4 the others.
@@ -382,6 +407,19 @@ impl RadiosityPass {
         for _ in 0..iterations {
             exchange(GROUND, CLOUD, 4);
             exchange(CLOUD, GROUND, 4);
+        }
+    }
+
+    /// The buffers a shader writes to set the inputs up on the GPU (the
+    /// same state [`Self::upload`] leaves).
+    pub fn input_buffers(&self) -> RadiosityInputBuffers<'_> {
+        RadiosityInputBuffers {
+            ground_reflectance: &self.ground_reflectance,
+            cloud_reflectance: &self.cloud_reflectance,
+            ground_extra: &self.ground_extra,
+            ground_received: &self.ground_received,
+            cloud_received: &self.cloud_received,
+            cloud_emitted: &self.cloud_pyramid,
         }
     }
 

@@ -44,11 +44,11 @@ pub struct Scene {
     pub terrain: TerrainParams,
     /// Cumulus clouds (reserved: parsed and validated, not rendered yet).
     pub cumulus: Option<CumulusSettings>,
-    /// Stratiform cloud layer (reserved: parsed and validated, not rendered yet).
+    /// Stratiform cloud layer.
     pub stratus: Option<StratusSettings>,
     /// Rain (reserved: parsed and validated, not rendered yet).
     pub rain: Option<RainSettings>,
-    /// Wind (reserved: parsed and validated, not used yet).
+    /// Wind: carries the stratiform layer.
     pub wind: Option<WindSettings>,
 }
 
@@ -188,16 +188,39 @@ impl Default for CumulusSettings {
     }
 }
 
-/// A stratiform cloud layer (`[stratus]`, reserved).
+/// A stratiform cloud layer (`[stratus]`), rendered after Bouthors et al.
+/// (2006): a thickness field over many kilometres, shaded with the analytic
+/// slab model and lit by the ground through radiosity.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct StratusSettings {
-    /// Height of the layer's base, m, in [0, 15000].
+    /// Height of the lowest cloud base, m, in [0, 15000]. The layer's
+    /// mid-plane is at `base_m + thickness_m / 2`; each cell extends half its
+    /// thickness above and below it.
     pub base_m: f64,
-    /// Geometric thickness, m, in [1, 5000].
+    /// Thickness of the thickest cells, m, in [1, 2000] (Bouthors 2006: up to 500).
     pub thickness_m: f64,
-    /// Effective droplet radius, µm, in [1, 50].
+    /// Fraction of the sky covered, in [0, 1].
+    pub coverage: f64,
+    /// Horizontal size of the largest cells, m, in [100, 100000].
+    pub feature_size_m: f64,
+    /// Octaves of detail in the cells' shape, 1 to 8.
+    pub detail: u32,
+    /// Random seed of the pattern.
+    pub seed: u32,
+    /// Time over which the largest cells change shape while they drift, s, in [10, 1e6].
+    pub evolution_time_s: f64,
+    /// Effective droplet radius r_e, µm, in [1, 50] (modified gamma DSD, γ = 2).
     pub effective_radius_um: f64,
+    /// Droplet number concentration N₀, cm⁻³, in [1, 5000].
+    pub droplet_concentration_cm3: f64,
+    /// Side of the square of layer drawn around the camera, m, in [1000, 400000].
+    pub extent_m: f64,
+    /// Texels (and grid vertices) per side of the thickness field, 16 to 2048.
+    pub resolution: u32,
+    /// Ground–cloud radiosity iterations (each one ground → cloud → ground),
+    /// 0 to 32 (Bouthors 2006: 2 suffice over country, 8 over snow).
+    pub radiosity_iterations: u32,
 }
 
 impl Default for StratusSettings {
@@ -205,7 +228,16 @@ impl Default for StratusSettings {
         Self {
             base_m: 1000.0,
             thickness_m: 400.0,
-            effective_radius_um: 6.0,
+            coverage: 0.7,
+            feature_size_m: 3000.0,
+            detail: 5,
+            seed: 1,
+            evolution_time_s: 1800.0,
+            effective_radius_um: 7.0,
+            droplet_concentration_cm3: 300.0,
+            extent_m: 40_000.0,
+            resolution: 512,
+            radiosity_iterations: 3,
         }
     }
 }
@@ -226,7 +258,7 @@ impl Default for RainSettings {
     }
 }
 
-/// Uniform wind (`[wind]`, reserved).
+/// Uniform wind (`[wind]`): carries the cloud layer.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct WindSettings {
@@ -242,6 +274,17 @@ impl Default for WindSettings {
             speed_m_s: 5.0,
             from_deg: 270.0,
         }
+    }
+}
+
+impl WindSettings {
+    /// The horizontal wind velocity (x east, z south), m/s: blowing from
+    /// `from_deg` (clockwise from north, north = −z).
+    pub fn velocity_xz_m_s(&self) -> [f64; 2] {
+        let from = self.from_deg.to_radians();
+        // The unit vector towards where the wind comes from is (sin, −cos);
+        // the air moves the other way.
+        [-self.speed_m_s * from.sin(), self.speed_m_s * from.cos()]
     }
 }
 
@@ -279,14 +322,8 @@ impl Scene {
         if self.cumulus.is_some() {
             names.push("cumulus");
         }
-        if self.stratus.is_some() {
-            names.push("stratus");
-        }
         if self.rain.is_some() {
             names.push("rain");
-        }
-        if self.wind.is_some() {
-            names.push("wind");
         }
         names
     }

@@ -183,6 +183,13 @@ fn every_range_is_checked() {
         ("[cumulus]\nbase_m = -5", "cumulus.base_m = -5"),
         ("[stratus]\nthickness_m = 0", "stratus.thickness_m = 0"),
         ("[stratus]\nbase_m = 20000", "stratus.base_m = 20000"),
+        ("[stratus]\ncoverage = 1.5", "stratus.coverage = 1.5"),
+        ("[stratus]\ndetail = 0", "stratus.detail = 0"),
+        ("[stratus]\nresolution = 4096", "stratus.resolution = 4096"),
+        (
+            "[stratus]\nradiosity_iterations = 100",
+            "stratus.radiosity_iterations = 100",
+        ),
         (
             "[stratus]\neffective_radius_um = 0.1",
             "stratus.effective_radius_um = 0.1",
@@ -264,7 +271,24 @@ fn reserved_sections_are_parsed_and_listed() {
     let scene =
         Scene::from_toml_str("[rain]\nintensity_mm_h = 12.5\n[wind]\n", "s.toml").expect("scene");
     assert_eq!(scene.rain.as_ref().map(|r| r.intensity_mm_h), Some(12.5));
-    assert_eq!(scene.reserved_sections_present(), vec!["rain", "wind"]);
+    assert_eq!(scene.reserved_sections_present(), vec!["rain"]);
+}
+
+#[test]
+fn wind_from_the_west_blows_towards_the_east() {
+    let wind = WindSettings {
+        speed_m_s: 10.0,
+        from_deg: 270.0,
+    };
+    let [x, z] = wind.velocity_xz_m_s();
+    assert!((x - 10.0).abs() < 1e-9 && z.abs() < 1e-9);
+    // From the north (−z) towards the south (+z).
+    let [x, z] = WindSettings {
+        from_deg: 0.0,
+        ..wind
+    }
+    .velocity_xz_m_s();
+    assert!(x.abs() < 1e-9 && (z - 10.0).abs() < 1e-9);
 }
 
 #[test]

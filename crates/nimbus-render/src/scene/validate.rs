@@ -410,12 +410,35 @@ impl Scene {
         }
         if let Some(st) = &self.stratus {
             c.closed("stratus.base_m", st.base_m, 0.0, 15_000.0)?;
-            c.closed("stratus.thickness_m", st.thickness_m, 1.0, 5_000.0)?;
+            c.closed("stratus.thickness_m", st.thickness_m, 1.0, 2_000.0)?;
+            c.closed("stratus.coverage", st.coverage, 0.0, 1.0)?;
+            c.closed(
+                "stratus.feature_size_m",
+                st.feature_size_m,
+                100.0,
+                100_000.0,
+            )?;
+            c.integer("stratus.detail", st.detail as u64, 1, 8)?;
+            c.closed("stratus.evolution_time_s", st.evolution_time_s, 10.0, 1e6)?;
             c.closed(
                 "stratus.effective_radius_um",
                 st.effective_radius_um,
                 1.0,
                 50.0,
+            )?;
+            c.closed(
+                "stratus.droplet_concentration_cm3",
+                st.droplet_concentration_cm3,
+                1.0,
+                5_000.0,
+            )?;
+            c.closed("stratus.extent_m", st.extent_m, 1_000.0, 400_000.0)?;
+            c.integer("stratus.resolution", st.resolution as u64, 16, 2048)?;
+            c.integer(
+                "stratus.radiosity_iterations",
+                st.radiosity_iterations as u64,
+                0,
+                32,
             )?;
         }
         if let Some(rain) = &self.rain {

@@ -1,6 +1,11 @@
 // Shading of an open water surface: Fresnel reflection of the sky and the
 // sun (a GGX microfacet lobe), and the diffuse light from under the surface.
-// Needs common.wgsl and the atmosphere lookups (atmosphere_lookup.wgsl).
+// Needs common.wgsl and the atmosphere lookups (atmosphere_lookup.wgsl),
+// and two functions from the including pass, which knows what lies above the
+// water: `water_reflection_source(position_m, direction) -> vec3<f32>`, the
+// radiance arriving at the surface from a direction above it, and
+// `water_sky_irradiance(position_m) -> vec3<f32>`, the diffuse irradiance on
+// the horizontal surface.
 
 // Schlick's approximation with the normal-incidence reflectance of water, 0.02 (n = 1.33).
 fn water_fresnel(cos_theta: f32) -> f32 {
@@ -37,8 +42,9 @@ fn water_normal(position_m: vec3<f32>, footprint_m: f32) -> vec3<f32> {
 }
 
 // Radiance leaving the water surface at `position_m` towards the camera;
-// `sun_visibility` is the visible fraction of the solar disk there.
-fn water_radiance(position_m: vec3<f32>, diffuse_albedo: vec3<f32>, sun_visibility: f32) -> vec3<f32> {
+// `sun_visibility` is the fraction of the sun's light that reaches it (solar
+// disk above the relief, through any cloud), per channel.
+fn water_radiance(position_m: vec3<f32>, diffuse_albedo: vec3<f32>, sun_visibility: vec3<f32>) -> vec3<f32> {
     let to_eye_m = frame.camera_position_m - position_m;
     let to_eye = normalize(to_eye_m);
     // Length of a pixel's footprint along the view on a horizontal surface.
@@ -48,7 +54,7 @@ fn water_radiance(position_m: vec3<f32>, diffuse_albedo: vec3<f32>, sun_visibili
     let fresnel = water_fresnel(cos_v);
     var r = reflect(-to_eye, n);
     r.y = max(r.y, 0.0);
-    let reflected_sky = sky_radiance(normalize(r)) * fresnel;
+    let reflected_sky = water_reflection_source(position_m, normalize(r)) * fresnel;
 
     let l = frame.sun_direction;
     let cos_l = dot(n, l);
@@ -61,7 +67,7 @@ fn water_radiance(position_m: vec3<f32>, diffuse_albedo: vec3<f32>, sun_visibili
         glint = sun_irradiance_at(position_m) * sun_visibility * cos_l * d * water_fresnel(lh) / (4.0 * lh * lh);
     }
     let irradiance = sun_irradiance_at(position_m) * max(frame.sun_direction.y, 0.0) * sun_visibility
-        + lighting.sky_irradiance_up.xyz;
+        + water_sky_irradiance(position_m);
     let body = diffuse_albedo / PI * irradiance * (1.0 - fresnel);
     return reflected_sky + glint + body;
 }

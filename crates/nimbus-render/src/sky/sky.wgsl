@@ -35,8 +35,16 @@ fn sky_fragment(in: FullscreenOutput) -> @location(0) vec4<f32> {
     if (direction.y < 0.0 && height > 0.0) {
         let distance = height / -direction.y;
         let sea_point = frame.camera_position_m + direction * distance;
-        let sea = water_radiance(sea_point, params.water_albedo.rgb, 1.0);
+        let sea = water_radiance(sea_point, params.water_albedo.rgb, vec3<f32>(1.0));
         return to_target(apply_aerial_perspective(sea, sea_point));
     }
     return to_target(sky_radiance(direction) + solar_disk(direction));
+}
+
+// What the open sea beyond the terrain reflects: the clear sky (water.wgsl's hooks).
+fn water_reflection_source(position_m: vec3<f32>, direction: vec3<f32>) -> vec3<f32> {
+    return sky_radiance(direction);
+}
+fn water_sky_irradiance(position_m: vec3<f32>) -> vec3<f32> {
+    return lighting.sky_irradiance_up.xyz;
 }

@@ -21,6 +21,7 @@ const TERRAIN_WGSL: WgslFile = WgslFile {
 /// The composed WGSL of this pass.
 pub fn shader_source() -> String {
     let mut files = shader::DRAWING_LIBRARIES.to_vec();
+    files.extend(crate::stratus::DRAWING_LIBRARIES);
     files.extend([shader::WATER, TERRAIN_WGSL]);
     shader::compose(&files)
 }
@@ -102,6 +103,7 @@ impl TerrainPass {
         device: &wgpu::Device,
         frame_layout: &wgpu::BindGroupLayout,
         atmosphere_layout: &wgpu::BindGroupLayout,
+        stratus_layout: &wgpu::BindGroupLayout,
     ) -> Self {
         let group_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("terrain albedo"),
@@ -124,6 +126,7 @@ impl TerrainPass {
                 Some(frame_layout),
                 Some(&group_layout),
                 Some(atmosphere_layout),
+                Some(stratus_layout),
             ],
             immediate_size: 0,
         });
@@ -298,6 +301,11 @@ impl TerrainPass {
         mesh.sun_direction = Some(sun_direction);
     }
 
+    /// The CPU terrain, once prepared.
+    pub fn terrain(&self) -> Option<&Terrain> {
+        self.mesh.as_ref().map(|m| &m.terrain)
+    }
+
     /// The albedo map (RGB albedo, A water mask), once prepared.
     pub fn albedo_view(&self) -> Option<&wgpu::TextureView> {
         self.mesh.as_ref().map(|m| &m.albedo_view)
@@ -314,12 +322,14 @@ impl TerrainPass {
         pass: &mut wgpu::RenderPass<'_>,
         frame: &wgpu::BindGroup,
         atmosphere: &wgpu::BindGroup,
+        stratus: &wgpu::BindGroup,
     ) {
         let Some(mesh) = &self.mesh else { return };
         pass.set_pipeline(&self.pipeline);
         pass.set_bind_group(0, frame, &[]);
         pass.set_bind_group(1, &mesh.bind_group, &[]);
         pass.set_bind_group(2, atmosphere, &[]);
+        pass.set_bind_group(3, stratus, &[]);
         pass.set_vertex_buffer(0, mesh.vertices.slice(..));
         pass.set_index_buffer(mesh.indices.slice(..), wgpu::IndexFormat::Uint32);
         pass.draw_indexed(0..mesh.index_count, 0, 0..1);

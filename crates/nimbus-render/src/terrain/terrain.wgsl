@@ -1,8 +1,10 @@
 // Terrain pass: the heightfield lit by the sun (Lambert, with terrain
 // shadows) and by the environment (sky and ground, from the lighting
 // inputs' spherical harmonics), with open water shaded by water.wgsl, seen
-// through the aerial perspective. Needs common.wgsl, the atmosphere lookups
-// and water.wgsl.
+// through the aerial perspective. Under a stratus layer the sun is shadowed
+// by the layer's directional transmittance T_C and the indirect light is the
+// radiosity's R_G (Bouthors et al. 2006, §5). Needs common.wgsl, the
+// atmosphere lookups, stratus/field.wgsl, stratus/lookup.wgsl and water.wgsl.
 
 // Group 1: the albedo map. RGB: linear albedo (sRGB-encoded storage);
 // A: water mask (1 = water).
@@ -36,19 +38,41 @@ fn terrain_vertex(v: TerrainVertex) -> TerrainVarying {
 }
 
 // Radiance of a Lambertian surface of albedo `albedo` with unit normal `n` at `position_m`.
-fn lambert_radiance(albedo: vec3<f32>, position_m: vec3<f32>, n: vec3<f32>, sun_visibility: f32) -> vec3<f32> {
+// `sun_visibility` is the fraction of the sun's light reaching the point.
+fn lambert_radiance(albedo: vec3<f32>, position_m: vec3<f32>, n: vec3<f32>, sun_visibility: vec3<f32>) -> vec3<f32> {
     let direct = sun_irradiance_at(position_m) * max(dot(n, frame.sun_direction), 0.0) * sun_visibility;
-    let environment = sh_irradiance(lighting, n);
+    let environment = stratus_ground_irradiance(position_m, n, sh_irradiance(lighting, n));
     return albedo / PI * (direct + environment);
 }
 
 @fragment
 fn terrain_fragment(in: TerrainVarying) -> @location(0) vec4<f32> {
     let texel = textureSample(albedo_map, albedo_sampler, in.uv);
-    let sun_visibility = textureSample(sun_visibility_map, albedo_sampler, in.uv).r;
+    let sun_visibility = textureSample(sun_visibility_map, albedo_sampler, in.uv).r
+        * stratus_sun_transmittance(in.position_m);
     let n = normalize(in.normal);
     let land = lambert_radiance(texel.rgb, in.position_m, n, sun_visibility);
     // The water mask is filtered, so shorelines blend smoothly.
     let water = water_radiance(in.position_m, texel.rgb, sun_visibility);
     return to_target(apply_aerial_perspective(mix(land, water, texel.a), in.position_m));
+}
+
+// What the water reflects: the sky, behind the stratus layer where the
+// reflected ray meets it (the layer's base then seen with its opacity
+// 1 − τ and, as its radiance, the mean radiance R_G/π of the overcast
+// hemisphere); water.wgsl's hooks.
+fn water_reflection_source(position_m: vec3<f32>, direction: vec3<f32>) -> vec3<f32> {
+    let sky = sky_radiance(direction);
+    if (!stratus_enabled() || position_m.y >= stratus.window.x || direction.y <= 1e-3) {
+        return sky;
+    }
+    let crossing = position_m.xz + direction.xz * ((stratus.window.x - position_m.y) / direction.y);
+    let h = stratus_thickness_at(crossing);
+    let opacity = (1.0 - exp(-stratus.extinction.y * h / direction.y)) * stratus_window_fade(crossing);
+    let base = stratus_radiosity_sample(true, crossing) / PI;
+    return mix(sky, base, opacity);
+}
+fn water_sky_irradiance(position_m: vec3<f32>) -> vec3<f32> {
+    let up = vec3<f32>(0.0, 1.0, 0.0);
+    return stratus_ground_irradiance(position_m, up, lighting.sky_irradiance_up.xyz);
 }

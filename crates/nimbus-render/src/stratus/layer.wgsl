@@ -1,0 +1,176 @@
+// Stratus layer pass: the layer drawn as a displaced grid over the
+// thickness window (built on the GPU from the field: no CPU upload per
+// frame), the surface facing the camera only (the top seen from above, the
+// base from below), shaded per pixel with the analytic model of Bouthors,
+// Neyret & Lefebvre 2006, §4 and §6, and blended over the sky and terrain
+// with alpha = 1 − τ(H_v). CPU reference of the radiance:
+// nimbus_physics::transport::stratus::StratusModel::radiance. Needs
+// common.wgsl, the atmosphere lookups, stratus/field.wgsl and
+// stratus/lookup.wgsl.
+
+// Smallest cosine used for grazing directions (89.9°).
+const MIN_MU: f32 = 1.745e-3;
+
+struct LayerVarying {
+    @builtin(position) clip_position: vec4<f32>,
+    @location(0) position_m: vec3<f32>,
+}
+
+// Which face the camera sees: +1 the top, −1 the base.
+fn visible_face() -> f32 {
+    return select(-1.0, 1.0, frame.camera_position_m.y > stratus.window.x);
+}
+
+@vertex
+fn layer_vertex(@builtin(vertex_index) index: u32) -> LayerVarying {
+    let n = stratus.flags.w;
+    let ij = vec2<u32>(index % n, index / n);
+    let xz = stratus.window.zw + (vec2<f32>(ij) + 0.5) * (stratus.window.y / f32(n));
+    let h = textureLoad(stratus_thickness, vec2<i32>(ij), 0).r;
+    let position = vec3<f32>(xz.x, stratus.window.x + 0.5 * visible_face() * h, xz.y);
+    var out: LayerVarying;
+    out.clip_position = frame.clip_from_world * vec4<f32>(position, 1.0);
+    out.position_m = position;
+    return out;
+}
+
+// (e^{−a/μ_v} − e^{−a/μ_l}) / (μ_v − μ_l), finite as μ_v → μ_l (twin of
+// nimbus_physics::transport::stratus::exp_difference_quotient).
+fn exp_difference_quotient(a: vec3<f32>, mu_v: f32, mu_l: f32) -> vec3<f32> {
+    let z = a * (mu_v - mu_l) / (mu_v * mu_l);
+    if (abs(mu_v - mu_l) * max(a.x, max(a.y, a.z)) > 0.5 * mu_v * mu_l) {
+        return (exp(-a / mu_v) - exp(-a / mu_l)) / (mu_v - mu_l);
+    }
+    // (e^z − 1)/z to z³: relative error below 2e-4 for |z| ≤ 0.5.
+    let ratio = 1.0 + z * (0.5 + z * (1.0 / 6.0 + z / 24.0));
+    return exp(-a / mu_l) * ratio * a / (mu_v * mu_l);
+}
+
+// ((1 + a/μ_v) e^{−a/μ_v} − (1 + a/μ_l) e^{−a/μ_l}) / (μ_v − μ_l), finite as
+// μ_v → μ_l, where it tends to (a²/μ³) e^{−a/μ}.
+fn poisson2_difference_quotient(a: vec3<f32>, mu_v: f32, mu_l: f32) -> vec3<f32> {
+    if (abs(mu_v - mu_l) < 1e-3 * mu_l) {
+        let mu = 0.5 * (mu_v + mu_l);
+        return a * a / (mu * mu * mu) * exp(-a / mu);
+    }
+    let gv = (1.0 + a / mu_v) * exp(-a / mu_v);
+    let gl = (1.0 + a / mu_l) * exp(-a / mu_l);
+    return (gv - gl) / (mu_v - mu_l);
+}
+
+// I_0F per unit beam flux: the forward peak convolved with itself once per
+// peak event on the path (Poisson, mean P_f κ H_v), with n ≥ 2 as the
+// small-angle Gaussian of n times the peak's mean square angle.
+fn forward_peak_radiance(h: f32, mu_v: f32, theta: f32) -> vec3<f32> {
+    // Beyond 0.6 rad even 60 convolved peaks have fallen below 1 % of their
+    // centre; skip the series.
+    if (theta > 0.6) {
+        return vec3<f32>(0.0);
+    }
+    let kappa = stratus.extinction.rgb;
+    let p_f = stratus.forward_fraction.rgb;
+    let path = h / mu_v;
+    let survival = exp(-(1.0 - p_f) * kappa * path);
+    let mean = p_f * kappa * path;
+    let s2 = max(stratus.forward_spread.rgb, vec3<f32>(1e-8));
+    var poisson = exp(-mean);
+    var sum = vec3<f32>(0.0);
+    let m = max(mean.x, max(mean.y, mean.z));
+    let last = min(u32(ceil(m + 10.0 * sqrt(m) + 10.0)), 64u);
+    for (var k = 1u; k <= last; k = k + 1u) {
+        poisson = poisson * mean / f32(k);
+        var peak: vec3<f32>;
+        if (k == 1u) {
+            peak = stratus_forward_peak(theta);
+        } else {
+            let variance = f32(k) * s2;
+            peak = exp(-theta * theta / variance) / (PI * variance);
+        }
+        sum += poisson * peak;
+    }
+    return survival * sum;
+}
+
+@fragment
+fn layer_fragment(in: LayerVarying) -> @location(0) vec4<f32> {
+    let xz = in.position_m.xz;
+    let h = stratus_thickness_at(xz);
+    if (h <= 0.05) {
+        discard;
+    }
+    // The local slab normal, from the thickness gradient: both faces are
+    // mid ± h/2, so the slab's upward normal is (−½ ∂h/∂x, 1, −½ ∂h/∂z).
+    let texel = stratus.window.y / f32(stratus.flags.w);
+    let dx = stratus_thickness_at(xz + vec2<f32>(texel, 0.0)) - stratus_thickness_at(xz - vec2<f32>(texel, 0.0));
+    let dz = stratus_thickness_at(xz + vec2<f32>(0.0, texel)) - stratus_thickness_at(xz - vec2<f32>(0.0, texel));
+    let up = normalize(vec3<f32>(-0.25 * dx / texel, 1.0, -0.25 * dz / texel));
+
+    let v = normalize(frame.camera_position_m - in.position_m);
+    let l = frame.sun_direction;
+    let viewer_above = frame.camera_position_m.y > stratus.window.x;
+    let sun_above = l.y > 0.0;
+    // Orders 0–2 are local events: cosines to the local normal. Orders 3+
+    // and the diffuse sources are global: cosines to the vertical (§6).
+    let mu_v = max(abs(dot(up, v)), MIN_MU);
+    let mu_l = max(abs(dot(up, l)), MIN_MU);
+    let mu_l_vertical = max(abs(l.y), MIN_MU);
+    let theta = acos(clamp(dot(-l, v), -1.0, 1.0));
+
+    let kappa = stratus.extinction.rgb;
+    let kappa_s = (1.0 - stratus.forward_fraction.rgb) * kappa;
+    let p_s = stratus_peak_removed(theta);
+    let p2 = stratus_double(theta);
+    let fluxes = slab_fluxes(stratus, h, mu_l_vertical);
+
+    // Sun light on the lit face. The model's radiances are per unit
+    // incident flux on that face: for orders 0–2 the flux through the local
+    // surface, for 3+ the flux through the horizontal slab.
+    let lit_face_m = vec3<f32>(in.position_m.x, stratus.window.x + select(-0.5, 0.5, sun_above) * h, in.position_m.z);
+    let sun = sun_irradiance_at(lit_face_m);
+
+    var local_orders: vec3<f32>;
+    var global_orders: vec3<f32>;
+    if (viewer_above == sun_above) {
+        // Reflection (§4.3–4.5).
+        let a = kappa_s * h * (1.0 / mu_l + 1.0 / mu_v);
+        let geometry = 1.0 / (mu_v + mu_l);
+        let single = p_s * geometry * (1.0 - exp(-a));
+        let double = 0.5 * p2 * geometry * (1.0 - (1.0 + a) * exp(-a));
+        local_orders = single + double;
+        global_orders = vec3<f32>(fluxes.r3plus / PI);
+    } else {
+        // Transmission, with the forward peak I_0F (§4.2).
+        let a = kappa_s * h;
+        let peak = forward_peak_radiance(h, mu_v, theta) / mu_l;
+        let single = p_s * exp_difference_quotient(a, mu_v, mu_l);
+        let double = 0.5 * p2 * poisson2_difference_quotient(a, mu_v, mu_l);
+        local_orders = peak + single + double;
+        global_orders = fluxes.t3plus / PI;
+    }
+    let sun_light = sun * (local_orders * mu_l + global_orders * select(0.0, mu_l_vertical, l.y != 0.0));
+
+    // Sky above the layer and the ground's light below it (R_C from the
+    // radiosity), both diffuse, carried by T_ms and R_ms (§4.6). The part
+    // of the diffuse transmittance that is unscattered (2E₃(κH) ≈
+    // e^{−1.66 κH}, the diffusivity approximation) is the background seen
+    // through the layer, which blending already adds.
+    let sky_above = lighting.sky_irradiance_up.xyz;
+    let ground_below = stratus_radiosity_sample(false, xz);
+    let unscattered = exp(-1.66 * kappa * h);
+    let transmitted = max(vec3<f32>(fluxes.transmittance) - unscattered, vec3<f32>(0.0));
+    var diffuse: vec3<f32>;
+    if (viewer_above) {
+        diffuse = fluxes.reflectance * sky_above + transmitted * ground_below;
+    } else {
+        diffuse = transmitted * sky_above + fluxes.reflectance * ground_below;
+    }
+    let radiance = sun_light + diffuse / PI;
+
+    // Opacity 1 − τ(H_v) (§4.6), faded out over the window's outer fifth so
+    // that its edge never shows.
+    let fade = stratus_window_fade(xz);
+    let alpha = (1.0 - exp(-kappa.y * h / mu_v)) * fade;
+    let ap = aerial_perspective(in.position_m);
+    let seen = radiance * fade * ap.a + ap.rgb * alpha;
+    return vec4<f32>(min(seen * pre_exposure(), vec3<f32>(frame.max_pre_exposed)), alpha);
+}
