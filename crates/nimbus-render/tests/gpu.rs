@@ -152,6 +152,107 @@ golden_scene!(golden_sunset, "sunset");
 golden_scene!(golden_twilight_sun_5_degrees_below_horizon, "twilight");
 golden_scene!(golden_view_from_10_km, "high-altitude");
 
+/// Golden images of the stratus scenes, at twice the size so that the glory,
+/// fogbow and silver lining stay visible in them.
+macro_rules! golden_stratus_scene {
+    ($test:ident, $file:literal) => {
+        #[test]
+        fn $test() {
+            let scene = scene_file(concat!($file, ".toml"));
+            let image = headless()
+                .render_rgba8(&scene, 2 * GOLDEN_WIDTH, 2 * GOLDEN_HEIGHT, 0.0)
+                .expect("render");
+            assert_matches_golden($file, &image);
+        }
+    };
+}
+
+golden_stratus_scene!(golden_stratus_from_the_ground_at_noon, "stratus-noon");
+golden_stratus_scene!(
+    golden_stratus_from_a_plane_at_sunset_pseudo_specular,
+    "stratus-sunset-plane"
+);
+golden_stratus_scene!(golden_stratus_silver_lining, "stratus-silver-lining");
+golden_stratus_scene!(golden_stratus_glory_and_fogbow, "stratus-glory");
+golden_stratus_scene!(golden_stratus_over_the_sea, "stratus-sea");
+golden_stratus_scene!(golden_stratus_over_snow, "stratus-snow");
+
+/// Mean luminance (Rec.709) of the linear radiance in rows [top, bottom) of an image.
+fn mean_luminance_rows(image: &nimbus_render::headless::HdrImage, top: u32, bottom: u32) -> f64 {
+    let w = image.width as usize;
+    let rows = &image.pixels[top as usize * w..bottom as usize * w];
+    rows.iter()
+        .map(|p| 0.2126 * p[0] as f64 + 0.7152 * p[1] as f64 + 0.0722 * p[2] as f64)
+        .sum::<f64>()
+        / rows.len() as f64
+}
+
+/// Ice blink and water sky (Bouthors 2006, §5): the same overcast layer's
+/// base is much brighter over snow (albedo 0.85) than over the sea (about
+/// 0.08), because of the light exchanged between ground and cloud. The
+/// radiosity estimate: the base's ground-lit share grows as ρ_G / (1 − ρ_G R_ms).
+#[test]
+fn stratus_base_is_brighter_over_snow_than_over_the_sea() {
+    let mut h = headless();
+    let base = |h: &mut HeadlessRenderer, file: &str| {
+        let image = h
+            .render_hdr(&scene_file(file), 64, 36, 0.0)
+            .expect("render");
+        // The upper third of the frame is the cloud base.
+        mean_luminance_rows(&image, 0, 12)
+    };
+    let snow = base(&mut h, "stratus-snow.toml");
+    let sea = base(&mut h, "stratus-sea.toml");
+    assert!(
+        snow > 1.4 * sea,
+        "cloud base over snow {snow}, over sea {sea}"
+    );
+}
+
+/// Seen from above with the sun behind the camera, the antisolar point
+/// (image centre) shows the glory, brighter than the cloud a few degrees
+/// away, and the fogbow (scattering angle ≈ 145°) is brighter than the
+/// cloud on either side of it.
+#[test]
+fn stratus_glory_and_fogbow_brighten_their_angles() {
+    let mut scene = scene_file("stratus-glory.toml");
+    // A view centred on the antisolar point, 1 pixel ≈ 0.5°.
+    scene.camera.fov_deg = 90.0;
+    let (w, hgt) = (180u32, 180u32);
+    let image = headless().render_hdr(&scene, w, hgt, 0.0).expect("render");
+    let camera = Camera::from_settings(&scene.camera, w, hgt);
+    let antisolar = -DVec3::from_array(scene.sun.direction());
+    let luminance =
+        |p: &[f32; 3]| 0.2126 * p[0] as f64 + 0.7152 * p[1] as f64 + 0.0722 * p[2] as f64;
+    // Mean luminance of the pixels whose ray is within [lo, hi) degrees of
+    // the antisolar direction.
+    let ring = |lo: f64, hi: f64| {
+        let (mut sum, mut count) = (0.0, 0);
+        for y in 0..hgt {
+            for x in 0..w {
+                let ray = pixel_ray(&camera, w, hgt, x, y);
+                let angle = ray.dot(antisolar).clamp(-1.0, 1.0).acos().to_degrees();
+                if angle >= lo && angle < hi {
+                    sum += luminance(&image.pixels[(y * w + x) as usize]);
+                    count += 1;
+                }
+            }
+        }
+        assert!(count > 0, "no pixel in [{lo}, {hi})");
+        sum / count as f64
+    };
+    let (glory, beside) = (ring(0.0, 1.5), ring(6.0, 9.0));
+    assert!(glory > 1.1 * beside, "glory {glory}, 6–9° away {beside}");
+    // The fogbow is a local maximum of the radial profile, 33–36° from the
+    // centre (Θ ≈ 145°, where this DSD's P_S peaks), over the slow fall of
+    // the Lambertian 3+ orders with the view angle.
+    let (inside, fogbow, outside) = (ring(27.0, 30.0), ring(33.0, 36.0), ring(39.0, 42.0));
+    assert!(
+        fogbow > 1.015 * inside && fogbow > 1.015 * outside,
+        "fogbow {fogbow}, 6° inside {inside}, 6° outside {outside}"
+    );
+}
+
 #[test]
 fn rendering_twice_gives_identical_pixels() {
     let scene = scene_file("golden-hour.toml");

@@ -94,16 +94,20 @@ fn forward_peak_radiance(h: f32, mu_v: f32, theta: f32) -> vec3<f32> {
 @fragment
 fn layer_fragment(in: LayerVarying) -> @location(0) vec4<f32> {
     let xz = in.position_m.xz;
-    let h = stratus_thickness_at(xz);
+    // The field itself, per pixel: the window's texels (tens of metres)
+    // would show as jagged edges on nearby cells; the mesh only carries the
+    // coarse relief.
+    let h = layer_thickness_m(stratus, xz);
     if (h <= 0.05) {
         discard;
     }
     // The local slab normal, from the thickness gradient: both faces are
     // mid ± h/2, so the slab's upward normal is (−½ ∂h/∂x, 1, −½ ∂h/∂z).
-    let texel = stratus.window.y / f32(stratus.flags.w);
-    let dx = stratus_thickness_at(xz + vec2<f32>(texel, 0.0)) - stratus_thickness_at(xz - vec2<f32>(texel, 0.0));
-    let dz = stratus_thickness_at(xz + vec2<f32>(0.0, texel)) - stratus_thickness_at(xz - vec2<f32>(0.0, texel));
-    let up = normalize(vec3<f32>(-0.25 * dx / texel, 1.0, -0.25 * dz / texel));
+    // Forward differences over a quarter of the finest octave's wavelength.
+    let step_m = 0.25 / (stratus.shape.x * exp2(f32(stratus.flags.y - 1u)));
+    let dh_dx = (layer_thickness_m(stratus, xz + vec2<f32>(step_m, 0.0)) - h) / step_m;
+    let dh_dz = (layer_thickness_m(stratus, xz + vec2<f32>(0.0, step_m)) - h) / step_m;
+    let up = normalize(vec3<f32>(-0.5 * dh_dx, 1.0, -0.5 * dh_dz));
 
     let v = normalize(frame.camera_position_m - in.position_m);
     let l = frame.sun_direction;
@@ -170,7 +174,7 @@ fn layer_fragment(in: LayerVarying) -> @location(0) vec4<f32> {
     // that its edge never shows.
     let fade = stratus_window_fade(xz);
     let alpha = (1.0 - exp(-kappa.y * h / mu_v)) * fade;
-    let ap = aerial_perspective(in.position_m);
+    let ap = stratus_aerial_perspective(in.position_m);
     let seen = radiance * fade * ap.a + ap.rgb * alpha;
     return vec4<f32>(min(seen * pre_exposure(), vec3<f32>(frame.max_pre_exposed)), alpha);
 }

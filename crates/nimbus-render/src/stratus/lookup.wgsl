@@ -139,3 +139,32 @@ fn stratus_ground_irradiance(position_m: vec3<f32>, n: vec3<f32>, clear: vec3<f3
     let tilt = clear / max(up, vec3<f32>(1e-6));
     return stratus_radiosity_sample(true, position_m.xz) * tilt;
 }
+
+// Share of the aerial perspective's in-scattered light that is the sun's
+// single scattering, which the layer's shadow removes (the rest, light of
+// the sky scattered again, is left as is). An estimate: in clear daytime air
+// near the ground single scattering of sunlight carries most of the
+// in-scattered light, and nearly all of it towards the sun (the aureole).
+const STRATUS_SUN_SHARE_OF_INSCATTER: f32 = 0.75;
+
+// The aerial perspective between the camera and `position_m` with the air
+// under the layer in its shadow: the sun's share of the in-scattered light is
+// scaled by the mean of the layer's directional transmittance at the path's
+// two ends (without it, looking towards a sun hidden by the layer would show
+// the aureole of sunlit air in front of the cloud).
+fn stratus_aerial_perspective(position_m: vec3<f32>) -> vec4<f32> {
+    let ap = aerial_perspective(position_m);
+    if (!stratus_enabled()) {
+        return ap;
+    }
+    let shade = 0.5 * (stratus_sun_transmittance(frame.camera_position_m) + stratus_sun_transmittance(position_m));
+    let scale = mix(vec3<f32>(1.0), shade, STRATUS_SUN_SHARE_OF_INSCATTER);
+    return vec4<f32>(ap.rgb * scale, ap.a);
+}
+
+// Radiance leaving a world point as seen from the camera, through air
+// shadowed by the layer.
+fn stratus_apply_aerial_perspective(radiance: vec3<f32>, position_m: vec3<f32>) -> vec3<f32> {
+    let ap = stratus_aerial_perspective(position_m);
+    return radiance * ap.a + ap.rgb;
+}

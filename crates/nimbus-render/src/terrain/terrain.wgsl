@@ -54,7 +54,7 @@ fn terrain_fragment(in: TerrainVarying) -> @location(0) vec4<f32> {
     let land = lambert_radiance(texel.rgb, in.position_m, n, sun_visibility);
     // The water mask is filtered, so shorelines blend smoothly.
     let water = water_radiance(in.position_m, texel.rgb, sun_visibility);
-    return to_target(apply_aerial_perspective(mix(land, water, texel.a), in.position_m));
+    return to_target(stratus_apply_aerial_perspective(mix(land, water, texel.a), in.position_m));
 }
 
 // What the water reflects: the sky, behind the stratus layer where the
