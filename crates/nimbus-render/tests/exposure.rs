@@ -155,6 +155,7 @@ fn dithering_keeps_sky_gradients_free_of_bands() {
     // by less than one code per few pixels, which without dithering shows as
     // bands (runs of equal values). With dithering the runs are short.
     let mut scene = Scene::embedded_default();
+    scene.stratus = None;
     scene.terrain.resolution = 32;
     scene.camera.position_m = [0.0, 1000.0, 0.0];
     scene.camera.look_at_m = None;

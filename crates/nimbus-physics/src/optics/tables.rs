@@ -174,7 +174,11 @@ impl CloudOpticsTables {
         }
         let tables = Self::compute(params);
         std::fs::create_dir_all(dir)?;
-        let temporary = path.with_extension(format!("{}.tmp", std::process::id()));
+        // A name unique to this process and call: threads of one process
+        // (parallel tests) may compute the same tables at once.
+        static CALLS: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
+        let call = CALLS.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+        let temporary = path.with_extension(format!("{}-{call}.tmp", std::process::id()));
         {
             let mut file = std::fs::File::create(&temporary)?;
             file.write_all(&tables.to_bytes())?;
