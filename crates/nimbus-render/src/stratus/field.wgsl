@@ -32,7 +32,7 @@ struct Stratus {
     // texels per side.
     flags: vec4<u32>,
     // x: texels of P_S and P² over 0–180°; y: texels of P_F over 0–θ_f;
-    // z: radiosity texels per side; w: unused.
+    // z: radiosity texels per side; w: 1 when both faces are drawn.
     sizes: vec4<u32>,
 }
 

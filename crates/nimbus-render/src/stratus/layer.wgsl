@@ -14,21 +14,27 @@ const MIN_MU: f32 = 1.745e-3;
 struct LayerVarying {
     @builtin(position) clip_position: vec4<f32>,
     @location(0) position_m: vec3<f32>,
+    // +1 for the top face, −1 for the base.
+    @location(1) @interpolate(flat) face: f32,
 }
 
-// Which face the camera sees: +1 the top, −1 the base.
-fn visible_face() -> f32 {
-    return select(-1.0, 1.0, frame.camera_position_m.y > stratus.window.x);
+// The face nearer the camera: +1 the top, −1 the base. Instance 0 draws it;
+// instance 1, drawn only while the camera is level with the layer, the other.
+fn layer_face(instance: u32) -> f32 {
+    let near = select(-1.0, 1.0, frame.camera_position_m.y > stratus.window.x);
+    return select(near, -near, instance == 1u);
 }
 
 @vertex
-fn layer_vertex(@builtin(vertex_index) index: u32) -> LayerVarying {
+fn layer_vertex(@builtin(vertex_index) index: u32, @builtin(instance_index) instance: u32) -> LayerVarying {
     let n = stratus.flags.w;
     let ij = vec2<u32>(index % n, index / n);
     let xz = stratus.window.zw + (vec2<f32>(ij) + 0.5) * (stratus.window.y / f32(n));
     let h = textureLoad(stratus_thickness, vec2<i32>(ij), 0).r;
-    let position = vec3<f32>(xz.x, stratus.window.x + 0.5 * visible_face() * h, xz.y);
+    let face = layer_face(instance);
+    let position = vec3<f32>(xz.x, stratus.window.x + 0.5 * face * h, xz.y);
     var out: LayerVarying;
+    out.face = face;
     out.clip_position = frame.clip_from_world * vec4<f32>(position, 1.0);
     out.position_m = position;
     return out;
@@ -111,7 +117,17 @@ fn layer_fragment(in: LayerVarying) -> @location(0) vec4<f32> {
 
     let v = normalize(frame.camera_position_m - in.position_m);
     let l = frame.sun_direction;
-    let viewer_above = frame.camera_position_m.y > stratus.window.x;
+    // With both faces drawn (the camera level with the layer), each shows
+    // only where it faces the camera: elsewhere the ray has crossed the
+    // layer through the other face, which shaded the whole slab. (With one
+    // face, its fine-scale normals may turn away from the camera on the
+    // coarse mesh without the ray leaving the cloud: nothing is discarded.)
+    let outward = vec3<f32>(up.x, up.y * in.face, up.z);
+    if (stratus.sizes.w == 1u && dot(outward, v) < 0.0) {
+        discard;
+    }
+    // The slab is seen from above on its top face, from below on its base.
+    let viewer_above = in.face > 0.0;
     let sun_above = l.y > 0.0;
     // Orders 0–2 are local events: cosines to the local normal. Orders 3+
     // and the diffuse sources are global: cosines to the vertical (§6).

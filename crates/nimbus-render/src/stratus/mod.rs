@@ -109,7 +109,7 @@ pub struct StratusUniform {
     pub radiosity: [f32; 4],
     /// Layer present (0/1), octaves, seed, thickness-window texels per side.
     pub flags: [u32; 4],
-    /// P_S/P² texels, P_F texels, radiosity texels per side.
+    /// P_S/P² texels, P_F texels, radiosity texels per side, both faces drawn (0/1).
     pub sizes: [u32; 4],
 }
 
@@ -297,6 +297,8 @@ pub struct StratusPass {
     settings: Option<StratusSettings>,
     /// The uniform as last written.
     current: StratusUniform,
+    /// The camera's height this frame, m.
+    camera_height_m: f64,
 }
 
 /// Errors of the pass.
@@ -445,6 +447,7 @@ impl StratusPass {
             resources: None,
             settings: None,
             current: StratusUniform::default(),
+            camera_height_m: 0.0,
         }
     }
 
@@ -473,6 +476,22 @@ impl StratusPass {
         &self.current
     }
 
+    /// Faces to draw: the one towards the camera, and the other too while
+    /// the camera is level with the layer (within half the thickest cell of
+    /// its mid-plane, plus a margin), where slopes of both face it.
+    fn face_count(&self) -> u32 {
+        let Some(settings) = &self.settings else {
+            return 0;
+        };
+        let mid = self.current.window[0] as f64;
+        let reach = 0.5 * settings.thickness_m + 50.0;
+        if (self.camera_height_m - mid).abs() <= reach {
+            2
+        } else {
+            1
+        }
+    }
+
     /// Whether the scene has a layer to draw.
     pub fn enabled(&self) -> bool {
         self.settings.is_some()
@@ -490,6 +509,7 @@ impl StratusPass {
         time_s: f32,
     ) -> Result<(), StratusError> {
         self.settings = scene.stratus.clone();
+        self.camera_height_m = scene.camera.position_m[1];
         let settings = self.settings.clone();
         let mid_plane_m = settings
             .as_ref()
@@ -586,6 +606,7 @@ impl StratusPass {
             flags: [1, field.fractal().octaves, settings.seed, n],
             sizes: [PHASE_TEXELS as u32, PEAK_TEXELS as u32, grid.size, 0],
         };
+        self.current.sizes[3] = u32::from(self.face_count() == 2);
         queue.write_buffer(&self.uniform, 0, bytemuck::bytes_of(&self.current));
         Ok(())
     }
@@ -773,7 +794,7 @@ impl StratusPass {
         pass.set_bind_group(2, atmosphere, &[]);
         pass.set_bind_group(3, &resources.lookup_group, &[]);
         pass.set_index_buffer(resources.indices.slice(..), wgpu::IndexFormat::Uint32);
-        pass.draw_indexed(0..resources.index_count, 0, 0..1);
+        pass.draw_indexed(0..resources.index_count, 0, 0..self.face_count());
     }
 }
 
