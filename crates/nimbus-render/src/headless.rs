@@ -205,7 +205,27 @@ fn check_readback(
 impl HeadlessRenderer {
     /// Reads a GPU buffer holding one `T` (e.g. the lighting inputs or the exposure state).
     pub fn read_buffer<T: bytemuck::Pod>(&self, buffer: &wgpu::Buffer) -> Result<T, HeadlessError> {
-        let size = std::mem::size_of::<T>() as u64;
+        let bytes = self.read_buffer_bytes(buffer, std::mem::size_of::<T>() as u64)?;
+        Ok(bytemuck::pod_read_unaligned(&bytes))
+    }
+
+    /// Reads the first `count` elements of a GPU buffer of `T`s (e.g. a
+    /// field of `[f32; 4]` texels).
+    pub fn read_buffer_elements<T: bytemuck::Pod>(
+        &self,
+        buffer: &wgpu::Buffer,
+        count: usize,
+    ) -> Result<Vec<T>, HeadlessError> {
+        let bytes = self.read_buffer_bytes(buffer, (count * std::mem::size_of::<T>()) as u64)?;
+        Ok(bytemuck::pod_collect_to_vec(&bytes))
+    }
+
+    /// Copies the first `size` bytes of a buffer to the CPU.
+    fn read_buffer_bytes(
+        &self,
+        buffer: &wgpu::Buffer,
+        size: u64,
+    ) -> Result<Vec<u8>, HeadlessError> {
         let staging = self.gpu.device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("buffer readback"),
             size,
@@ -215,10 +235,7 @@ impl HeadlessRenderer {
         let mut encoder = self.gpu.device.create_command_encoder(&Default::default());
         encoder.copy_buffer_to_buffer(buffer, 0, &staging, 0, size);
         self.gpu.queue.submit([encoder.finish()]);
-        let bytes = crate::binding::read_mapped(&self.gpu.device, &staging)
-            .map_err(HeadlessError::Readback)?;
-        let value = bytemuck::pod_read_unaligned(&bytes);
-        Ok(value)
+        crate::binding::read_mapped(&self.gpu.device, &staging).map_err(HeadlessError::Readback)
     }
 
     /// The exposure the last frame applied.

@@ -177,14 +177,17 @@ golden_stratus_scene!(golden_stratus_glory_and_fogbow, "stratus-glory");
 golden_stratus_scene!(golden_stratus_over_the_sea, "stratus-sea");
 golden_stratus_scene!(golden_stratus_over_snow, "stratus-snow");
 
-/// Mean luminance (Rec.709) of the linear radiance in rows [top, bottom) of an image.
+/// Rec.709 luminance of a linear radiance pixel (relative: no K_m).
+fn luminance(p: &[f32; 3]) -> f64 {
+    let [r, g, b] = nimbus_physics::photometry::REC709_LUMA;
+    r * p[0] as f64 + g * p[1] as f64 + b * p[2] as f64
+}
+
+/// Mean luminance of the linear radiance in rows [top, bottom) of an image.
 fn mean_luminance_rows(image: &nimbus_render::headless::HdrImage, top: u32, bottom: u32) -> f64 {
     let w = image.width as usize;
     let rows = &image.pixels[top as usize * w..bottom as usize * w];
-    rows.iter()
-        .map(|p| 0.2126 * p[0] as f64 + 0.7152 * p[1] as f64 + 0.0722 * p[2] as f64)
-        .sum::<f64>()
-        / rows.len() as f64
+    rows.iter().map(luminance).sum::<f64>() / rows.len() as f64
 }
 
 /// Ice blink and water sky (Bouthors 2006, §5): the same overcast layer's
@@ -222,8 +225,6 @@ fn stratus_glory_and_fogbow_brighten_their_angles() {
     let image = headless().render_hdr(&scene, w, hgt, 0.0).expect("render");
     let camera = Camera::from_settings(&scene.camera, w, hgt);
     let antisolar = -DVec3::from_array(scene.sun.direction());
-    let luminance =
-        |p: &[f32; 3]| 0.2126 * p[0] as f64 + 0.7152 * p[1] as f64 + 0.0722 * p[2] as f64;
     // Mean luminance of the pixels whose ray is within [lo, hi) degrees of
     // the antisolar direction.
     let ring = |lo: f64, hi: f64| {

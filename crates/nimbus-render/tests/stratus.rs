@@ -43,18 +43,7 @@ fn field_of(scene: &Scene) -> CloudLayerField {
 }
 
 fn read_vec4s(h: &HeadlessRenderer, buffer: &wgpu::Buffer, texels: usize) -> Vec<[f32; 4]> {
-    let bytes = (texels * 16) as u64;
-    let staging = h.gpu.device.create_buffer(&wgpu::BufferDescriptor {
-        label: Some("stratus test readback"),
-        size: bytes,
-        usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
-        mapped_at_creation: false,
-    });
-    let mut encoder = h.gpu.device.create_command_encoder(&Default::default());
-    encoder.copy_buffer_to_buffer(buffer, 0, &staging, 0, bytes);
-    h.gpu.queue.submit([encoder.finish()]);
-    let raw = nimbus_render::binding::read_mapped(&h.gpu.device, &staging).expect("map");
-    bytemuck::cast_slice(&raw).to_vec()
+    h.read_buffer_elements(buffer, texels).expect("read back")
 }
 
 /// The thickness window the GPU fills each frame equals the CPU field at

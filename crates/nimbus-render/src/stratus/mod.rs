@@ -144,12 +144,11 @@ pub fn optics_params(settings: &StratusSettings) -> CloudOpticsParams {
     }
 }
 
-/// The layer's optical tables: loaded from the cache or computed (and
+/// A layer's optical tables: loaded from the cache or computed (and
 /// cached; a cache that cannot be written only costs the computation).
-pub fn load_optics(settings: &StratusSettings) -> CloudOpticsTables {
-    let params = optics_params(settings);
-    CloudOpticsTables::load_or_compute(&optics_cache_dir(), &params)
-        .unwrap_or_else(|_| CloudOpticsTables::compute(&params))
+pub fn load_optics(params: &CloudOpticsParams) -> CloudOpticsTables {
+    CloudOpticsTables::load_or_compute(&optics_cache_dir(), params)
+        .unwrap_or_else(|_| CloudOpticsTables::compute(params))
 }
 
 /// Mean square angle of a forward-peak table sampled uniformly over
@@ -264,7 +263,8 @@ impl RadiosityGrid {
 #[derive(Clone, Debug, PartialEq)]
 struct ResourceKey {
     resolution: u32,
-    radiosity: Option<RadiosityGrid>,
+    /// The layer's mid-plane height, m: with the terrain, it sets the radiosity grid.
+    mid_plane_m: Option<f64>,
     optics: Option<CloudOpticsParams>,
     terrain: Option<nimbus_physics::terrain::TerrainParams>,
 }
@@ -273,6 +273,8 @@ struct ResourceKey {
 #[derive(Debug)]
 struct Resources {
     key: ResourceKey,
+    /// The radiosity grid of the layer over the terrain (None without a layer).
+    grid: Option<RadiosityGrid>,
     radiosity: RadiosityPass,
     lookup_group: wgpu::BindGroup,
     compute_group: wgpu::BindGroup,
@@ -518,9 +520,7 @@ impl StratusPass {
         let key = ResourceKey {
             // Without a layer, the smallest resources keep the bindings valid.
             resolution: settings.as_ref().map_or(16, |s| s.resolution),
-            radiosity: settings
-                .as_ref()
-                .map(|_| RadiosityGrid::new(terrain, mid_plane_m)),
+            mid_plane_m: settings.as_ref().map(|_| mid_plane_m),
             optics: settings.as_ref().map(optics_params),
             terrain: settings.as_ref().map(|_| terrain.params.clone()),
         };
@@ -558,9 +558,10 @@ impl StratusPass {
             [camera[0], camera[2]].map(|c| ((c - 0.5 * settings.extent_m) / texel).floor() * texel);
         let sun = scene.sun.direction();
         let sun_zenith_deg = sun[1].clamp(-1.0, 1.0).acos().to_degrees();
-        let p = OneDimensionalTable::bouthors_2006().at(sun_zenith_deg);
-        let beta = OneDimensionalTable::bouthors_2006().beta;
-        let grid = resources.key.radiosity.unwrap_or(RadiosityGrid {
+        let table = OneDimensionalTable::bouthors_2006();
+        let p = table.at(sun_zenith_deg);
+        let beta = table.beta;
+        let grid = resources.grid.unwrap_or(RadiosityGrid {
             size: 8,
             texel_m: 1.0,
             ground_height_m: 0.0,
@@ -636,9 +637,14 @@ impl StratusPass {
             view_formats: &[],
         });
         let thickness_view = thickness.create_view(&Default::default());
-        let radiosity_size = key.radiosity.map_or(8, |g| g.size);
+        // The grid sums the terrain's heights: built here, when its inputs
+        // change, not every frame.
+        let grid = key
+            .mid_plane_m
+            .map(|mid_plane_m| RadiosityGrid::new(terrain, mid_plane_m));
+        let radiosity_size = grid.map_or(8, |g| g.size);
         let radiosity = RadiosityPass::new(device, radiosity_size)?;
-        if let Some(grid) = &key.radiosity {
+        if let Some(grid) = &grid {
             let rho: Vec<[f32; 4]> = grid
                 .ground_reflectance(terrain)
                 .iter()
@@ -651,9 +657,8 @@ impl StratusPass {
             );
         }
         let (phase, optics) = match &key.optics {
-            Some(_) => {
-                let settings = self.settings.clone().unwrap_or_default();
-                let tables = load_optics(&settings);
+            Some(params) => {
+                let tables = load_optics(params);
                 let mut texels: Vec<[f32; 4]> = Vec::new();
                 for table in [
                     &tables.peak_removed,
@@ -736,7 +741,7 @@ impl StratusPass {
                 },
             ],
         });
-        let indices = grid_indices(n);
+        let indices = crate::terrain::grid_indices(n);
         let index_buffer = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
             label: Some("stratus grid indices"),
             contents: bytemuck::cast_slice(&indices),
@@ -744,6 +749,7 @@ impl StratusPass {
         });
         Ok(Resources {
             key,
+            grid,
             radiosity,
             lookup_group,
             compute_group,
@@ -796,19 +802,6 @@ impl StratusPass {
         pass.set_index_buffer(resources.indices.slice(..), wgpu::IndexFormat::Uint32);
         pass.draw_indexed(0..resources.index_count, 0, 0..self.face_count());
     }
-}
-
-/// Triangle indices of an n × n vertex grid (two triangles per cell).
-fn grid_indices(n: u32) -> Vec<u32> {
-    let mut indices = Vec::with_capacity(((n - 1) * (n - 1) * 6) as usize);
-    for j in 0..n - 1 {
-        for i in 0..n - 1 {
-            let a = j * n + i;
-            let (b, c) = (a + 1, a + n);
-            indices.extend_from_slice(&[a, c, b, b, c, c + 1]);
-        }
-    }
-    indices
 }
 
 #[cfg(test)]

@@ -57,18 +57,24 @@ pub fn build_mesh(terrain: &Terrain) -> (Vec<TerrainVertex>, Vec<u32>) {
             });
         }
     }
-    let mut indices = Vec::with_capacity((n - 1) * (n - 1) * 6);
-    for j in 0..n - 1 {
-        for i in 0..n - 1 {
-            let a = (j * n + i) as u32;
-            let b = a + 1;
-            let c = a + n as u32;
-            let d = c + 1;
-            // +Z is south, so (a, c, b) is counter-clockwise seen from +Y.
-            indices.extend_from_slice(&[a, c, b, b, c, d]);
+    let indices = grid_indices(n as u32);
+    (vertices, indices)
+}
+
+/// Triangle indices of a row-major n × n vertex grid: two triangles per
+/// cell, counter-clockwise seen from +Y (+Z is south, so (a, c, b) turns
+/// anticlockwise from above). Shared by the terrain and the stratus layer.
+pub fn grid_indices(n: u32) -> Vec<u32> {
+    let cells = n.saturating_sub(1);
+    let mut indices = Vec::with_capacity((cells * cells * 6) as usize);
+    for j in 0..cells {
+        for i in 0..cells {
+            let a = j * n + i;
+            let (b, c) = (a + 1, a + n);
+            indices.extend_from_slice(&[a, c, b, b, c, c + 1]);
         }
     }
-    (vertices, indices)
+    indices
 }
 
 /// GPU resources of the terrain for one set of parameters.
