@@ -143,6 +143,28 @@ pub fn filtering_sampler_entry(binding: u32) -> wgpu::BindGroupLayoutEntry {
     sampler_entry(binding, wgpu::ShaderStages::FRAGMENT)
 }
 
+/// A bind group whose entries are `resources` at bindings 0, 1, 2, … in order.
+pub fn sequential_bind_group(
+    device: &wgpu::Device,
+    label: &str,
+    layout: &wgpu::BindGroupLayout,
+    resources: Vec<wgpu::BindingResource<'_>>,
+) -> wgpu::BindGroup {
+    let entries: Vec<wgpu::BindGroupEntry<'_>> = resources
+        .into_iter()
+        .enumerate()
+        .map(|(i, resource)| wgpu::BindGroupEntry {
+            binding: i as u32,
+            resource,
+        })
+        .collect();
+    device.create_bind_group(&wgpu::BindGroupDescriptor {
+        label: Some(label),
+        layout,
+        entries: &entries,
+    })
+}
+
 /// Maps a `MAP_READ` buffer after its copies were submitted, waits for the
 /// device, and returns its bytes (the buffer is unmapped again).
 pub fn read_mapped(device: &wgpu::Device, buffer: &wgpu::Buffer) -> Result<Vec<u8>, String> {

@@ -8,7 +8,9 @@
 //! compose `shaders/atmosphere_lookup.wgsl` to read the sky radiance, the
 //! sun's transmittance, the aerial perspective and the [`LightingUniform`].
 
-use crate::binding::{buffer_entry, sampler_entry, storage_texture_entry, texture_entry};
+use crate::binding::{
+    buffer_entry, sampler_entry, sequential_bind_group, storage_texture_entry, texture_entry,
+};
 use crate::shader::{self, WgslFile};
 use crate::timing::GpuTimer;
 use bytemuck::{Pod, Zeroable};
@@ -287,23 +289,19 @@ impl AtmospherePass {
                 label: Some(name),
                 entries: &entries,
             });
-            let bind_entries: Vec<wgpu::BindGroupEntry<'_>> = resources
-                .iter()
-                .enumerate()
-                .map(|(i, r)| wgpu::BindGroupEntry {
-                    binding: i as u32,
-                    resource: match r {
+            let bind_group = sequential_bind_group(
+                device,
+                name,
+                &layout,
+                resources
+                    .iter()
+                    .map(|r| match r {
                         Resource::Buffer(b) => b.as_entire_binding(),
                         Resource::Sampler(s) => wgpu::BindingResource::Sampler(s),
                         Resource::View(v) => wgpu::BindingResource::TextureView(v),
-                    },
-                })
-                .collect();
-            let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
-                label: Some(name),
-                layout: &layout,
-                entries: &bind_entries,
-            });
+                    })
+                    .collect(),
+            );
             let source = if entry == "lighting_main" {
                 shader::compose(&[shader::COMMON, ATMOSPHERE, LIGHTING_TYPES, file])
             } else {

@@ -681,66 +681,33 @@ impl StratusPass {
             usage: wgpu::BufferUsages::STORAGE,
         });
         let inputs = radiosity.input_buffers();
-        let lookup_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("stratus lookup"),
-            layout: &self.lookup_layout,
-            entries: &[
-                wgpu::BindGroupEntry {
-                    binding: 0,
-                    resource: self.uniform.as_entire_binding(),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 1,
-                    resource: wgpu::BindingResource::TextureView(&thickness_view),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 2,
-                    resource: phase_buffer.as_entire_binding(),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 3,
-                    resource: inputs.ground_received.as_entire_binding(),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 4,
-                    resource: inputs.cloud_received.as_entire_binding(),
-                },
+        let view = || wgpu::BindingResource::TextureView(&thickness_view);
+        let lookup_group = binding::sequential_bind_group(
+            device,
+            "stratus lookup",
+            &self.lookup_layout,
+            vec![
+                self.uniform.as_entire_binding(),
+                view(),
+                phase_buffer.as_entire_binding(),
+                inputs.ground_received.as_entire_binding(),
+                inputs.cloud_received.as_entire_binding(),
             ],
-        });
-        let compute_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("stratus compute"),
-            layout: &self.compute_layout,
-            entries: &[
-                wgpu::BindGroupEntry {
-                    binding: 0,
-                    resource: self.uniform.as_entire_binding(),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 1,
-                    resource: wgpu::BindingResource::TextureView(&thickness_view),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 2,
-                    resource: inputs.cloud_reflectance.as_entire_binding(),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 3,
-                    resource: inputs.ground_extra.as_entire_binding(),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 4,
-                    resource: inputs.ground_received.as_entire_binding(),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 5,
-                    resource: inputs.cloud_received.as_entire_binding(),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 6,
-                    resource: inputs.cloud_emitted.as_entire_binding(),
-                },
+        );
+        let compute_group = binding::sequential_bind_group(
+            device,
+            "stratus compute",
+            &self.compute_layout,
+            vec![
+                self.uniform.as_entire_binding(),
+                view(),
+                inputs.cloud_reflectance.as_entire_binding(),
+                inputs.ground_extra.as_entire_binding(),
+                inputs.ground_received.as_entire_binding(),
+                inputs.cloud_received.as_entire_binding(),
+                inputs.cloud_emitted.as_entire_binding(),
             ],
-        });
+        );
         let indices = crate::terrain::grid_indices(n);
         let index_buffer = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
             label: Some("stratus grid indices"),
