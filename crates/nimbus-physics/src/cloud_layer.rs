@@ -174,6 +174,88 @@ impl CloudLayerField {
     }
 }
 
+/// Steps of [`path_inside_layer_m`]'s march.
+pub const VIEW_PATH_STEPS: u32 = 24;
+
+/// Bisections that place the exit within the march's last step.
+pub const VIEW_PATH_REFINEMENTS: u32 = 4;
+
+/// Ratio between successive steps of [`path_inside_layer_m`]'s march.
+pub const VIEW_PATH_STEP_GROWTH: f64 = 1.25;
+
+/// Length, m, of the straight path from `start_m` (a point on the layer's
+/// surface where the ray enters it) along the unit vector `direction` until
+/// the ray first leaves the layer: the cloud's thickness along a view ray,
+/// H_v.
+///
+/// Bouthors et al. (2006, §4) shade every point of the surface as a
+/// horizontal slab, H_v = H/μ_v; their §8 notes that this ignores the
+/// clouds' sides. Seen from the side or at grazing angles a cell is a
+/// finite lens: a ray entering by its thin edge crosses its thick middle
+/// (far more than H/μ_v with the edge's small H), and a ray skimming a dome
+/// leaves it again after a short chord (far less than H/μ_v as μ_v → 0).
+/// Marching the ray through the set |y − y_mid| < h(x, z)/2 gives the
+/// right length in both cases and H/μ_v where the slab holds.
+///
+/// `thickness_m(x, z)` is the layer's thickness, `offset_m` is added to it
+/// along the whole path (the renderer marches its coarse thickness window
+/// and carries the fine octaves' difference at the entry point). The march
+/// takes [`VIEW_PATH_STEPS`] steps growing by [`VIEW_PATH_STEP_GROWTH`] over
+/// `max_length_m` (fine near the entry, where the length matters; coarse
+/// far along, where the cloud is opaque anyway) and places the exit by
+/// [`VIEW_PATH_REFINEMENTS`] bisections and a linear interpolation of the
+/// signed distance to the surface, h/2 − |y − y_mid| (exact inside a
+/// uniform slab, where it is linear). Returns
+/// `max_length_m` if the ray is still inside at its end. The GPU twin is
+/// `stratus_view_path_m` in `nimbus-render`'s `stratus/lookup.wgsl`.
+pub fn path_inside_layer_m(
+    thickness_m: impl Fn(f64, f64) -> f64,
+    offset_m: f64,
+    mid_plane_m: f64,
+    start_m: [f64; 3],
+    direction: [f64; 3],
+    max_length_m: f64,
+) -> f64 {
+    let inside = |s: f64| {
+        let x = start_m[0] + direction[0] * s;
+        let y = start_m[1] + direction[1] * s;
+        let z = start_m[2] + direction[2] * s;
+        0.5 * (thickness_m(x, z) + offset_m) - (y - mid_plane_m).abs()
+    };
+    let growth = VIEW_PATH_STEP_GROWTH;
+    let mut step = max_length_m * (growth - 1.0) / (growth.powi(VIEW_PATH_STEPS as i32) - 1.0);
+    // The start is on the surface: inside by definition, whatever the
+    // sampled field says there.
+    let mut s = 0.0;
+    let mut g = inside(0.0).max(0.0);
+    for _ in 0..VIEW_PATH_STEPS {
+        let next_s = (s + step).min(max_length_m);
+        let next_g = inside(next_s);
+        if next_g <= 0.0 {
+            // The exit lies in [s, next_s]: bisect the bracket (robust
+            // where h = 0 makes g vanish over a whole stretch of the
+            // mid-plane), then interpolate linearly. g ≥ 0 > next_g fails
+            // only when both are 0 (the ray runs along the surface).
+            let (mut a, mut ga, mut b, mut gb) = (s, g, next_s, next_g);
+            for _ in 0..VIEW_PATH_REFINEMENTS {
+                let c = 0.5 * (a + b);
+                let gc = inside(c);
+                if gc > 0.0 {
+                    (a, ga) = (c, gc);
+                } else {
+                    (b, gb) = (c, gc);
+                }
+            }
+            let fraction = if ga > gb { ga / (ga - gb) } else { 0.0 };
+            return a + (b - a) * fraction;
+        }
+        s = next_s;
+        g = next_g;
+        step *= growth;
+    }
+    max_length_m
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -258,5 +340,107 @@ mod tests {
         // Continuous in time: a frame's step changes nothing abruptly.
         let step = (f.thickness_m(1234.0, 567.0, 50.0) - f.thickness_m(1234.0, 567.0, 50.04)).abs();
         assert!(step < 0.5, "{step} m in 40 ms");
+    }
+
+    /// A uniform slab: the march gives H/μ_v, the paper's slab path, from
+    /// either face and at any angle steeper than its range.
+    #[test]
+    fn path_through_a_uniform_slab_is_thickness_over_cosine() {
+        let h = 300.0;
+        let mid = 1500.0;
+        for mu in [1.0, 0.7, 0.3, 0.1] {
+            let sin = (1.0f64 - mu * mu).sqrt();
+            // From the top face downwards, and from the base upwards.
+            let down = path_inside_layer_m(
+                |_, _| h,
+                0.0,
+                mid,
+                [0.0, mid + 0.5 * h, 0.0],
+                [sin, -mu, 0.0],
+                2.0 * h / mu,
+            );
+            let up = path_inside_layer_m(
+                |_, _| h,
+                0.0,
+                mid,
+                [0.0, mid - 0.5 * h, 0.0],
+                [0.0, mu, sin],
+                2.0 * h / mu,
+            );
+            for path in [down, up] {
+                assert!(
+                    (path - h / mu).abs() < 1e-9 * h / mu,
+                    "μ = {mu}: {path} vs {}",
+                    h / mu
+                );
+            }
+        }
+    }
+
+    /// A paraboloid lens h = H₀ (1 − r²/R²): a horizontal ray in its
+    /// mid-plane entering at its edge crosses the whole diameter 2R (where
+    /// the slab model, with the edge's H → 0, would see nothing), and a ray
+    /// entering the top at distance a from the axis and leaving horizontally
+    /// through the dome crosses the chord 2√(R² − a²)·… computed exactly.
+    #[test]
+    fn path_through_a_lens_follows_its_shape() {
+        let (h0, radius, mid) = (400.0, 1000.0, 1500.0);
+        let lens = |x: f64, z: f64| (h0 * (1.0 - (x * x + z * z) / (radius * radius))).max(0.0);
+        // Along the mid-plane through the centre: the diameter.
+        let across =
+            path_inside_layer_m(lens, 0.0, mid, [-radius, mid, 0.0], [1.0, 0.0, 0.0], 5000.0);
+        assert!((across - 2.0 * radius).abs() < 0.02 * radius, "{across}");
+        // Off-centre at z = a in the mid-plane: the chord 2√(R² − a²).
+        let a = 600.0;
+        let chord = 2.0 * (radius * radius - a * a).sqrt();
+        let start_x = -(radius * radius - a * a).sqrt();
+        let off = path_inside_layer_m(lens, 0.0, mid, [start_x, mid, a], [1.0, 0.0, 0.0], 5000.0);
+        assert!((off - chord).abs() < 0.02 * chord, "{off} vs {chord}");
+        // Horizontally at height y above the mid-plane: inside while
+        // h/2 > y, i.e. r² < R²(1 − 2y/H₀), a shorter chord.
+        let y = 100.0;
+        let r_y = radius * (1.0 - 2.0 * y / h0).sqrt();
+        let high = path_inside_layer_m(
+            lens,
+            0.0,
+            mid,
+            [-r_y, mid + y, 0.0],
+            [1.0, 0.0, 0.0],
+            5000.0,
+        );
+        assert!(
+            (high - 2.0 * r_y).abs() < 0.02 * r_y,
+            "{high} vs {}",
+            2.0 * r_y
+        );
+        // The slab model at the entry point would give H/μ_v = 0/0 there;
+        // a ray that never meets cloud beyond its start has length 0.
+        let miss = path_inside_layer_m(lens, 0.0, mid, [radius, mid, 0.0], [1.0, 0.0, 0.0], 5000.0);
+        assert!(miss < 1.0, "{miss}");
+    }
+
+    /// The offset thickens the cloud along the whole path, and a ray still
+    /// inside at the end of its range returns the range.
+    #[test]
+    fn path_offset_and_range() {
+        let mid = 1000.0;
+        let thin = path_inside_layer_m(
+            |_, _| 100.0,
+            100.0,
+            mid,
+            [0.0, mid + 100.0, 0.0],
+            [0.0, -1.0, 0.0],
+            1000.0,
+        );
+        assert!((thin - 200.0).abs() < 1e-9, "{thin}");
+        let long = path_inside_layer_m(
+            |_, _| 100.0,
+            0.0,
+            mid,
+            [0.0, mid, 0.0],
+            [1.0, 0.0, 0.0],
+            3000.0,
+        );
+        assert_eq!(long, 3000.0);
     }
 }

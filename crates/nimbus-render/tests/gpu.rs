@@ -176,6 +176,7 @@ golden_stratus_scene!(golden_stratus_silver_lining, "stratus-silver-lining");
 golden_stratus_scene!(golden_stratus_glory_and_fogbow, "stratus-glory");
 golden_stratus_scene!(golden_stratus_over_the_sea, "stratus-sea");
 golden_stratus_scene!(golden_stratus_over_snow, "stratus-snow");
+golden_stratus_scene!(golden_stratus_seen_from_its_side, "stratus-side");
 
 /// Rec.709 luminance of a linear radiance pixel (relative: no K_m).
 fn luminance(p: &[f32; 3]) -> f64 {

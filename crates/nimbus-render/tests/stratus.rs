@@ -167,3 +167,204 @@ fn gpu_stratus_radiosity_matches_the_cpu_reference() {
     }
     assert!(worst < 0.01, "largest relative difference {worst}");
 }
+
+/// A test kernel around `stratus_view_path_m`: one path length per ray
+/// (xyz: start, w: thickness offset; xyz: direction, w: range).
+const VIEW_PATH_KERNEL: &str = r"
+struct ViewPathRay {
+    start: vec4<f32>,
+    direction: vec4<f32>,
+}
+@group(0) @binding(1) var<storage, read> view_path_rays: array<ViewPathRay>;
+@group(0) @binding(2) var<storage, read_write> view_path_lengths: array<f32>;
+
+@compute @workgroup_size(64)
+fn view_path_kernel(@builtin(global_invocation_id) id: vec3<u32>) {
+    if (id.x >= arrayLength(&view_path_rays)) {
+        return;
+    }
+    let ray = view_path_rays[id.x];
+    view_path_lengths[id.x] = stratus_view_path_m(ray.start.xyz, ray.direction.xyz, ray.start.w, ray.direction.w);
+}
+";
+
+/// The layer shader's view-path march (`stratus_view_path_m`) against its
+/// CPU twin (`cloud_layer::path_inside_layer_m`) marching the same window,
+/// for rays entering the tops, the bases and the cells' sides.
+#[test]
+fn gpu_view_path_matches_the_cpu_march() {
+    use nimbus_physics::cloud_layer::path_inside_layer_m;
+    use nimbus_render::shader;
+    use wgpu::util::DeviceExt;
+
+    let mut h = headless();
+    let scene = scene(0);
+    let time_s = 42.0;
+    h.render_frame(&scene, 32, 18, time_s).expect("frame");
+    let stratus = h.renderer.stratus();
+    let uniform = *stratus.uniform();
+    let raw = read_texture(&h.gpu, stratus.thickness_texture().expect("texture"), 4).expect("read");
+    let window: Vec<f32> = bytemuck::cast_slice(&raw).to_vec();
+    let n = uniform.flags[3] as usize;
+    let side_m = uniform.window[1] as f64;
+    let corner = [uniform.window[2] as f64, uniform.window[3] as f64];
+    let mid_m = uniform.window[0] as f64;
+    let field = field_of(&scene);
+    // stratus_thickness_at on the CPU: bilinear between texel centres
+    // inside the window, the field beyond.
+    let thickness = |x: f64, z: f64| {
+        let p = [
+            (x - corner[0]) / side_m * n as f64 - 0.5,
+            (z - corner[1]) / side_m * n as f64 - 0.5,
+        ];
+        if p.iter().any(|&c| c < 0.0 || c > (n - 1) as f64) {
+            return field.thickness_m(x, z, time_s as f64);
+        }
+        let (i, j) = (p[0].floor() as usize, p[1].floor() as usize);
+        let (fx, fz) = (p[0] - i as f64, p[1] - j as f64);
+        let (i1, j1) = ((i + 1).min(n - 1), (j + 1).min(n - 1));
+        let at = |i: usize, j: usize| window[j * n + i] as f64;
+        let top = at(i, j) * (1.0 - fx) + at(i1, j) * fx;
+        let bottom = at(i, j1) * (1.0 - fx) + at(i1, j1) * fx;
+        top * (1.0 - fz) + bottom * fz
+    };
+
+    // Rays from covered texels of the window's inner half: down from the
+    // top, up from the base at several slants, and horizontally from the
+    // mid-plane at the edge of a cell (where the slab model sees nothing).
+    let mut rays: Vec<[[f32; 4]; 2]> = Vec::new();
+    let step = n / 24;
+    for j in (n / 4..3 * n / 4).step_by(step) {
+        for i in (n / 4..3 * n / 4).step_by(step) {
+            let x = corner[0] + (i as f64 + 0.5) * side_m / n as f64;
+            let z = corner[1] + (j as f64 + 0.5) * side_m / n as f64;
+            let hc = thickness(x, z);
+            if hc <= 1.0 {
+                // A side entry: horizontal, towards +x.
+                rays.push([
+                    [x as f32, mid_m as f32, z as f32, 0.0],
+                    [1.0, 0.0, 0.0, 4000.0],
+                ]);
+                continue;
+            }
+            for (k, mu) in [0.95f64, 0.5, 0.15].iter().enumerate() {
+                let sin = (1.0 - mu * mu).sqrt();
+                let azimuth = 0.7 + k as f64 * 2.1;
+                let (dx, dz) = (sin * azimuth.cos(), sin * azimuth.sin());
+                let range = (scene.stratus.as_ref().unwrap().thickness_m + 5.0) / mu;
+                let offset = 3.0 * k as f32 - 3.0;
+                rays.push([
+                    [x as f32, (mid_m + 0.5 * hc) as f32, z as f32, offset],
+                    [dx as f32, -*mu as f32, dz as f32, range as f32],
+                ]);
+                rays.push([
+                    [x as f32, (mid_m - 0.5 * hc) as f32, z as f32, 0.0],
+                    [dz as f32, *mu as f32, dx as f32, range as f32],
+                ]);
+            }
+        }
+    }
+    assert!(rays.len() > 300, "{} rays", rays.len());
+
+    let device = &h.gpu.device;
+    let source = {
+        let mut files = shader::DRAWING_LIBRARIES.to_vec();
+        files.extend(nimbus_render::stratus::DRAWING_LIBRARIES);
+        shader::compose(&files) + VIEW_PATH_KERNEL
+    };
+    let module = shader::create_module(device, "view path test", &source);
+    let storage = |binding, read_only| wgpu::BindGroupLayoutEntry {
+        binding,
+        visibility: wgpu::ShaderStages::COMPUTE,
+        ty: wgpu::BindingType::Buffer {
+            ty: wgpu::BufferBindingType::Storage { read_only },
+            has_dynamic_offset: false,
+            min_binding_size: None,
+        },
+        count: None,
+    };
+    let io_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+        label: Some("view path io"),
+        entries: &[storage(1, true), storage(2, false)],
+    });
+    let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+        label: Some("view path test"),
+        bind_group_layouts: &[Some(&io_layout), None, None, Some(stratus.lookup_layout())],
+        immediate_size: 0,
+    });
+    let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+        label: Some("view path test"),
+        layout: Some(&pipeline_layout),
+        module: &module,
+        entry_point: Some("view_path_kernel"),
+        compilation_options: Default::default(),
+        cache: None,
+    });
+    let ray_buffer = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+        label: Some("view path rays"),
+        contents: bytemuck::cast_slice(&rays),
+        usage: wgpu::BufferUsages::STORAGE,
+    });
+    let length_buffer = device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("view path lengths"),
+        size: (rays.len() * 4) as u64,
+        usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+        mapped_at_creation: false,
+    });
+    let io = device.create_bind_group(&wgpu::BindGroupDescriptor {
+        label: Some("view path io"),
+        layout: &io_layout,
+        entries: &[
+            wgpu::BindGroupEntry {
+                binding: 1,
+                resource: ray_buffer.as_entire_binding(),
+            },
+            wgpu::BindGroupEntry {
+                binding: 2,
+                resource: length_buffer.as_entire_binding(),
+            },
+        ],
+    });
+    let mut encoder = device.create_command_encoder(&Default::default());
+    {
+        let mut pass = encoder.begin_compute_pass(&Default::default());
+        pass.set_pipeline(&pipeline);
+        pass.set_bind_group(0, &io, &[]);
+        pass.set_bind_group(3, stratus.lookup_group().expect("group"), &[]);
+        pass.dispatch_workgroups(rays.len().div_ceil(64) as u32, 1, 1);
+    }
+    h.gpu.queue.submit([encoder.finish()]);
+    let gpu: Vec<f32> = h
+        .read_buffer_elements(&length_buffer, rays.len())
+        .expect("read");
+
+    let (mut worst, mut side_entries_through_cloud) = (0.0f64, 0);
+    for (ray, &gpu_length) in rays.iter().zip(&gpu) {
+        let [start, direction] = *ray;
+        let cpu_length = path_inside_layer_m(
+            thickness,
+            start[3] as f64,
+            mid_m,
+            [start[0] as f64, start[1] as f64, start[2] as f64],
+            [
+                direction[0] as f64,
+                direction[1] as f64,
+                direction[2] as f64,
+            ],
+            direction[3] as f64,
+        );
+        // f32 against f64: a bisection may fall on the other side of a
+        // crossing only within the last refinement of a step.
+        let tolerance = 0.5 + 2e-3 * cpu_length;
+        worst = worst.max((gpu_length as f64 - cpu_length).abs() - tolerance);
+        if direction[1] == 0.0 && cpu_length > 100.0 {
+            side_entries_through_cloud += 1;
+        }
+    }
+    assert!(worst <= 0.0, "GPU − CPU exceeds the tolerance by {worst} m");
+    // Some horizontal rays from cell edges cross real cloud.
+    assert!(
+        side_entries_through_cloud > 5,
+        "{side_entries_through_cloud} side entries"
+    );
+}

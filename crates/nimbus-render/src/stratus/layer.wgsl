@@ -11,6 +11,11 @@
 // Smallest cosine used for grazing directions (89.9°).
 const MIN_MU: f32 = 1.745e-3;
 
+// Farthest the view ray is marched inside the layer, in feature sizes (the
+// largest cells' wavelength): far beyond any cell's optical depth of a few
+// hundred.
+const STRATUS_VIEW_RANGE_FEATURES: f32 = 2.0;
+
 struct LayerVarying {
     @builtin(position) clip_position: vec4<f32>,
     @location(0) position_m: vec3<f32>,
@@ -136,11 +141,35 @@ fn layer_fragment(in: LayerVarying) -> @location(0) vec4<f32> {
     let mu_l_vertical = max(abs(l.y), MIN_MU);
     let theta = acos(clamp(dot(-l, v), -1.0, 1.0));
 
+    // The cloud's thickness along the view ray, marched through the layer
+    // from this entry point (the window carries the coarse relief; the fine
+    // octaves' difference here rides along as an offset). Bouthors 2006
+    // shades every point as a slab, H_v = h/μ_v, and notes (§8) that this
+    // misses the clouds' sides: a ray entering a cell by its thin edge
+    // crosses its thick middle. The march is compared with the horizontal
+    // slab of the local thickness (path h/|v_y|): where it finds more cloud,
+    // the point is shaded as the thicker slab h_view = path |v_y| would be;
+    // elsewhere the paper's slab stands, with its fine normals (comparing in
+    // the vertical keeps their bumps from reading as changes of thickness)
+    // and its opaque silhouettes, which carry the silver lining. The
+    // opacity takes the longer of the marched path and the slab's H_v.
+    let entry_m = vec3<f32>(xz.x, stratus.window.x + 0.5 * in.face * h, xz.y);
+    let offset_m = h - stratus_thickness_at(xz);
+    let direction = -v;
+    let mu_v_vertical = max(abs(direction.y), MIN_MU);
+    let range_m = min(
+        (stratus.shape.w + abs(offset_m)) / mu_v_vertical,
+        STRATUS_VIEW_RANGE_FEATURES / stratus.shape.x,
+    );
+    let path_m = stratus_view_path_m(entry_m, direction, offset_m, range_m);
+    let h_view = max(h, path_m * mu_v_vertical);
+    let opacity_path_m = max(path_m, h_view / mu_v);
+
     let kappa = stratus.extinction.rgb;
     let kappa_s = (1.0 - stratus.forward_fraction.rgb) * kappa;
     let p_s = stratus_peak_removed(theta);
     let p2 = stratus_double(theta);
-    let fluxes = slab_fluxes(stratus, h, mu_l_vertical);
+    let fluxes = slab_fluxes(stratus, h_view, mu_l_vertical);
 
     // Sun light on the lit face. The model's radiances are per unit
     // incident flux on that face: for orders 0–2 the flux through the local
@@ -152,7 +181,7 @@ fn layer_fragment(in: LayerVarying) -> @location(0) vec4<f32> {
     var global_orders: vec3<f32>;
     if (viewer_above == sun_above) {
         // Reflection (§4.3–4.5).
-        let a = kappa_s * h * (1.0 / mu_l + 1.0 / mu_v);
+        let a = kappa_s * h_view * (1.0 / mu_l + 1.0 / mu_v);
         let geometry = 1.0 / (mu_v + mu_l);
         let single = p_s * geometry * (1.0 - exp(-a));
         let double = 0.5 * p2 * geometry * (1.0 - (1.0 + a) * exp(-a));
@@ -160,8 +189,8 @@ fn layer_fragment(in: LayerVarying) -> @location(0) vec4<f32> {
         global_orders = vec3<f32>(fluxes.r3plus / PI);
     } else {
         // Transmission, with the forward peak I_0F (§4.2).
-        let a = kappa_s * h;
-        let peak = forward_peak_radiance(h, mu_v, theta) / mu_l;
+        let a = kappa_s * h_view;
+        let peak = forward_peak_radiance(h_view, mu_v, theta) / mu_l;
         let single = p_s * exp_difference_quotient(a, mu_v, mu_l);
         let double = 0.5 * p2 * poisson2_difference_quotient(a, mu_v, mu_l);
         local_orders = peak + single + double;
@@ -176,7 +205,7 @@ fn layer_fragment(in: LayerVarying) -> @location(0) vec4<f32> {
     // through the layer, which blending already adds.
     let sky_above = lighting.sky_irradiance_up.xyz;
     let ground_below = stratus_radiosity_sample(false, xz);
-    let unscattered = exp(-1.66 * kappa * h);
+    let unscattered = exp(-1.66 * kappa * h_view);
     let transmitted = max(vec3<f32>(fluxes.transmittance) - unscattered, vec3<f32>(0.0));
     var diffuse: vec3<f32>;
     if (viewer_above) {
@@ -186,10 +215,10 @@ fn layer_fragment(in: LayerVarying) -> @location(0) vec4<f32> {
     }
     let radiance = sun_light + diffuse / PI;
 
-    // Opacity 1 − τ(H_v) (§4.6), faded out over the window's outer fifth so
+    // Opacity 1 − τ(H_v) (§4.6) with the marched H_v, faded out over the window's outer fifth so
     // that its edge never shows.
     let fade = stratus_window_fade(xz);
-    let alpha = (1.0 - exp(-kappa.y * h / mu_v)) * fade;
+    let alpha = (1.0 - exp(-kappa.y * opacity_path_m)) * fade;
     let ap = stratus_aerial_perspective(in.position_m);
     let seen = radiance * fade * ap.a + ap.rgb * alpha;
     return vec4<f32>(min(seen * pre_exposure(), vec3<f32>(frame.max_pre_exposed)), alpha);

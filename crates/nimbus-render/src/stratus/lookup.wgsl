@@ -39,6 +39,58 @@ fn stratus_thickness_at(xz: vec2<f32>) -> f32 {
     return mix(mix(a, b, f.x), mix(c, d, f.x), f.y);
 }
 
+// The march of stratus_view_path_m (twins of nimbus_physics::cloud_layer's
+// VIEW_PATH_STEPS, VIEW_PATH_STEP_GROWTH and VIEW_PATH_REFINEMENTS).
+const STRATUS_VIEW_PATH_STEPS: u32 = 24u;
+const STRATUS_VIEW_PATH_STEP_GROWTH: f32 = 1.25;
+const STRATUS_VIEW_PATH_REFINEMENTS: u32 = 4u;
+
+// Signed distance inside the layer, h/2 − |y − y_mid|, of the point at
+// `position_m`, with `offset_m` added to the thickness.
+fn stratus_inside_m(position_m: vec3<f32>, offset_m: f32) -> f32 {
+    return 0.5 * (stratus_thickness_at(position_m.xz) + offset_m) - abs(position_m.y - stratus.window.x);
+}
+
+// Length, m, of the straight path from `start_m` (where a ray enters the
+// layer) along the unit `direction` until it first leaves the layer: the
+// cloud's thickness along the ray, marched through the thickness window
+// with `offset_m` added to it. GPU twin of
+// nimbus_physics::cloud_layer::path_inside_layer_m (which explains why:
+// the slab's H/μ_v fails on the clouds' sides).
+fn stratus_view_path_m(start_m: vec3<f32>, direction: vec3<f32>, offset_m: f32, max_length_m: f32) -> f32 {
+    let growth = STRATUS_VIEW_PATH_STEP_GROWTH;
+    var step = max_length_m * (growth - 1.0) / (pow(growth, f32(STRATUS_VIEW_PATH_STEPS)) - 1.0);
+    var s = 0.0;
+    var g = max(stratus_inside_m(start_m, offset_m), 0.0);
+    for (var i = 0u; i < STRATUS_VIEW_PATH_STEPS; i = i + 1u) {
+        let next_s = min(s + step, max_length_m);
+        let next_g = stratus_inside_m(start_m + direction * next_s, offset_m);
+        if (next_g <= 0.0) {
+            var a = s;
+            var ga = g;
+            var b = next_s;
+            var gb = next_g;
+            for (var k = 0u; k < STRATUS_VIEW_PATH_REFINEMENTS; k = k + 1u) {
+                let c = 0.5 * (a + b);
+                let gc = stratus_inside_m(start_m + direction * c, offset_m);
+                if (gc > 0.0) {
+                    a = c;
+                    ga = gc;
+                } else {
+                    b = c;
+                    gb = gc;
+                }
+            }
+            let fraction = select(0.0, ga / (ga - gb), ga > gb);
+            return a + (b - a) * fraction;
+        }
+        s = next_s;
+        g = next_g;
+        step = step * growth;
+    }
+    return max_length_m;
+}
+
 // The fade of the drawn layer towards the edge of its window (1 inside the
 // inner four fifths, 0 at the edge and beyond): what the camera sees of the
 // layer, and so what water reflects.

@@ -333,8 +333,10 @@ impl StratusPass {
         let lookup_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("stratus lookup"),
             entries: &[
-                binding::uniform_layout_entry(0, draw, uniform_size),
-                binding::texture_entry(1, wgpu::TextureViewDimension::D2, false, draw),
+                // The layer's shape is also for compute passes (and the
+                // tests' kernels) that need to know where the cloud is.
+                binding::uniform_layout_entry(0, draw | compute, uniform_size),
+                binding::texture_entry(1, wgpu::TextureViewDimension::D2, false, draw | compute),
                 binding::buffer_entry(2, storage_read, vec4, draw),
                 binding::buffer_entry(3, storage_read, vec4, wgpu::ShaderStages::FRAGMENT),
                 binding::buffer_entry(4, storage_read, vec4, wgpu::ShaderStages::FRAGMENT),
