@@ -175,13 +175,13 @@ impl CloudLayerField {
 }
 
 /// Steps of [`path_inside_layer_m`]'s march.
-pub const VIEW_PATH_STEPS: u32 = 24;
+pub const VIEW_PATH_STEPS: u32 = 12;
 
 /// Bisections that place the exit within the march's last step.
-pub const VIEW_PATH_REFINEMENTS: u32 = 4;
+pub const VIEW_PATH_REFINEMENTS: u32 = 5;
 
 /// Ratio between successive steps of [`path_inside_layer_m`]'s march.
-pub const VIEW_PATH_STEP_GROWTH: f64 = 1.25;
+pub const VIEW_PATH_STEP_GROWTH: f64 = 1.5;
 
 /// Length, m, of the straight path from `start_m` (a point on the layer's
 /// surface where the ray enters it) along the unit vector `direction` until

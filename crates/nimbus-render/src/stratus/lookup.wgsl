@@ -41,9 +41,9 @@ fn stratus_thickness_at(xz: vec2<f32>) -> f32 {
 
 // The march of stratus_view_path_m (twins of nimbus_physics::cloud_layer's
 // VIEW_PATH_STEPS, VIEW_PATH_STEP_GROWTH and VIEW_PATH_REFINEMENTS).
-const STRATUS_VIEW_PATH_STEPS: u32 = 24u;
-const STRATUS_VIEW_PATH_STEP_GROWTH: f32 = 1.25;
-const STRATUS_VIEW_PATH_REFINEMENTS: u32 = 4u;
+const STRATUS_VIEW_PATH_STEPS: u32 = 12u;
+const STRATUS_VIEW_PATH_STEP_GROWTH: f32 = 1.5;
+const STRATUS_VIEW_PATH_REFINEMENTS: u32 = 5u;
 
 // Signed distance inside the layer, h/2 − |y − y_mid|, of the point at
 // `position_m`, with `offset_m` added to the thickness.
