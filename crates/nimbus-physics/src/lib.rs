@@ -8,6 +8,7 @@
 
 pub mod atmosphere;
 pub mod cloud_layer;
+pub mod cumulus;
 pub mod noise;
 pub mod optics;
 pub mod photometry;

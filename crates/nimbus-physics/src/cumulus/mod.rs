@@ -1,0 +1,15 @@
+//! Cumulus shape: a hierarchy of implicit blobs placed by particle sampling
+//! (Bouthors & Neyret 2004; Bouthors 2004, ch. 4), meshed as one watertight
+//! surface with the attributes the cumulus shader needs, and exported.
+//!
+//! - [`field`]: the blob field f_l and its gradient.
+//! - [`sampler`]: particles spread over an implicit surface (Witkin &
+//!   Heckbert 1994, with per-particle radii and energies).
+//! - [`hierarchy`]: the levels, from the roots to the last generated one.
+//! - [`mesh`]: the surface of the last level as one closed triangle mesh.
+//! - [`gltf`]: binary glTF export.
+
+pub mod dual;
+pub mod field;
+pub mod grid;
+pub mod sampler;
