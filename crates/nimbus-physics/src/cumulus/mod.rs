@@ -12,4 +12,6 @@
 pub mod dual;
 pub mod field;
 pub mod grid;
+pub mod hierarchy;
+pub mod mesh;
 pub mod sampler;

@@ -19,7 +19,9 @@
 //! Equilibrium: no particle born or dead in the last
 //! [`SamplerSettings::quiet_iterations`] iterations and a mean step below
 //! [`SamplerSettings::rest_step`] of the desired radius; or the iteration
-//! limit, which the report says.
+//! limit, which the report says. While no particle is born or dies the time
+//! step decays by 5 % per iteration (particles on the surface's creases
+//! would otherwise zig-zag across them for ever).
 
 use super::dual::Dual;
 use super::grid::PointGrid;
@@ -150,6 +152,10 @@ pub fn sample_surface(
         deaths: 0,
     };
     let mut quiet = 0;
+    // Once no particle is born or dies, the motion is damped: particles on
+    // the creases of the surface (furrows, the floor's edge) would otherwise
+    // zig-zag across them forever.
+    let mut time_step = settings.time_step;
     while report.iterations < settings.max_iterations && !particles.is_empty() {
         report.iterations += 1;
         let max_radius = particles.iter().map(|p| p.radius_m).fold(0.0, f64::max);
@@ -195,7 +201,7 @@ pub fn sample_surface(
                 let field = potential(p.position_m);
                 let n = field.gradient.normalize_or_zero();
                 let tangent = f.velocity - n * f.velocity.dot(n);
-                let step = (tangent * settings.time_step).clamp_length_max(p.radius_m / 3.0);
+                let step = (tangent * time_step).clamp_length_max(p.radius_m / 3.0);
                 let q = project_to_surface(potential, p.position_m + step, p.desired_radius_m)?;
                 Some((q, (q - p.position_m).length() / p.desired_radius_m))
             })
@@ -271,6 +277,11 @@ pub fn sample_surface(
         particles = next;
         progress(report.iterations, particles.len());
         quiet = if changed { 0 } else { quiet + 1 };
+        time_step = if quiet > 0 {
+            time_step * 0.95
+        } else {
+            settings.time_step
+        };
         if quiet >= settings.quiet_iterations && mean_step < settings.rest_step {
             report.converged = true;
             break;
