@@ -50,12 +50,20 @@ impl Dual {
 
     /// The larger of two values, with the gradient of the one taken.
     pub fn max(self, other: Self) -> Self {
-        if other.value > self.value { other } else { self }
+        if other.value > self.value {
+            other
+        } else {
+            self
+        }
     }
 
     /// The smaller of two values, with the gradient of the one taken.
     pub fn min(self, other: Self) -> Self {
-        if other.value < self.value { other } else { self }
+        if other.value < self.value {
+            other
+        } else {
+            self
+        }
     }
 
     /// f · s for a constant s.
@@ -131,7 +139,10 @@ mod tests {
         let h = 1e-6;
         for (axis, component) in [(DVec3::X, g.x), (DVec3::Y, g.y), (DVec3::Z, g.z)] {
             let numeric = (f(p + axis * h).value - f(p - axis * h).value) / (2.0 * h);
-            assert!((numeric - component).abs() < 1e-7, "{numeric} vs {component}");
+            assert!(
+                (numeric - component).abs() < 1e-7,
+                "{numeric} vs {component}"
+            );
         }
     }
 }

@@ -13,7 +13,9 @@
 //! - n_i = b min(1, e^{−I D / r_i}) e^{1 − d_i / r_i}, the blending of the
 //!   blob into S_{l−1} where it meets it.
 //! - o_i = g_i min(0, (y − h₀) / α_h), the flat floor: below h₀ the field is
-//!   pushed down with stiffness α_h.
+//!   pushed down with stiffness α_h. nimbus cuts n_i the same way (else the
+//!   blending of the last level bulges below the floor), so no surface
+//!   reaches below h₀ − α_h (1 − 1/max(g + n)), within 0.82 α_h of h₀.
 //! - f_i = g_i + m_i + n_i + o_i and f_l = max(f_{l−1}, max_i f_i); the
 //!   surface S_l is {f_l = 1}.
 //!
@@ -131,7 +133,10 @@ impl BlobField {
             blobs.iter().map(|b| b.radius_m).sum::<f64>() / blobs.len() as f64
         };
         let max_radius_m = blobs.iter().map(|b| b.radius_m).fold(1e-3, f64::max);
-        let grid = PointGrid::new(INFLUENCE_RADII * max_radius_m, blobs.iter().map(|b| b.centre_m));
+        let grid = PointGrid::new(
+            INFLUENCE_RADII * max_radius_m,
+            blobs.iter().map(|b| b.centre_m),
+        );
         self.levels.push(FieldLevel {
             blobs,
             blend,
@@ -237,7 +242,8 @@ impl BlobField {
                 .max(Dual::constant(0.05 * blob.radius_m));
             let g = (Dual::constant(1.0) - distance * rho.recip()).exp();
             let g2 = g * g;
-            let furrow = (Dual::constant(1.0 - blend.furrow_offset) - g) * g2.min(Dual::constant(1.0));
+            let furrow =
+                (Dual::constant(1.0 - blend.furrow_offset) - g) * g2.min(Dual::constant(1.0));
             furrow_sum = furrow_sum + furrow;
             near.push((id as usize, distance, g, base_d));
         });
@@ -246,23 +252,28 @@ impl BlobField {
             if distance.value > OWN_REACH_RADII * blob.radius_m * (1.0 + blend.blending) {
                 continue;
             }
-            let own_furrow = (Dual::constant(1.0 - blend.furrow_offset) - g) * (g * g).min(Dual::constant(1.0));
+            let own_furrow =
+                (Dual::constant(1.0 - blend.furrow_offset) - g) * (g * g).min(Dual::constant(1.0));
             let m = furrow_sum - own_furrow;
             let n = if blend.blending != 0.0 {
-                (base_d.scale(-blend.blend_sharpness / blob.radius_m)
-                    + Dual::constant(1.0)
+                (base_d.scale(-blend.blend_sharpness / blob.radius_m) + Dual::constant(1.0)
                     - distance.scale(1.0 / blob.radius_m))
                 .exp()
                 .scale(blend.blending)
             } else {
                 Dual::constant(0.0)
             };
+            // o_i = g_i min(0, (y − h₀)/α_h) as the paper writes it, and
+            // the same cut on n_i: the paper's o leaves the blending term
+            // alone, which lets the blended last level bulge a blob radius
+            // below the floor.
             let below = p.y - self.floor.height_m;
             let o = if below < 0.0 {
-                g * Dual {
-                    value: below / self.floor.stiffness_m,
-                    gradient: DVec3::Y / self.floor.stiffness_m,
-                }
+                (g + n)
+                    * Dual {
+                        value: below / self.floor.stiffness_m,
+                        gradient: DVec3::Y / self.floor.stiffness_m,
+                    }
             } else {
                 Dual::constant(0.0)
             };
@@ -312,7 +323,12 @@ mod tests {
             blend(0.0),
         );
         assert!((field.sample(0, c).potential.value - std::f64::consts::E).abs() < 1e-12);
-        for dir in [DVec3::X, DVec3::Y, DVec3::NEG_Z, DVec3::new(1.0, 1.0, 1.0).normalize()] {
+        for dir in [
+            DVec3::X,
+            DVec3::Y,
+            DVec3::NEG_Z,
+            DVec3::new(1.0, 1.0, 1.0).normalize(),
+        ] {
             let on = field.sample(0, c + dir * 300.0).potential.value;
             assert!((on - 1.0).abs() < 1e-12, "{on}");
             let half = field.sample(0, c + dir * 150.0).potential.value;
@@ -334,7 +350,10 @@ mod tests {
             }],
             blend(0.0),
         );
-        let top = field.sample(0, c + DVec3::Y * r / (1.0 + e)).potential.value;
+        let top = field
+            .sample(0, c + DVec3::Y * r / (1.0 + e))
+            .potential
+            .value;
         let side = field.sample(0, c + DVec3::X * r).potential.value;
         let bottom = field.sample(0, c - DVec3::Y * r).potential.value;
         for v in [top, side, bottom] {
@@ -454,7 +473,13 @@ mod tests {
             blend(0.0),
         );
         let bound = floor.stiffness_m * (1.0 - (-1.0f64).exp());
-        assert!(field.sample(0, DVec3::new(0.0, -bound - 1.0, 0.0)).potential.value < 1.0);
+        assert!(
+            field
+                .sample(0, DVec3::new(0.0, -bound - 1.0, 0.0))
+                .potential
+                .value
+                < 1.0
+        );
         assert!(field.sample(0, DVec3::new(0.0, -10.0, 0.0)).potential.value > 1.0);
     }
 }

@@ -68,7 +68,11 @@ mod tests {
         let points: Vec<DVec3> = (0..500)
             .map(|i| {
                 let t = i as f64;
-                DVec3::new((t * 12.9898).sin() * 50.0, (t * 78.233).sin() * 50.0, (t * 37.719).sin() * 50.0)
+                DVec3::new(
+                    (t * 12.9898).sin() * 50.0,
+                    (t * 78.233).sin() * 50.0,
+                    (t * 37.719).sin() * 50.0,
+                )
             })
             .collect();
         let grid = PointGrid::new(7.0, points.iter().copied());

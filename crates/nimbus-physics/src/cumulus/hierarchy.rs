@@ -167,13 +167,25 @@ impl CumulusParams {
                 }
                 for (i, r) in roots.iter().enumerate() {
                     if !(r.radius_m.is_finite() && r.radius_m >= 10.0 && r.radius_m <= 5000.0) {
-                        return bad(&format!("roots[{i}].radius_m"), r.radius_m.to_string(), "10 to 5000 m");
+                        return bad(
+                            &format!("roots[{i}].radius_m"),
+                            r.radius_m.to_string(),
+                            "10 to 5000 m",
+                        );
                     }
                     if !(0.0..=1.0).contains(&r.flattening) {
-                        return bad(&format!("roots[{i}].flattening"), r.flattening.to_string(), "0 to 1");
+                        return bad(
+                            &format!("roots[{i}].flattening"),
+                            r.flattening.to_string(),
+                            "0 to 1",
+                        );
                     }
                     if r.centre_m.iter().any(|c| !c.is_finite() || c.abs() > 1e6) {
-                        return bad(&format!("roots[{i}].centre_m"), format!("{:?}", r.centre_m), "finite, within 1000 km");
+                        return bad(
+                            &format!("roots[{i}].centre_m"),
+                            format!("{:?}", r.centre_m),
+                            "finite, within 1000 km",
+                        );
                     }
                 }
             }
@@ -184,16 +196,28 @@ impl CumulusParams {
             }
         }
         if self.generated_levels > 3 {
-            return bad("levels", self.generated_levels.to_string(), "0 to 3 generated levels");
+            return bad(
+                "levels",
+                self.generated_levels.to_string(),
+                "0 to 3 generated levels",
+            );
         }
         if !(self.radius_ratio > 0.05 && self.radius_ratio < 0.8) {
             return bad("radius_ratio", self.radius_ratio.to_string(), "0.05 to 0.8");
         }
         if !(0.0..0.9).contains(&self.radius_variation) {
-            return bad("radius_variation", self.radius_variation.to_string(), "0 to 0.9");
+            return bad(
+                "radius_variation",
+                self.radius_variation.to_string(),
+                "0 to 0.9",
+            );
         }
         if !(self.floor_stiffness_m > 0.0 && self.floor_stiffness_m.is_finite()) {
-            return bad("floor_stiffness_m", self.floor_stiffness_m.to_string(), "a positive length");
+            return bad(
+                "floor_stiffness_m",
+                self.floor_stiffness_m.to_string(),
+                "a positive length",
+            );
         }
         Ok(())
     }
@@ -237,7 +261,11 @@ impl CumulusParams {
                         let a = std::f64::consts::TAU * rng.uniform();
                         let d = disc * rng.uniform().sqrt();
                         Blob {
-                            centre_m: DVec3::new(d * a.cos(), 0.5 * radius * rng.uniform(), d * a.sin()),
+                            centre_m: DVec3::new(
+                                d * a.cos(),
+                                0.5 * radius * rng.uniform(),
+                                d * a.sin(),
+                            ),
                             radius_m: radius,
                             flattening: 0.1 + 0.6 * rng.uniform(),
                         }
@@ -249,18 +277,25 @@ impl CumulusParams {
 }
 
 /// Builds the hierarchy.
-pub fn build(params: &CumulusParams, mut progress: impl FnMut(BuildProgress)) -> Result<Cumulus, CumulusError> {
+pub fn build(
+    params: &CumulusParams,
+    mut progress: impl FnMut(BuildProgress),
+) -> Result<Cumulus, CumulusError> {
     params.validate()?;
     let mut rng = Rng::new(params.seed, 0xc0ffee);
     let roots = params.root_blobs(&mut rng);
-    let floor_height = params
-        .floor_height_m
-        .unwrap_or_else(|| roots.iter().map(|b| b.centre_m.y).fold(f64::INFINITY, f64::min));
+    let floor_height = params.floor_height_m.unwrap_or_else(|| {
+        roots
+            .iter()
+            .map(|b| b.centre_m.y)
+            .fold(f64::INFINITY, f64::min)
+    });
     let mut field = BlobField::new(Floor {
         height_m: floor_height,
         stiffness_m: params.floor_stiffness_m,
     });
-    let mean = |blobs: &[Blob]| blobs.iter().map(|b| b.radius_m).sum::<f64>() / blobs.len().max(1) as f64;
+    let mean =
+        |blobs: &[Blob]| blobs.iter().map(|b| b.radius_m).sum::<f64>() / blobs.len().max(1) as f64;
     let mut levels = vec![LevelSummary {
         count: roots.len(),
         mean_radius_m: mean(&roots),
@@ -281,7 +316,9 @@ pub fn build(params: &CumulusParams, mut progress: impl FnMut(BuildProgress)) ->
         // empty).
         let mut seeds = Vec::new();
         for b in &parent_blobs {
-            let k = ((b.radius_m / target).powi(2) * 1.5).ceil().clamp(4.0, 400.0) as usize;
+            let k = ((b.radius_m / target).powi(2) * 1.5)
+                .ceil()
+                .clamp(4.0, 400.0) as usize;
             for _ in 0..k {
                 let z = 2.0 * rng.uniform() - 1.0;
                 let a = std::f64::consts::TAU * rng.uniform();
@@ -290,13 +327,20 @@ pub fn build(params: &CumulusParams, mut progress: impl FnMut(BuildProgress)) ->
             }
         }
         let potential = |p: DVec3| field.sample(parent, p).potential;
-        let (particles, report) = sample_surface(&potential, &seeds, target, &settings, &mut rng, |iteration, count| {
-            progress(BuildProgress {
-                level: level as u32,
-                iteration,
-                particles: count,
-            })
-        });
+        let (particles, report) = sample_surface(
+            &potential,
+            &seeds,
+            target,
+            &settings,
+            &mut rng,
+            |iteration, count| {
+                progress(BuildProgress {
+                    level: level as u32,
+                    iteration,
+                    particles: count,
+                })
+            },
+        );
         let [e_min, e_max] = params.flattening_range;
         let blobs: Vec<Blob> = particles
             .iter()
@@ -361,14 +405,7 @@ mod tests {
         let a = build(&small(), |_| {}).expect("a");
         let b = build(&small(), |_| {}).expect("b");
         assert_eq!(a.field.blobs(1), b.field.blobs(1));
-        let c = build(
-            &CumulusParams {
-                seed: 2,
-                ..small()
-            },
-            |_| {},
-        )
-        .expect("c");
+        let c = build(&CumulusParams { seed: 2, ..small() }, |_| {}).expect("c");
         assert_ne!(a.field.blobs(1), c.field.blobs(1));
     }
 
@@ -380,6 +417,9 @@ mod tests {
             r[1].flattening = 1.5;
         }
         let e = build(&p, |_| {}).err().expect("error");
-        assert!(e.to_string().starts_with("roots[1].flattening = 1.5"), "{e}");
+        assert!(
+            e.to_string().starts_with("roots[1].flattening = 1.5"),
+            "{e}"
+        );
     }
 }

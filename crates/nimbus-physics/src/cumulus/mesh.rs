@@ -35,7 +35,11 @@ pub struct TriangleMesh {
 
 /// Corner offsets of a cell by bit index (bit 0: x, bit 1: y, bit 2: z).
 fn corner_offset(bit: usize) -> [i32; 3] {
-    [(bit & 1) as i32, ((bit >> 1) & 1) as i32, ((bit >> 2) & 1) as i32]
+    [
+        (bit & 1) as i32,
+        ((bit >> 1) & 1) as i32,
+        ((bit >> 2) & 1) as i32,
+    ]
 }
 
 /// The six tetrahedra of Kuhn's triangulation of the unit cube: for each
@@ -51,7 +55,11 @@ const KUHN_TETRAHEDRA: [[usize; 4]; 6] = [
 
 /// The surface {f = 1} of `potential` near `seeds` (points near the
 /// surface), on a grid of cells of side `cell_m` aligned on the origin.
-pub fn extract_surface(potential: &(dyn Fn(DVec3) -> f64 + Sync), seeds: &[DVec3], cell_m: f64) -> TriangleMesh {
+pub fn extract_surface(
+    potential: &(dyn Fn(DVec3) -> f64 + Sync),
+    seeds: &[DVec3],
+    cell_m: f64,
+) -> TriangleMesh {
     let key_of = |p: DVec3| {
         let c = (p / cell_m).floor();
         [c.x as i32, c.y as i32, c.z as i32]
@@ -112,12 +120,21 @@ pub fn extract_surface(potential: &(dyn Fn(DVec3) -> f64 + Sync), seeds: &[DVec3
                         (mesh.positions.len() - 1) as u32
                     })
                 };
-                let outward = outs.iter().map(|&b| position(corner(b))).sum::<DVec3>() / outs.len() as f64
+                let outward = outs.iter().map(|&b| position(corner(b))).sum::<DVec3>()
+                    / outs.len() as f64
                     - ins.iter().map(|&b| position(corner(b))).sum::<DVec3>() / ins.len() as f64;
                 let mut faces: Vec<[u32; 3]> = Vec::new();
                 match (ins.len(), outs.len()) {
-                    (1, 3) => faces.push([vertex(ins[0], outs[0]), vertex(ins[0], outs[1]), vertex(ins[0], outs[2])]),
-                    (3, 1) => faces.push([vertex(outs[0], ins[0]), vertex(outs[0], ins[1]), vertex(outs[0], ins[2])]),
+                    (1, 3) => faces.push([
+                        vertex(ins[0], outs[0]),
+                        vertex(ins[0], outs[1]),
+                        vertex(ins[0], outs[2]),
+                    ]),
+                    (3, 1) => faces.push([
+                        vertex(outs[0], ins[0]),
+                        vertex(outs[0], ins[1]),
+                        vertex(outs[0], ins[2]),
+                    ]),
                     _ => {
                         // Two in, two out: the quad in0-out0, in0-out1,
                         // in1-out1, in1-out0, split along one diagonal.
@@ -179,7 +196,9 @@ pub struct Topology {
 impl Topology {
     /// Watertight, 2-manifold along edges and consistently oriented.
     pub fn is_watertight(&self) -> bool {
-        self.non_manifold_edges == 0 && self.inconsistent_edges == 0 && self.degenerate_triangles == 0
+        self.non_manifold_edges == 0
+            && self.inconsistent_edges == 0
+            && self.degenerate_triangles == 0
     }
 }
 
@@ -219,7 +238,8 @@ pub fn check_closed_manifold(mesh: &TriangleMesh) -> Topology {
         non_manifold_edges: non_manifold,
         inconsistent_edges: inconsistent,
         degenerate_triangles: degenerate,
-        euler_characteristic: mesh.positions.len() as i64 - undirected.len() as i64 + mesh.triangles.len() as i64,
+        euler_characteristic: mesh.positions.len() as i64 - undirected.len() as i64
+            + mesh.triangles.len() as i64,
     }
 }
 
@@ -362,9 +382,16 @@ mod tests {
             })
             .sum();
         let exact = 4.0 / 3.0 * std::f64::consts::PI * 1000.0;
-        assert!((volume / exact - 1.0).abs() < 0.03, "volume {volume} vs {exact}");
+        assert!(
+            (volume / exact - 1.0).abs() < 0.03,
+            "volume {volume} vs {exact}"
+        );
         for p in &mesh.positions {
-            assert!(((*p - centre).length() - 10.0).abs() < 0.1, "{}", (*p - centre).length());
+            assert!(
+                ((*p - centre).length() - 10.0).abs() < 0.1,
+                "{}",
+                (*p - centre).length()
+            );
         }
         assert_eq!(count_self_intersections(&mesh, 2.0), 0);
     }
@@ -395,7 +422,11 @@ mod tests {
     #[test]
     fn triangle_intersection_cases() {
         let t = [DVec3::ZERO, DVec3::X, DVec3::Y];
-        let crossing = [DVec3::new(0.2, 0.2, -1.0), DVec3::new(0.2, 0.2, 1.0), DVec3::new(0.3, -0.5, 0.0)];
+        let crossing = [
+            DVec3::new(0.2, 0.2, -1.0),
+            DVec3::new(0.2, 0.2, 1.0),
+            DVec3::new(0.3, -0.5, 0.0),
+        ];
         let apart = crossing.map(|p| p + DVec3::Z * 5.0);
         assert!(triangles_intersect(t, crossing));
         assert!(!triangles_intersect(t, apart));

@@ -11,7 +11,9 @@
 
 pub mod dual;
 pub mod field;
+pub mod gltf;
 pub mod grid;
 pub mod hierarchy;
 pub mod mesh;
 pub mod sampler;
+pub mod surface;

@@ -90,7 +90,11 @@ pub struct SamplingReport {
 /// of `scale_m` (the size of the features, e.g. the blob radius), no step
 /// longer than `scale_m`; `None` if the gradient vanishes or the point does
 /// not converge.
-pub fn project_to_surface(potential: &(impl Fn(DVec3) -> Dual + ?Sized), p: DVec3, scale_m: f64) -> Option<DVec3> {
+pub fn project_to_surface(
+    potential: &(impl Fn(DVec3) -> Dual + ?Sized),
+    p: DVec3,
+    scale_m: f64,
+) -> Option<DVec3> {
     let tolerance = 1e-3 * scale_m;
     let mut q = p;
     for _ in 0..16 {
@@ -240,7 +244,8 @@ pub fn sample_surface(
                 continue;
             }
             // Fission when grown too large, or alone at full size.
-            let lonely = f.energy < 0.2 * p.desired_energy && p.radius_m >= 0.9 * p.desired_radius_m;
+            let lonely =
+                f.energy < 0.2 * p.desired_energy && p.radius_m >= 0.9 * p.desired_radius_m;
             if p.radius_m > 1.5 * p.desired_radius_m || lonely {
                 let n = potential(p.position_m).gradient.normalize_or_zero();
                 let any = if n.x.abs() < 0.9 { DVec3::X } else { DVec3::Y };
@@ -250,9 +255,11 @@ pub fn sample_surface(
                 let t = t1 * angle.cos() + t2 * angle.sin();
                 let child_radius = p.radius_m / std::f64::consts::SQRT_2;
                 for sign in [-1.0, 1.0] {
-                    let Some(q) =
-                        project_to_surface(potential, p.position_m + t * (0.5 * p.radius_m * sign), p.desired_radius_m)
-                    else {
+                    let Some(q) = project_to_surface(
+                        potential,
+                        p.position_m + t * (0.5 * p.radius_m * sign),
+                        p.desired_radius_m,
+                    ) else {
                         continue;
                     };
                     let (desired_radius, desired_energy) = if sign < 0.0 {
@@ -322,20 +329,37 @@ mod tests {
                 DVec3::new(t.sin(), (2.0 * t).cos(), 0.3 * t - 1.0) * radius
             })
             .collect();
-        let (particles, report) =
-            sample_surface(&f, &seeds, target, &SamplerSettings::default(), &mut rng, |_, _| {});
+        let (particles, report) = sample_surface(
+            &f,
+            &seeds,
+            target,
+            &SamplerSettings::default(),
+            &mut rng,
+            |_, _| {},
+        );
         assert!(report.converged, "{report:?}");
         // Everything on the surface.
         for p in &particles {
-            assert!((p.position_m.length() - radius).abs() < 0.1, "{}", p.position_m.length());
+            assert!(
+                (p.position_m.length() - radius).abs() < 0.1,
+                "{}",
+                p.position_m.length()
+            );
         }
         // Count near the area over the hexagonal cell of spacing 2σ̂.
-        let expected = 4.0 * std::f64::consts::PI * radius * radius / (2.0 * 3f64.sqrt() * target * target);
+        let expected =
+            4.0 * std::f64::consts::PI * radius * radius / (2.0 * 3f64.sqrt() * target * target);
         let n = particles.len() as f64;
-        assert!(n > 0.6 * expected && n < 1.6 * expected, "{n} particles, hexagonal packing gives {expected:.0}");
+        assert!(
+            n > 0.6 * expected && n < 1.6 * expected,
+            "{n} particles, hexagonal packing gives {expected:.0}"
+        );
         // Mean radius near the target.
         let mean_radius = particles.iter().map(|p| p.radius_m).sum::<f64>() / n;
-        assert!((mean_radius / target - 1.0).abs() < 0.3, "mean radius {mean_radius}");
+        assert!(
+            (mean_radius / target - 1.0).abs() < 0.3,
+            "mean radius {mean_radius}"
+        );
         // Spacing: nearest-neighbour distance over the two radii.
         let mut ratios: Vec<f64> = particles
             .iter()
@@ -350,14 +374,20 @@ mod tests {
             .collect();
         ratios.sort_by(f64::total_cmp);
         let median = ratios[ratios.len() / 2];
-        assert!(median > 0.6 && median < 1.4, "median spacing ratio {median}");
+        assert!(
+            median > 0.6 && median < 1.4,
+            "median spacing ratio {median}"
+        );
         // No holes: a fine set of directions all have a particle nearby.
         for i in 0..2000 {
             let z = 1.0 - 2.0 * (i as f64 + 0.5) / 2000.0;
             let phi = i as f64 * 2.399_963;
             let s = (1.0 - z * z).sqrt();
             let q = DVec3::new(s * phi.cos(), z, s * phi.sin()) * radius;
-            let nearest = particles.iter().map(|p| p.position_m.distance(q)).fold(f64::INFINITY, f64::min);
+            let nearest = particles
+                .iter()
+                .map(|p| p.position_m.distance(q))
+                .fold(f64::INFINITY, f64::min);
             assert!(nearest < 2.5 * target, "hole of {nearest} m at {q}");
         }
     }
