@@ -33,6 +33,10 @@ enum Command {
     /// stratiform model or Monte-Carlo photon tracing. Radiance is per unit
     /// flux incident on the slab's top (1/sr); fluxes are fractions of it.
     Slab(commands::slab::SlabCommand),
+    /// Generate a cumulus: blob hierarchy by particle sampling, one closed
+    /// mesh with the shader's attributes, exported as binary glTF (.glb)
+    /// with the hierarchy as JSON.
+    Cumulus(commands::cumulus::CumulusArgs),
 }
 
 fn main() -> ExitCode {
@@ -73,6 +77,7 @@ fn main() -> ExitCode {
         Command::Sun(args) => commands::sun::run(&args),
         Command::Optics(args) => commands::optics::run(&args),
         Command::Slab(args) => commands::slab::run(&args),
+        Command::Cumulus(args) => commands::cumulus::run(&args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

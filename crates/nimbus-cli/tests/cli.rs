@@ -75,6 +75,7 @@ fn help_is_available_for_every_subcommand() {
         &["slab", "fit", "--help"],
         &["slab", "plot", "--help"],
         &["optics", "dsd", "--help"],
+        &["cumulus", "--help"],
     ] {
         let out = nimbus(sub, &dir);
         assert!(out.status.success(), "{sub:?}");
@@ -805,4 +806,97 @@ fn slab_fit_writes_a_table_the_library_reads_and_plot_writes_png_and_csv() {
         &["--sun-zenith-deg 0,95", "95"],
     );
     assert_eq!(files_in(&dir), before);
+}
+
+/// `nimbus cumulus` from a roots file: a .glb, the hierarchy JSON and a
+/// preview PNG, a JSON report that says watertight, with counts per level.
+#[test]
+fn cumulus_writes_mesh_hierarchy_and_preview() {
+    let dir = temp_dir("cumulus");
+    std::fs::write(
+        dir.join("roots.json"),
+        r#"[{"centre_m": [0, 300, 0], "radius_m": 300, "flattening": 0.3},
+            {"centre_m": [400, 200, 0], "radius_m": 250}]"#,
+    )
+    .expect("roots");
+    let out = nimbus(
+        &[
+            "cumulus",
+            "--roots",
+            "roots.json",
+            "--levels",
+            "1",
+            "--lods",
+            "2",
+            "-o",
+            "cloud.glb",
+            "--preview",
+            "cloud.png",
+            "--json",
+        ],
+        &dir,
+    );
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let report: serde_json::Value = serde_json::from_slice(&out.stdout).expect("one JSON document");
+    assert_eq!(report["watertight"], true);
+    assert_eq!(report["levels"].as_array().map(Vec::len), Some(2));
+    assert_eq!(report["levels"][0]["particles"], 2);
+    assert!(report["levels"][1]["particles"].as_u64().unwrap_or(0) > 20);
+    assert!(report["triangles"].as_u64().unwrap_or(0) > 1000);
+    assert_eq!(report["lods"].as_array().map(Vec::len), Some(2));
+    assert_eq!(
+        files_in(&dir),
+        [
+            "cloud.glb",
+            "cloud.hierarchy.json",
+            "cloud.png",
+            "roots.json"
+        ]
+    );
+    let glb = std::fs::read(dir.join("cloud.glb")).expect("glb");
+    assert_eq!(&glb[0..4], b"glTF");
+    let hierarchy: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(dir.join("cloud.hierarchy.json")).expect("json"))
+            .expect("hierarchy");
+    assert_eq!(hierarchy["levels"][0]["blobs"][1]["radius_m"], 250.0);
+}
+
+/// Bad cumulus input: one line naming the file or flag, the value and what
+/// is allowed; nothing written.
+#[test]
+fn cumulus_bad_input_fails_with_one_line() {
+    let dir = temp_dir("cumulus-bad");
+    std::fs::write(
+        dir.join("flat.json"),
+        r#"[{"centre_m": [0, 0, 0], "radius_m": 300, "flattening": 2}]"#,
+    )
+    .expect("roots");
+    std::fs::write(
+        dir.join("typo.json"),
+        r#"[{"centre": [0, 0, 0], "radius_m": 300}]"#,
+    )
+    .expect("roots");
+    let cases: [(&[&str], &[&str]); 4] = [
+        (
+            &["cumulus", "--roots", "flat.json", "-o", "a.glb"],
+            &["flat.json", "roots[0].flattening = 2", "0 to 1"],
+        ),
+        (
+            &["cumulus", "--roots", "typo.json", "-o", "a.glb"],
+            &["typo.json", "[0]", "centre"],
+        ),
+        (
+            &["cumulus", "--root-count", "0", "-o", "a.glb"],
+            &["--root-count 0", "1 to 200"],
+        ),
+        (&["cumulus", "-o", "a.obj"], &["a.obj", ".glb"]),
+    ];
+    for (args, fragments) in cases {
+        assert_fails_with(&nimbus(args, &dir), fragments);
+    }
+    assert_eq!(files_in(&dir), ["flat.json", "typo.json"]);
 }

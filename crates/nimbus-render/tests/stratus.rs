@@ -251,7 +251,7 @@ fn gpu_view_path_matches_the_cpu_march() {
                 let sin = (1.0 - mu * mu).sqrt();
                 let azimuth = 0.7 + k as f64 * 2.1;
                 let (dx, dz) = (sin * azimuth.cos(), sin * azimuth.sin());
-                let range = (scene.stratus.as_ref().unwrap().thickness_m + 5.0) / mu;
+                let range = (scene.stratus.as_ref().expect("stratus").thickness_m + 5.0) / mu;
                 let offset = 3.0 * k as f32 - 3.0;
                 rays.push([
                     [x as f32, (mid_m + 0.5 * hc) as f32, z as f32, offset],

@@ -1,6 +1,7 @@
 //! One module per subcommand.
 
 pub mod bench;
+pub mod cumulus;
 pub mod optics;
 pub mod render;
 pub mod scene;

@@ -40,7 +40,7 @@ impl Builder {
         target: u32,
         bounds: Option<(Vec<f32>, Vec<f32>)>,
     ) -> usize {
-        while self.bin.len() % 4 != 0 {
+        while !self.bin.len().is_multiple_of(4) {
             self.bin.push(0);
         }
         let offset = self.bin.len();
@@ -133,7 +133,7 @@ pub fn to_glb(lods: &[CumulusMesh]) -> Vec<u8> {
             "primitives": [{ "attributes": attributes, "indices": indices, "mode": 4 }],
         }));
     }
-    while b.bin.len() % 4 != 0 {
+    while !b.bin.len().is_multiple_of(4) {
         b.bin.push(0);
     }
     let nodes: Vec<Value> = (0..lods.len())
@@ -153,7 +153,7 @@ pub fn to_glb(lods: &[CumulusMesh]) -> Vec<u8> {
         "accessors": b.accessors,
     });
     let mut json_bytes = document.to_string().into_bytes();
-    while json_bytes.len() % 4 != 0 {
+    while !json_bytes.len().is_multiple_of(4) {
         json_bytes.push(b' ');
     }
     let total = 12 + 8 + json_bytes.len() + 8 + b.bin.len();
