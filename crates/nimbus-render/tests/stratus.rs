@@ -273,19 +273,18 @@ fn gpu_view_path_matches_the_cpu_march() {
         shader::compose(&files) + VIEW_PATH_KERNEL
     };
     let module = shader::create_module(device, "view path test", &source);
-    let storage = |binding, read_only| wgpu::BindGroupLayoutEntry {
-        binding,
-        visibility: wgpu::ShaderStages::COMPUTE,
-        ty: wgpu::BindingType::Buffer {
-            ty: wgpu::BufferBindingType::Storage { read_only },
-            has_dynamic_offset: false,
-            min_binding_size: None,
-        },
-        count: None,
+    // One ray (two vec4) and one f32 at least.
+    let storage = |binding, read_only, size| {
+        nimbus_render::binding::buffer_entry(
+            binding,
+            wgpu::BufferBindingType::Storage { read_only },
+            size,
+            wgpu::ShaderStages::COMPUTE,
+        )
     };
     let io_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
         label: Some("view path io"),
-        entries: &[storage(1, true), storage(2, false)],
+        entries: &[storage(1, true, 32), storage(2, false, 4)],
     });
     let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
         label: Some("view path test"),

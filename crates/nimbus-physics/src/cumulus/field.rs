@@ -208,7 +208,8 @@ impl BlobField {
         let blend = lv.blend;
 
         // g_j for the blobs near p, and the sum of their furrow terms.
-        let mut near: Vec<(usize, Dual, Dual, Dual)> = Vec::new();
+        // (index, d_i, g_i, D, the blob's own furrow term).
+        let mut near: Vec<(usize, Dual, Dual, Dual, Dual)> = Vec::new();
         let mut furrow_sum = Dual::constant(0.0);
         let reach = INFLUENCE_RADII * lv.max_radius_m;
         lv.grid.for_each_near(p, reach, |id| {
@@ -245,15 +246,13 @@ impl BlobField {
             let furrow =
                 (Dual::constant(1.0 - blend.furrow_offset) - g) * g2.min(Dual::constant(1.0));
             furrow_sum = furrow_sum + furrow;
-            near.push((id as usize, distance, g, base_d));
+            near.push((id as usize, distance, g, base_d, furrow));
         });
-        for &(index, distance, g, base_d) in &near {
+        for &(index, distance, g, base_d, own_furrow) in &near {
             let blob = &lv.blobs[index];
             if distance.value > OWN_REACH_RADII * blob.radius_m * (1.0 + blend.blending) {
                 continue;
             }
-            let own_furrow =
-                (Dual::constant(1.0 - blend.furrow_offset) - g) * (g * g).min(Dual::constant(1.0));
             let m = furrow_sum - own_furrow;
             let n = if blend.blending != 0.0 {
                 (base_d.scale(-blend.blend_sharpness / blob.radius_m) + Dual::constant(1.0)
