@@ -7,6 +7,7 @@ use nimbus_physics::cloud_layer::CloudLayerField;
 use nimbus_physics::radiosity::{PlaneField, RadiosityInputs, iterate};
 use nimbus_physics::transport::stratus::{OneDimensionalTable, one_dimensional};
 use nimbus_render::headless::{HeadlessRenderer, read_texture};
+use nimbus_render::stratus::StratusUniform;
 use nimbus_render::{AdapterPreference, Scene};
 
 fn headless() -> HeadlessRenderer {
@@ -46,6 +47,15 @@ fn read_vec4s(h: &HeadlessRenderer, buffer: &wgpu::Buffer, texels: usize) -> Vec
     h.read_buffer_elements(buffer, texels).expect("read back")
 }
 
+/// The layer's uniform and its thickness window (m, row-major) as the last
+/// frame left them.
+fn thickness_window(h: &HeadlessRenderer) -> (StratusUniform, Vec<f32>) {
+    let stratus = h.renderer.stratus();
+    let texture = stratus.thickness_texture().expect("texture");
+    let raw = read_texture(&h.gpu, texture, 4).expect("read");
+    (*stratus.uniform(), bytemuck::cast_slice(&raw).to_vec())
+}
+
 /// The thickness window the GPU fills each frame equals the CPU field at
 /// the texel centres, at a time when the wind has moved the layer.
 #[test]
@@ -54,11 +64,7 @@ fn gpu_thickness_window_matches_the_cpu_field() {
     let scene = scene(3);
     let time_s = 137.5;
     h.render_frame(&scene, 32, 18, time_s).expect("frame");
-    let stratus = h.renderer.stratus();
-    let uniform = *stratus.uniform();
-    let texture = stratus.thickness_texture().expect("texture");
-    let raw = read_texture(&h.gpu, texture, 4).expect("read");
-    let gpu: &[f32] = bytemuck::cast_slice(&raw);
+    let (uniform, gpu) = thickness_window(&h);
     let field = field_of(&scene);
     let n = uniform.flags[3] as usize;
     let texel = uniform.window[1] as f64 / n as f64;
@@ -201,10 +207,8 @@ fn gpu_view_path_matches_the_cpu_march() {
     let scene = scene(0);
     let time_s = 42.0;
     h.render_frame(&scene, 32, 18, time_s).expect("frame");
+    let (uniform, window) = thickness_window(&h);
     let stratus = h.renderer.stratus();
-    let uniform = *stratus.uniform();
-    let raw = read_texture(&h.gpu, stratus.thickness_texture().expect("texture"), 4).expect("read");
-    let window: Vec<f32> = bytemuck::cast_slice(&raw).to_vec();
     let n = uniform.flags[3] as usize;
     let side_m = uniform.window[1] as f64;
     let corner = [uniform.window[2] as f64, uniform.window[3] as f64];
