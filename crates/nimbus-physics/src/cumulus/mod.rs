@@ -8,7 +8,10 @@
 //! - [`hierarchy`]: the levels, from the roots to the last generated one.
 //! - [`mesh`]: the surface of the last level as one closed triangle mesh.
 //! - [`gltf`]: binary glTF export.
+//! - [`shading`]: the phenomenological shader (Bouthors 2004, ch. 5), CPU reference.
+//! - [`cloud_field`]: placement of many clouds from a coverage.
 
+pub mod cloud_field;
 pub mod dual;
 pub mod field;
 pub mod gltf;
@@ -16,4 +19,5 @@ pub mod grid;
 pub mod hierarchy;
 pub mod mesh;
 pub mod sampler;
+pub mod shading;
 pub mod surface;
