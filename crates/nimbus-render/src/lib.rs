@@ -6,12 +6,13 @@
 //! depth targets. [`headless::HeadlessRenderer`] does the same offscreen with a
 //! device of its own (the `nimbus` CLI, tests, benchmarks).
 //!
-//! One module per pass ([`sky`], [`terrain`], [`tonemap`]): its settings,
+//! One module per pass ([`sky`], [`terrain`], [`stratus`], [`cumulus`], [`tonemap`]): its settings,
 //! GPU resources, draw function and WGSL side by side. The order of the
 //! passes in a frame is in [`Renderer::encode`].
 
 pub mod atmosphere;
 pub mod binding;
+pub mod cumulus;
 pub mod exposure;
 pub mod frame;
 pub mod gpu;

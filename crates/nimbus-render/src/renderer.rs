@@ -2,11 +2,13 @@
 //!
 //! The frame's pass order lives in [`Renderer::encode`] and nowhere else:
 //! the atmosphere's LUTs and lighting inputs (when their inputs changed),
-//! the stratus layer's field and radiosity, sky, terrain, the stratus layer,
-//! exposure, then tone mapping into the caller's output target. Every pass
-//! writes GPU timestamps when the device supports them.
+//! the stratus layer's field and radiosity, the cumulus shadow map, sky,
+//! terrain, the cumulus bodies and fringes, the stratus layer, the cumulus
+//! fringes' composite, exposure, then tone mapping into the caller's output
+//! target. Every pass writes GPU timestamps when the device supports them.
 
 use crate::atmosphere::AtmospherePass;
+use crate::cumulus::{CloudShadowMap, CumulusPass};
 use crate::exposure::ExposurePass;
 use crate::frame::{FrameBinding, FrameUniform};
 use crate::scene::Scene;
@@ -18,26 +20,34 @@ use crate::timing::GpuTimer;
 use crate::tonemap::TonemapPass;
 
 /// Names of the passes in frame order, as reported by timings.
-pub const PASS_NAMES: [&str; 11] = [
+pub const PASS_NAMES: [&str; 15] = [
     "transmittance",
     "multiple_scattering",
     "sky_view",
     "aerial_perspective",
     "lighting",
     "stratus_lighting",
+    "cumulus_shadow",
     "sky",
     "terrain",
+    "cumulus",
+    "cumulus_fringes",
     "stratus",
+    "cumulus_composite",
     "exposure",
     "tonemap",
 ];
 
 /// Timer slots of the passes after the atmosphere's.
 const STRATUS_LIGHTING_PASS_INDEX: u32 = crate::atmosphere::PASS_NAMES.len() as u32;
-const SKY_PASS_INDEX: u32 = STRATUS_LIGHTING_PASS_INDEX + 1;
+const CUMULUS_SHADOW_PASS_INDEX: u32 = STRATUS_LIGHTING_PASS_INDEX + 1;
+const SKY_PASS_INDEX: u32 = CUMULUS_SHADOW_PASS_INDEX + 1;
 const TERRAIN_PASS_INDEX: u32 = SKY_PASS_INDEX + 1;
-const STRATUS_PASS_INDEX: u32 = TERRAIN_PASS_INDEX + 1;
-const EXPOSURE_PASS_INDEX: u32 = STRATUS_PASS_INDEX + 1;
+const CUMULUS_PASS_INDEX: u32 = TERRAIN_PASS_INDEX + 1;
+const CUMULUS_FRINGES_PASS_INDEX: u32 = CUMULUS_PASS_INDEX + 1;
+const STRATUS_PASS_INDEX: u32 = CUMULUS_FRINGES_PASS_INDEX + 1;
+const CUMULUS_COMPOSITE_PASS_INDEX: u32 = STRATUS_PASS_INDEX + 1;
+const EXPOSURE_PASS_INDEX: u32 = CUMULUS_COMPOSITE_PASS_INDEX + 1;
 const TONEMAP_PASS_INDEX: u32 = EXPOSURE_PASS_INDEX + 1;
 
 /// How the renderer is set up.
@@ -102,6 +112,9 @@ pub enum RenderError {
     /// The stratus layer's resources could not be built.
     #[error(transparent)]
     Stratus(#[from] crate::stratus::StratusError),
+    /// The cumulus shapes could not be made.
+    #[error(transparent)]
+    Cumulus(#[from] crate::cumulus::CumulusError),
 }
 
 /// Lighting depends only on these scene values; recomputed when they change.
@@ -116,6 +129,8 @@ pub struct Renderer {
     sky: SkyPass,
     terrain: TerrainPass,
     stratus: StratusPass,
+    cloud_shadow: CloudShadowMap,
+    cumulus: CumulusPass,
     tonemap: TonemapPass,
     hdr: Option<Target>,
     timer: Option<GpuTimer>,
@@ -137,12 +152,25 @@ impl Renderer {
         );
         let atmosphere = AtmospherePass::new(device, &frame.layout);
         let sky = SkyPass::new(device, &frame.layout, atmosphere.lookup_layout());
-        let stratus = StratusPass::new(device, &frame.layout, atmosphere.lookup_layout());
+        let cloud_shadow = CloudShadowMap::new(device, queue);
+        let stratus = StratusPass::new(
+            device,
+            &frame.layout,
+            atmosphere.lookup_layout(),
+            cloud_shadow.lookup_layout(),
+        );
         let terrain = TerrainPass::new(
             device,
             &frame.layout,
             atmosphere.lookup_layout(),
             stratus.lookup_layout(),
+        );
+        let cumulus = CumulusPass::new(
+            device,
+            &frame.layout,
+            atmosphere.lookup_layout(),
+            stratus.lookup_layout(),
+            &cloud_shadow,
         );
         let tonemap = TonemapPass::new(device, queue, descriptor.output_format);
         let exposure = ExposurePass::new(device, &frame.layout);
@@ -160,6 +188,8 @@ impl Renderer {
             sky,
             terrain,
             stratus,
+            cloud_shadow,
+            cumulus,
             tonemap,
             hdr: None,
             timer,
@@ -249,13 +279,26 @@ impl Renderer {
                 water_albedo: scene.terrain.albedo.water,
             },
         );
-        self.terrain
-            .prepare(&self.device, &self.queue, &scene.terrain)?;
+        self.terrain.prepare(
+            &self.device,
+            &self.queue,
+            &scene.terrain,
+            &self.cloud_shadow,
+        )?;
         self.terrain.prepare_sun(&self.queue, scene.sun.direction());
         if let Some(terrain) = self.terrain.terrain() {
             self.stratus
                 .prepare(&self.device, &self.queue, scene, terrain, time_s)?;
         }
+        self.cumulus.prepare(
+            &self.device,
+            &self.queue,
+            scene,
+            &frame,
+            &self.cloud_shadow,
+            width,
+            height,
+        )?;
         Ok(())
     }
 
@@ -295,10 +338,32 @@ impl Renderer {
             run[STRATUS_LIGHTING_PASS_INDEX as usize] = false;
             run[STRATUS_PASS_INDEX as usize] = false;
         }
+        // 3. The cumulus shadow map (cleared to "no cloud" when there is none).
+        self.cumulus.encode_shadow(
+            encoder,
+            frame,
+            &self.cloud_shadow,
+            self.timer
+                .as_ref()
+                .map(|t| (t.query_set(), CUMULUS_SHADOW_PASS_INDEX)),
+        );
+        if !self.cumulus.shadow_enabled() {
+            run[CUMULUS_SHADOW_PASS_INDEX as usize] = false;
+        }
+        let cumulus = self.cumulus.enabled();
+        if !cumulus {
+            for index in [
+                CUMULUS_PASS_INDEX,
+                CUMULUS_FRINGES_PASS_INDEX,
+                CUMULUS_COMPOSITE_PASS_INDEX,
+            ] {
+                run[index as usize] = false;
+            }
+        }
         if let Ok(mut last) = self.passes_run.lock() {
             *last = run;
         }
-        // 3. Sky, sun and open sea, at the far plane.
+        // 4. Sky, sun and open sea, at the far plane.
         {
             let mut pass = self.hdr_pass(
                 encoder,
@@ -311,7 +376,7 @@ impl Renderer {
             );
             self.sky.draw(&mut pass, frame, atmosphere);
         }
-        // 4. Terrain, depth-tested.
+        // 5. Terrain, depth-tested.
         {
             let mut pass = self.hdr_pass(
                 encoder,
@@ -324,7 +389,32 @@ impl Renderer {
             );
             self.terrain.draw(&mut pass, frame, atmosphere, stratus);
         }
-        // 5. The stratus layer, blended over sky and terrain, depth-tested.
+        // 6. Cumulus: opaque bodies (depth written), then the fringes'
+        // order-independent accumulation against that depth.
+        if cumulus {
+            {
+                let mut pass = self.hdr_pass(
+                    encoder,
+                    "cumulus",
+                    CUMULUS_PASS_INDEX,
+                    hdr,
+                    targets.depth,
+                    wgpu::LoadOp::Load,
+                    wgpu::LoadOp::Load,
+                );
+                self.cumulus
+                    .draw_opaque(&mut pass, frame, atmosphere, stratus);
+            }
+            self.cumulus.encode_fringes(
+                encoder,
+                targets.depth,
+                [frame, atmosphere, stratus],
+                self.timer
+                    .as_ref()
+                    .map(|t| t.pass_writes(CUMULUS_FRINGES_PASS_INDEX)),
+            );
+        }
+        // 7. The stratus layer, blended over sky, terrain and cumulus bodies, depth-tested.
         if self.stratus.enabled() {
             let mut pass = self.hdr_pass(
                 encoder,
@@ -335,9 +425,37 @@ impl Renderer {
                 wgpu::LoadOp::Load,
                 wgpu::LoadOp::Load,
             );
-            self.stratus.draw(&mut pass, frame, atmosphere);
+            self.stratus.draw(
+                &mut pass,
+                frame,
+                atmosphere,
+                self.cloud_shadow.lookup_group(),
+            );
         }
-        // 6. Exposure: meter the frame (automatic exposure) or pass the manual EV through.
+        // 8. The cumulus fringes over everything behind them.
+        if cumulus {
+            let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+                label: Some("cumulus composite"),
+                color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+                    view: &hdr.view,
+                    depth_slice: None,
+                    resolve_target: None,
+                    ops: wgpu::Operations {
+                        load: wgpu::LoadOp::Load,
+                        store: wgpu::StoreOp::Store,
+                    },
+                })],
+                depth_stencil_attachment: None,
+                timestamp_writes: self
+                    .timer
+                    .as_ref()
+                    .map(|t| t.pass_writes(CUMULUS_COMPOSITE_PASS_INDEX)),
+                occlusion_query_set: None,
+                multiview_mask: None,
+            });
+            self.cumulus.draw_composite(&mut pass);
+        }
+        // 9. Exposure: meter the frame (automatic exposure) or pass the manual EV through.
         {
             let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
                 label: Some("exposure"),
@@ -348,7 +466,7 @@ impl Renderer {
             });
             self.exposure.encode(&mut pass, frame);
         }
-        // 7. Tone map into the caller's output.
+        // 10. Tone map into the caller's output.
         {
             let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
                 label: Some("tonemap"),
@@ -453,6 +571,16 @@ impl Renderer {
     /// The HDR colour target (pre-exposed linear radiance), once prepared.
     pub fn hdr_target(&self) -> Option<&Target> {
         self.hdr.as_ref()
+    }
+
+    /// The cumulus pass.
+    pub fn cumulus(&self) -> &CumulusPass {
+        &self.cumulus
+    }
+
+    /// The cloud shadow map.
+    pub fn cloud_shadow(&self) -> &CloudShadowMap {
+        &self.cloud_shadow
     }
 
     /// The stratus pass (its radiosity and uniform).

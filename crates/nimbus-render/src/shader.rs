@@ -53,6 +53,12 @@ pub fn all_modules() -> Vec<(&'static str, String)> {
         ("radiosity", crate::radiosity::shader_source()),
         ("stratus layer", crate::stratus::layer_shader_source()),
         ("stratus compute", crate::stratus::compute_shader_source()),
+        ("cumulus", crate::cumulus::draw_shader_source()),
+        ("cumulus shadow", crate::cumulus::shadow_shader_source()),
+        (
+            "cumulus composite",
+            crate::cumulus::composite_shader_source(),
+        ),
     ]);
     modules
 }

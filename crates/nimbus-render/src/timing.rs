@@ -46,6 +46,11 @@ impl GpuTimer {
         })
     }
 
+    /// The query set (for passes split over several render passes).
+    pub fn query_set(&self) -> &wgpu::QuerySet {
+        &self.query_set
+    }
+
     /// The timestamp writes of pass `index` (in the renderer's pass order).
     pub fn pass_writes(&self, index: u32) -> wgpu::RenderPassTimestampWrites<'_> {
         wgpu::RenderPassTimestampWrites {

@@ -11,6 +11,7 @@ mod validate;
 pub use validate::SceneError;
 
 use nimbus_physics::atmosphere::AtmosphereParams;
+use nimbus_physics::cumulus::shading::{CumulusShading, ShadingTerms};
 use nimbus_physics::terrain::TerrainParams;
 use serde::{Deserialize, Serialize};
 
@@ -166,16 +167,35 @@ impl SunSettings {
     }
 }
 
-/// Cumulus clouds (`[cumulus]`, reserved).
+/// Cumulus clouds (`[cumulus]`): a field of clouds placed from a coverage
+/// (or listed in `clouds`), each an instance of a few generated shapes,
+/// shaded after Bouthors (2004, ch. 5). See docs/cumulus.md.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct CumulusSettings {
-    /// Fraction of the sky covered, in [0, 1].
+    /// Fraction of the area under the clouds' footprints, in [0, 1].
     pub coverage: f64,
     /// Height of the cloud bases, m, in [0, 10000].
     pub base_m: f64,
-    /// Random seed of the cloud field.
+    /// Random seed of the cloud field's placement.
     pub seed: u64,
+    /// Side of the square area the clouds are placed over, centred on the
+    /// world origin, m; the terrain's extent when absent.
+    pub area_m: Option<f64>,
+    /// Range of the clouds' scales, in [0.1, 5].
+    pub scale_range: [f64; 2],
+    /// Number of shape variants, in [1, 8] (the first is the paper's cloud).
+    pub variants: u32,
+    /// Random seed of the shapes.
+    pub shape_seed: u64,
+    /// Levels of detail per shape, in [1, 5].
+    pub levels_of_detail: u32,
+    /// Clouds placed by hand; when given, they replace the placement from `coverage`.
+    pub clouds: Vec<PlacedCloud>,
+    /// The shader's parameters.
+    pub shading: CumulusShading,
+    /// The shader's terms, each on or off.
+    pub terms: ShadingTerms,
 }
 
 impl Default for CumulusSettings {
@@ -184,8 +204,37 @@ impl Default for CumulusSettings {
             coverage: 0.3,
             base_m: 1500.0,
             seed: 1,
+            area_m: None,
+            scale_range: [0.5, 1.0],
+            variants: 3,
+            shape_seed: 1,
+            levels_of_detail: 3,
+            clouds: Vec::new(),
+            shading: CumulusShading::default(),
+            terms: ShadingTerms::default(),
         }
     }
+}
+
+/// One cloud placed by hand (`[[cumulus.clouds]]`).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PlacedCloud {
+    /// Centre of the cloud's base, world m.
+    pub position_m: [f64; 3],
+    /// Rotation about the vertical, degrees, in [−360, 360].
+    #[serde(default)]
+    pub yaw_deg: f64,
+    /// Scale of the shape, in [0.1, 5].
+    #[serde(default = "unit_scale")]
+    pub scale: f64,
+    /// Index of the shape variant, below `cumulus.variants`.
+    #[serde(default)]
+    pub variant: u32,
+}
+
+fn unit_scale() -> f64 {
+    1.0
 }
 
 /// A stratiform cloud layer (`[stratus]`), rendered after Bouthors et al.
@@ -319,9 +368,6 @@ impl Scene {
     /// version parses but does not render yet.
     pub fn reserved_sections_present(&self) -> Vec<&'static str> {
         let mut names = Vec::new();
-        if self.cumulus.is_some() {
-            names.push("cumulus");
-        }
         if self.rain.is_some() {
             names.push("rain");
         }

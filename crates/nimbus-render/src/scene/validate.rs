@@ -407,6 +407,65 @@ impl Scene {
         if let Some(cu) = &self.cumulus {
             c.closed("cumulus.coverage", cu.coverage, 0.0, 1.0)?;
             c.closed("cumulus.base_m", cu.base_m, 0.0, 10_000.0)?;
+            if let Some(area) = cu.area_m {
+                c.closed("cumulus.area_m", area, 1_000.0, MAX_COORDINATE_M)?;
+            }
+            c.vector("cumulus.scale_range", &cu.scale_range, 0.1, 5.0)?;
+            if cu.scale_range[0] > cu.scale_range[1] {
+                return Err(c.invalid(
+                    "cumulus.scale_range",
+                    format!("{:?}", cu.scale_range),
+                    "[smallest, largest] with smallest ≤ largest",
+                ));
+            }
+            c.integer("cumulus.variants", cu.variants as u64, 1, 8)?;
+            c.integer("cumulus.levels_of_detail", cu.levels_of_detail as u64, 1, 5)?;
+            c.integer(
+                "cumulus.clouds",
+                cu.clouds.len() as u64,
+                0,
+                crate::cumulus::MAX_CLOUDS as u64,
+            )?;
+            for (i, cloud) in cu.clouds.iter().enumerate() {
+                let key = |name: &str| format!("cumulus.clouds[{i}].{name}");
+                c.vector(
+                    &key("position_m"),
+                    &cloud.position_m,
+                    -MAX_COORDINATE_M,
+                    MAX_COORDINATE_M,
+                )?;
+                c.closed(&key("yaw_deg"), cloud.yaw_deg, -360.0, 360.0)?;
+                c.closed(&key("scale"), cloud.scale, 0.1, 5.0)?;
+                c.integer(
+                    &key("variant"),
+                    cloud.variant as u64,
+                    0,
+                    cu.variants.saturating_sub(1) as u64,
+                )?;
+            }
+            let s = &cu.shading;
+            for (name, value, lo, hi) in [
+                ("ambient", s.ambient, 0.0, 10.0),
+                ("lambert", s.lambert, 0.0, 10.0),
+                ("light_traps", s.light_traps, 0.0, 10.0),
+                ("transmission", s.transmission, 0.0, 10.0),
+                ("transmission_gain", s.transmission_gain, 0.0, 100.0),
+                ("bump", s.bump, 0.0, 1.0),
+                ("normal_smoothing", s.normal_smoothing, 0.0, 100.0),
+                ("trap_width", s.trap_width, 0.0, 100.0),
+                ("trap_height", s.trap_height, 0.0, 1.0),
+                ("corona_thickness_m", s.corona_thickness_m, 0.1, 1_000.0),
+            ] {
+                c.closed(&format!("cumulus.shading.{name}"), value, lo, hi)?;
+            }
+            for (name, value, lo, hi) in [
+                ("forward_width", s.forward_width, 0.0, 100.0),
+                ("density_per_m", s.density_per_m, 0.0, 10.0),
+                ("trap_sharpness", s.trap_sharpness, 0.0, 100.0),
+            ] {
+                c.open(&format!("cumulus.shading.{name}"), value, lo, hi)?;
+            }
+            c.integer("cumulus.shading.bump_octaves", s.bump_octaves as u64, 0, 6)?;
         }
         if let Some(st) = &self.stratus {
             c.closed("stratus.base_m", st.base_m, 0.0, 15_000.0)?;

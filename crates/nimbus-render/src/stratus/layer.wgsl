@@ -175,7 +175,8 @@ fn layer_fragment(in: LayerVarying) -> @location(0) vec4<f32> {
     // incident flux on that face: for orders 0–2 the flux through the local
     // surface, for 3+ the flux through the horizontal slab.
     let lit_face_m = vec3<f32>(in.position_m.x, stratus.window.x + select(-0.5, 0.5, sun_above) * h, in.position_m.z);
-    let sun = sun_irradiance_at(lit_face_m);
+    // Cumulus between the sun and the layer shade it.
+    let sun = sun_irradiance_at(lit_face_m) * cloud_shadow_transmittance(lit_face_m);
 
     var local_orders: vec3<f32>;
     var global_orders: vec3<f32>;

@@ -62,6 +62,7 @@ pub const DRAWING_LIBRARIES: [WgslFile; 2] = [FIELD, LOOKUP];
 pub fn layer_shader_source() -> String {
     let mut files = shader::DRAWING_LIBRARIES.to_vec();
     files.extend(DRAWING_LIBRARIES);
+    files.extend(crate::cumulus::SHADOW_LIBRARIES);
     files.push(LAYER_WGSL);
     shader::compose(&files)
 }
@@ -317,6 +318,7 @@ impl StratusPass {
         device: &wgpu::Device,
         frame_layout: &wgpu::BindGroupLayout,
         atmosphere_layout: &wgpu::BindGroupLayout,
+        cloud_shadow_layout: &wgpu::BindGroupLayout,
     ) -> Self {
         let uniform_size = std::mem::size_of::<StratusUniform>() as u64;
         let uniform = device.create_buffer(&wgpu::BufferDescriptor {
@@ -388,15 +390,11 @@ impl StratusPass {
         let inputs_pipeline = compute_pipeline("radiosity_inputs");
 
         let layer_module = shader::create_module(device, "stratus layer", &layer_shader_source());
-        let empty_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("empty"),
-            entries: &[],
-        });
         let layer_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
             label: Some("stratus layer"),
             bind_group_layouts: &[
                 Some(frame_layout),
-                Some(&empty_layout),
+                Some(cloud_shadow_layout),
                 Some(atmosphere_layout),
                 Some(&lookup_layout),
             ],
@@ -760,12 +758,14 @@ impl StratusPass {
         pass: &mut wgpu::RenderPass<'_>,
         frame: &wgpu::BindGroup,
         atmosphere: &wgpu::BindGroup,
+        cloud_shadow: &wgpu::BindGroup,
     ) {
         let (Some(resources), Some(_)) = (&self.resources, &self.settings) else {
             return;
         };
         pass.set_pipeline(&self.layer_pipeline);
         pass.set_bind_group(0, frame, &[]);
+        pass.set_bind_group(1, cloud_shadow, &[]);
         pass.set_bind_group(2, atmosphere, &[]);
         pass.set_bind_group(3, &resources.lookup_group, &[]);
         pass.set_index_buffer(resources.indices.slice(..), wgpu::IndexFormat::Uint32);

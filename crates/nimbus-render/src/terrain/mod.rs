@@ -3,9 +3,11 @@
 //! lit by the sun and sky.
 //!
 //! The albedo map is a first-class resource ([`TerrainPass::albedo_view`]):
-//! later passes (ground–cloud radiosity, rain collisions) bind it too.
+//! later passes (ground–cloud radiosity, rain collisions) bind it too. The
+//! cumulus shadow map is bound beside it (bindings 8 and 9).
 
 use crate::binding;
+use crate::cumulus::CloudShadowMap;
 use crate::renderer::{RenderError, Renderer};
 use crate::shader::{self, WgslFile};
 use crate::targets::{DEPTH_FORMAT, HDR_FORMAT};
@@ -22,6 +24,7 @@ const TERRAIN_WGSL: WgslFile = WgslFile {
 pub fn shader_source() -> String {
     let mut files = shader::DRAWING_LIBRARIES.to_vec();
     files.extend(crate::stratus::DRAWING_LIBRARIES);
+    files.extend(crate::cumulus::SHADOW_LIBRARIES);
     files.extend([shader::WATER, TERRAIN_WGSL]);
     shader::compose(&files)
 }
@@ -111,12 +114,16 @@ impl TerrainPass {
         atmosphere_layout: &wgpu::BindGroupLayout,
         stratus_layout: &wgpu::BindGroupLayout,
     ) -> Self {
+        let [shadow_uniform, shadow_map] =
+            CloudShadowMap::layout_entries(wgpu::ShaderStages::FRAGMENT);
         let group_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("terrain albedo"),
             entries: &[
                 binding::texture_2d_entry(0, true),
                 binding::filtering_sampler_entry(1),
                 binding::texture_2d_entry(2, true),
+                shadow_uniform,
+                shadow_map,
             ],
         });
         let sampler = device.create_sampler(&wgpu::SamplerDescriptor {
@@ -186,6 +193,7 @@ impl TerrainPass {
         device: &wgpu::Device,
         queue: &wgpu::Queue,
         params: &TerrainParams,
+        cloud_shadow: &CloudShadowMap,
     ) -> Result<(), RenderError> {
         if self.mesh.as_ref().is_some_and(|m| &m.params == params) {
             return Ok(());
@@ -244,10 +252,13 @@ impl TerrainPass {
             view_formats: &[],
         });
         let sun_visibility_view = sun_visibility.create_view(&Default::default());
+        let [shadow_uniform, shadow_map] = cloud_shadow.bind_group_entries();
         let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("terrain albedo"),
             layout: &self.group_layout,
             entries: &[
+                shadow_uniform,
+                shadow_map,
                 wgpu::BindGroupEntry {
                     binding: 0,
                     resource: wgpu::BindingResource::TextureView(&albedo_view),

@@ -4,7 +4,8 @@
 // through the aerial perspective. Under a stratus layer the sun is shadowed
 // by the layer's directional transmittance T_C and the indirect light is the
 // radiosity's R_G (Bouthors et al. 2006, §5). Needs common.wgsl, the
-// atmosphere lookups, stratus/field.wgsl, stratus/lookup.wgsl and water.wgsl.
+// atmosphere lookups, stratus/field.wgsl, stratus/lookup.wgsl, the cumulus
+// shadow libraries and water.wgsl. Cumulus shade it through their shadow map.
 
 // Group 1: the albedo map. RGB: linear albedo (sRGB-encoded storage);
 // A: water mask (1 = water).
@@ -49,7 +50,7 @@ fn lambert_radiance(albedo: vec3<f32>, position_m: vec3<f32>, n: vec3<f32>, sun_
 fn terrain_fragment(in: TerrainVarying) -> @location(0) vec4<f32> {
     let texel = textureSample(albedo_map, albedo_sampler, in.uv);
     let sun_visibility = textureSample(sun_visibility_map, albedo_sampler, in.uv).r
-        * stratus_sun_transmittance(in.position_m);
+        * stratus_sun_transmittance(in.position_m) * cloud_shadow_transmittance(in.position_m);
     let n = normalize(in.normal);
     let land = lambert_radiance(texel.rgb, in.position_m, n, sun_visibility);
     // The water mask is filtered, so shorelines blend smoothly.
