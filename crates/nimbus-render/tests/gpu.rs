@@ -177,6 +177,67 @@ golden_stratus_scene!(golden_stratus_glory_and_fogbow, "stratus-glory");
 golden_stratus_scene!(golden_stratus_over_the_sea, "stratus-sea");
 golden_stratus_scene!(golden_stratus_over_snow, "stratus-snow");
 golden_stratus_scene!(golden_stratus_seen_from_its_side, "stratus-side");
+golden_stratus_scene!(golden_cumulus_front_lit, "cumulus-front-lit");
+golden_stratus_scene!(golden_cumulus_back_lit_silver_lining, "cumulus-back-lit");
+golden_stratus_scene!(golden_cumulus_at_sunset, "cumulus-sunset");
+golden_stratus_scene!(golden_cumulus_from_below, "cumulus-from-below");
+golden_stratus_scene!(golden_cumulus_field_over_terrain, "cumulus-field");
+
+/// The cumulus shader term by term, like Bouthors (2004) figs 5.2–5.13:
+/// Lambert; + ambient; + bump; + light traps; + corona (transparency and
+/// forward scattering); + shadow, tiled left to right, top to bottom.
+#[test]
+fn golden_cumulus_terms_one_by_one() {
+    use nimbus_physics::cumulus::shading::ShadingTerms;
+    let base = scene_file("cumulus-terms.toml");
+    let (w, h) = (2 * GOLDEN_WIDTH, 2 * GOLDEN_HEIGHT);
+    let mut terms = ShadingTerms {
+        ambient: false,
+        bump: false,
+        light_traps: false,
+        corona: false,
+        shadow: false,
+    };
+    let steps: [fn(&mut ShadingTerms); 6] = [
+        |_| {},
+        |t| t.ambient = true,
+        |t| t.bump = true,
+        |t| t.light_traps = true,
+        |t| t.corona = true,
+        |t| t.shadow = true,
+    ];
+    let mut renderer = headless();
+    let mut tiles = Vec::new();
+    for step in steps {
+        step(&mut terms);
+        let mut scene = base.clone();
+        if let Some(cumulus) = scene.cumulus.as_mut() {
+            cumulus.terms = terms;
+        }
+        tiles.push(renderer.render_rgba8(&scene, w, h, 0.0).expect("render"));
+    }
+    let mut montage = image::RgbaImage::new(3 * w, 2 * h);
+    for (k, tile) in tiles.iter().enumerate() {
+        let (x0, y0) = ((k as u32 % 3) * w, (k as u32 / 3) * h);
+        for y in 0..h {
+            for x in 0..w {
+                let i = ((y * w + x) * 4) as usize;
+                let p = &tile.pixels[i..i + 4];
+                montage.put_pixel(x0 + x, y0 + y, image::Rgba([p[0], p[1], p[2], p[3]]));
+            }
+        }
+    }
+    let image = Rgba8Image {
+        width: 3 * w,
+        height: 2 * h,
+        pixels: montage.into_raw(),
+    };
+    // Each term changes the picture.
+    for pair in tiles.windows(2) {
+        assert_ne!(pair[0].pixels, pair[1].pixels, "a term changed nothing");
+    }
+    assert_matches_golden("cumulus-terms", &image);
+}
 
 /// Rec.709 luminance of a linear radiance pixel (relative: no K_m).
 fn luminance(p: &[f32; 3]) -> f64 {

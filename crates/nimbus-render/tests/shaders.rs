@@ -184,6 +184,26 @@ fn pass_uniforms_match_wgsl_layout() {
             sizes,
         ]
     );
+    assert_layout!(
+        module_named("cumulus"),
+        "Cumulus",
+        nimbus_render::cumulus::CumulusUniform,
+        [
+            weights,
+            corona,
+            detail,
+            noise,
+            flags,
+            sun_at_base,
+            sun_per_m,
+        ]
+    );
+    assert_layout!(
+        module_named("cumulus"),
+        "CloudShadow",
+        nimbus_render::cumulus::CloudShadowUniform,
+        [clip_from_world, params, flags,]
+    );
 }
 
 #[test]

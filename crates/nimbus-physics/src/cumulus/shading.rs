@@ -55,7 +55,10 @@
 //!   binary test the depth of core crossed, Δ, gives the two-stream
 //!   diffuse transmittance of a conservative slab, 1 / (1 + ¾ (1 − g) α_ρ Δ)
 //!   (e.g. Bohren & Clothiaux 2006, §6.1 and eq. 6.32; g = 0.85 for cloud
-//!   droplets), filtered over the shadow map's texels (soft shadows).
+//!   droplets), filtered over the shadow map's texels (soft shadows). The
+//!   forward-scattered light T is shadowed where it enters the corona, at
+//!   the far end of the blob's chord behind P: on a back-lit rim that end
+//!   faces the sun, though P itself lies behind the cloud from the sun.
 //! - **Colour** I = α_a C_c + E C_s (α_t T + α_f F + α_l L) (eq 5.42).
 //!
 //! Units: lengths in metres; C_c and C_s are radiances (W·sr⁻¹·m⁻² per RGB
@@ -185,6 +188,40 @@ impl ShadingTerms {
     }
 }
 
+/// Forward-difference step of the bump's gradient, in noise coordinates.
+pub const BUMP_STEP: f64 = 0.05;
+
+/// Seed of the bump noise's first octave (octave k adds 7919 k).
+const BUMP_SEED: u32 = 0x5eed;
+
+/// Bump height h ∈ [0, 1] at noise coordinates `x`: ½ + ½ Σ_k g^k n(x λ^k) /
+/// Σ_k g^k with g = 1/λ, n the 3-D gradient noise
+/// ([`crate::noise::gradient_noise_3d`]): the octaves of the levels below
+/// the mesh's, each λ times smaller and fainter (λ = 3 for the paper's
+/// radius ratio). CPU twin of `cumulus_bump_height`.
+pub fn bump_height(x: DVec3, lacunarity: f64, octaves: u32) -> f64 {
+    let (mut sum, mut norm, mut amplitude, mut frequency) = (0.0, 0.0, 1.0, 1.0);
+    for k in 0..octaves {
+        let p = x * frequency;
+        sum += amplitude
+            * crate::noise::gradient_noise_3d(p.x, p.y, p.z, BUMP_SEED.wrapping_add(k * 7919));
+        norm += amplitude;
+        amplitude /= lacunarity;
+        frequency *= lacunarity;
+    }
+    if norm <= 0.0 {
+        return 0.5;
+    }
+    (0.5 + 0.5 * sum / norm).clamp(0.0, 1.0)
+}
+
+/// h and its gradient by forward differences of [`BUMP_STEP`].
+pub fn bump_height_and_gradient(x: DVec3, lacunarity: f64, octaves: u32) -> (f64, DVec3) {
+    let h = bump_height(x, lacunarity, octaves);
+    let d = |e: DVec3| (bump_height(x + e * BUMP_STEP, lacunarity, octaves) - h) / BUMP_STEP;
+    (h, DVec3::new(d(DVec3::X), d(DVec3::Y), d(DVec3::Z)))
+}
+
 /// Asymmetry parameter of cloud droplets in the visible (Hansen & Travis
 /// 1974, fig. 12), for the two-stream transmittance of the shadow.
 pub const CLOUD_ASYMMETRY: f64 = 0.85;
@@ -261,6 +298,9 @@ pub struct PointLight {
     pub ambient_radiance: [f64; 3],
     /// E: the shadow transmittance at the point.
     pub shadow: f64,
+    /// E where the forward-scattered light enters the corona: at the far
+    /// end of the blob's chord behind the point, 2R (N·O) away along −O.
+    pub forward_shadow: f64,
 }
 
 /// Result of the shader.
@@ -464,6 +504,7 @@ mod tests {
             sun_radiance: [1.0; 3],
             ambient_radiance: [0.2, 0.25, 0.3],
             shadow: 1.0,
+            forward_shadow: 1.0,
         };
         (point, light)
     }

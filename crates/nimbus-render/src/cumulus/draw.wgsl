@@ -26,12 +26,18 @@ fn cumulus_evaluate(in: CumulusVarying) -> CumulusShaded {
     let l = frame.sun_direction;
     let terms = cumulus_shade_terms(p, o, l);
     var shadow = stratus_sun_transmittance(in.world_m);
+    var forward_shadow = shadow;
     if (cumulus_term_on(CUMULUS_SHADOW)) {
+        // The forward-scattered light crosses the blob's chord behind the
+        // point: it is shadowed where it enters, at the chord's far end (on
+        // a back-lit rim, the sun-facing side), not at the point.
+        let chord_m = 2.0 * p.blob_radius_m * saturate(dot(p.normal, o));
         shadow *= cloud_shadow_transmittance(in.world_m);
+        forward_shadow *= cloud_shadow_transmittance(in.world_m - o * chord_m);
     }
     let sun = cumulus_sun_radiance(in.world_m.y);
     let environment = stratus_ground_irradiance(in.world_m, terms.smoothed_normal, sh_irradiance(lighting, terms.smoothed_normal));
-    let radiance = cumulus_radiance(terms, environment / PI, sun, shadow);
+    let radiance = cumulus_radiance(terms, environment / PI, sun, shadow, forward_shadow);
     var out: CumulusShaded;
     out.radiance = to_target(stratus_apply_aerial_perspective(radiance, in.world_m)).rgb;
     out.opacity = cumulus_opacity(terms);

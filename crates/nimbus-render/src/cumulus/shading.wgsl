@@ -217,13 +217,15 @@ fn cumulus_sun_radiance(height_m: f32) -> vec3<f32> {
     return max(cumulus.sun_at_base.rgb + cumulus.sun_per_m.rgb * above, vec3<f32>(0.0));
 }
 
-// I of eq 5.42 from the terms, the environment's radiance C_c, the sun's C_s
-// and the shadow E (all radiances, W·sr⁻¹·m⁻²).
-fn cumulus_radiance(terms: CumulusTerms, ambient: vec3<f32>, sun: vec3<f32>, shadow: vec3<f32>) -> vec3<f32> {
+// I of eq 5.42 from the terms, the environment's radiance C_c, the sun's C_s,
+// the shadow E at the point and E at the far end of the blob's chord, where
+// the light that the corona scatters forwards enters it (all radiances,
+// W·sr⁻¹·m⁻²).
+fn cumulus_radiance(terms: CumulusTerms, ambient: vec3<f32>, sun: vec3<f32>, shadow: vec3<f32>, forward_shadow: vec3<f32>) -> vec3<f32> {
     var a = 0.0;
     if (cumulus_term_on(CUMULUS_AMBIENT)) {
         a = cumulus.weights.x;
     }
-    let direct = cumulus.weights.w * terms.forward + cumulus.weights.z * terms.light_traps + cumulus.weights.y * terms.lambert;
-    return a * ambient + shadow * sun * direct;
+    let reflected = cumulus.weights.z * terms.light_traps + cumulus.weights.y * terms.lambert;
+    return a * ambient + sun * (shadow * reflected + forward_shadow * cumulus.weights.w * terms.forward);
 }
