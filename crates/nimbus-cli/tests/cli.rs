@@ -560,9 +560,13 @@ fn bench_prints_one_json_document_with_per_pass_times() {
                 "aerial_perspective",
                 "lighting",
                 "stratus_lighting",
+                "cumulus_shadow",
                 "sky",
                 "terrain",
+                "cumulus",
+                "cumulus_fringes",
                 "stratus",
+                "cumulus_composite",
                 "exposure",
                 "tonemap"
             ]
@@ -574,9 +578,13 @@ fn bench_prints_one_json_document_with_per_pass_times() {
             let frames = pass["frames"].as_u64().expect("frames");
             let every_frame = [
                 "stratus_lighting",
+                "cumulus_shadow",
                 "sky",
                 "terrain",
+                "cumulus",
+                "cumulus_fringes",
                 "stratus",
+                "cumulus_composite",
                 "exposure",
                 "tonemap",
             ];
