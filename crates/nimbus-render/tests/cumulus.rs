@@ -285,8 +285,8 @@ fn gpu_terms_match_the_cpu_reference() {
                 (g1[3] as f64 - cpu.opacity).abs() <= 2e-3,
                 "opacity, {context}"
             );
-            for c in 0..3 {
-                assert!(close(g1[c], cpu.smoothed_normal[c], 1e-4), "N′, {context}");
+            for (gpu_c, cpu_c) in g1[..3].iter().zip(cpu.smoothed_normal.to_array()) {
+                assert!(close(*gpu_c, cpu_c, 1e-4), "N′, {context}");
             }
             let h_cpu = bump_height(
                 point.normal * 7.3,

@@ -1022,23 +1022,15 @@ impl CumulusPass {
             return;
         }
         let target = |label: &str, format| {
-            device
-                .create_texture(&wgpu::TextureDescriptor {
-                    label: Some(label),
-                    size: wgpu::Extent3d {
-                        width,
-                        height,
-                        depth_or_array_layers: 1,
-                    },
-                    mip_level_count: 1,
-                    sample_count: 1,
-                    dimension: wgpu::TextureDimension::D2,
-                    format,
-                    usage: wgpu::TextureUsages::RENDER_ATTACHMENT
-                        | wgpu::TextureUsages::TEXTURE_BINDING,
-                    view_formats: &[],
-                })
-                .create_view(&Default::default())
+            crate::targets::Target::new(
+                device,
+                label,
+                format,
+                width,
+                height,
+                wgpu::TextureUsages::TEXTURE_BINDING,
+            )
+            .view
         };
         let accumulation = target("cumulus fringe accumulation", ACCUMULATION_FORMAT);
         let revealage = target("cumulus fringe revealage", REVEALAGE_FORMAT);
