@@ -292,16 +292,7 @@ impl CloudShadowMap {
             lookup_group: device.create_bind_group(&wgpu::BindGroupDescriptor {
                 label: Some("cloud shadow lookup"),
                 layout: &lookup_layout,
-                entries: &[
-                    wgpu::BindGroupEntry {
-                        binding: 8,
-                        resource: uniform.as_entire_binding(),
-                    },
-                    wgpu::BindGroupEntry {
-                        binding: 9,
-                        resource: wgpu::BindingResource::TextureView(&array_view),
-                    },
-                ],
+                entries: &shadow_entries(&uniform, &array_view),
             }),
             texture,
             array_view,
@@ -336,16 +327,7 @@ impl CloudShadowMap {
 
     /// Bind group entries matching [`Self::layout_entries`].
     pub fn bind_group_entries(&self) -> [wgpu::BindGroupEntry<'_>; 2] {
-        [
-            wgpu::BindGroupEntry {
-                binding: 8,
-                resource: self.uniform.as_entire_binding(),
-            },
-            wgpu::BindGroupEntry {
-                binding: 9,
-                resource: wgpu::BindingResource::TextureView(&self.array_view),
-            },
-        ]
+        shadow_entries(&self.uniform, &self.array_view)
     }
 
     /// A group holding only the lookup (for passes with no group 1 of their own).
@@ -366,6 +348,23 @@ impl CloudShadowMap {
     fn write(&self, queue: &wgpu::Queue, value: &CloudShadowUniform) {
         queue.write_buffer(&self.uniform, 0, bytemuck::bytes_of(value));
     }
+}
+
+/// The shadow map's bind group entries: the uniform at 8, the map at 9.
+fn shadow_entries<'a>(
+    uniform: &'a wgpu::Buffer,
+    map: &'a wgpu::TextureView,
+) -> [wgpu::BindGroupEntry<'a>; 2] {
+    [
+        wgpu::BindGroupEntry {
+            binding: 8,
+            resource: uniform.as_entire_binding(),
+        },
+        wgpu::BindGroupEntry {
+            binding: 9,
+            resource: wgpu::BindingResource::TextureView(map),
+        },
+    ]
 }
 
 /// Shadow clip space from world space: orthographic along the light
@@ -437,6 +436,34 @@ pub fn sphere_in_frustum(clip_from_world: &Mat4, centre: Vec3, radius: f32) -> b
     })
 }
 
+/// The per-frame data of the `index`th cloud, an instance of `shape`.
+fn field_cloud(index: usize, cloud: &CloudInstance, shape: &CumulusVariant) -> FieldCloud {
+    let (c, s) = (cloud.yaw_rad.cos(), cloud.yaw_rad.sin());
+    let b = DVec3::from_array(shape.bounds_centre_m.map(f64::from)) * cloud.scale;
+    let r = shape.base_radii_m;
+    FieldCloud {
+        variant: cloud.variant as usize,
+        centre_m: cloud.base_centre_m + DVec3::new(c * b.x + s * b.z, b.y, -s * b.x + c * b.z),
+        radius_m: f64::from(shape.bounds_radius_m) * cloud.scale,
+        finest_cell_m: f64::from(shape.lods[0].cell_m) * cloud.scale,
+        instance: CumulusInstance {
+            offset_scale: [
+                cloud.base_centre_m.x as f32,
+                cloud.base_centre_m.y as f32,
+                cloud.base_centre_m.z as f32,
+                cloud.scale as f32,
+            ],
+            rotation_noise: [c as f32, s as f32, (index as f32 * 37.31) % 512.0, 0.0],
+            radii_wavelength: [
+                r[0],
+                r[1],
+                r[2],
+                2.0 * shape.last_radius_m / BUMP_LACUNARITY,
+            ],
+        },
+    }
+}
+
 #[derive(Debug)]
 struct GpuLod {
     vertices: wgpu::Buffer,
@@ -474,6 +501,19 @@ pub enum CumulusError {
     Variant(#[from] variants::VariantError),
 }
 
+/// A cloud of the field with what every frame needs of it, derived once
+/// when the field is placed.
+#[derive(Clone, Debug)]
+struct FieldCloud {
+    variant: usize,
+    /// World bounding sphere: centre and radius, m.
+    centre_m: DVec3,
+    radius_m: f64,
+    /// The finest level's cell at the cloud's scale, m.
+    finest_cell_m: f64,
+    instance: CumulusInstance,
+}
+
 /// What the clouds of a frame are.
 #[derive(Clone, Debug, PartialEq)]
 struct FieldKey {
@@ -495,7 +535,7 @@ pub struct CumulusPass {
     composite_layout: wgpu::BindGroupLayout,
     fringe: Option<FringeTargets>,
     variants: Option<(VariantParams, Vec<GpuVariant>)>,
-    field: Option<(FieldKey, Vec<CloudInstance>)>,
+    field: Option<(FieldKey, Vec<FieldCloud>)>,
     instances: Option<wgpu::Buffer>,
     draws: Vec<Draw>,
     shadow_draws: Vec<Draw>,
@@ -884,6 +924,13 @@ impl CumulusPass {
                     })
                     .collect()
             };
+            let clouds = clouds
+                .iter()
+                .enumerate()
+                .map(|(index, cloud)| {
+                    field_cloud(index, cloud, &variants[cloud.variant as usize].shape)
+                })
+                .collect();
             self.field = Some((key, clouds));
         }
         let Some((_, clouds)) = &self.field else {
@@ -895,53 +942,23 @@ impl CumulusPass {
         // Instances: the camera's (culled, by level of detail), then the shadow's (all).
         let clip_from_world = frame.clip_from_world();
         let camera = Vec3::from_array(frame.camera_position_m);
-        let sphere = |cloud: &CloudInstance| {
-            let shape = &variants[cloud.variant as usize].shape;
-            let (c, s) = (cloud.yaw_rad.cos(), cloud.yaw_rad.sin());
-            let b = DVec3::from_array(shape.bounds_centre_m.map(f64::from)) * cloud.scale;
-            let centre =
-                cloud.base_centre_m + DVec3::new(c * b.x + s * b.z, b.y, -s * b.x + c * b.z);
-            (centre, f64::from(shape.bounds_radius_m) * cloud.scale)
-        };
-        let instance = |index: usize, cloud: &CloudInstance| {
-            let shape = &variants[cloud.variant as usize].shape;
-            let r = shape.base_radii_m;
-            CumulusInstance {
-                offset_scale: [
-                    cloud.base_centre_m.x as f32,
-                    cloud.base_centre_m.y as f32,
-                    cloud.base_centre_m.z as f32,
-                    cloud.scale as f32,
-                ],
-                rotation_noise: [
-                    cloud.yaw_rad.cos() as f32,
-                    cloud.yaw_rad.sin() as f32,
-                    (index as f32 * 37.31) % 512.0,
-                    0.0,
-                ],
-                radii_wavelength: [
-                    r[0],
-                    r[1],
-                    r[2],
-                    2.0 * shape.last_radius_m / BUMP_LACUNARITY,
-                ],
-            }
-        };
         let mut camera_list: Vec<(usize, usize, CumulusInstance)> = Vec::new();
-        for (index, cloud) in clouds.iter().enumerate() {
-            let (centre, radius) = sphere(cloud);
-            if !sphere_in_frustum(&clip_from_world, centre.as_vec3(), radius as f32) {
+        for cloud in clouds {
+            if !sphere_in_frustum(
+                &clip_from_world,
+                cloud.centre_m.as_vec3(),
+                cloud.radius_m as f32,
+            ) {
                 continue;
             }
-            let gpu = &variants[cloud.variant as usize];
-            let distance = (centre.as_vec3() - camera).length() as f64 - radius;
+            let distance = (cloud.centre_m.as_vec3() - camera).length() as f64 - cloud.radius_m;
             let lod = level_of_detail(
-                f64::from(gpu.shape.lods[0].cell_m) * cloud.scale,
+                cloud.finest_cell_m,
                 distance,
                 f64::from(frame.pixel_angle_rad),
-                gpu.lods.len(),
+                variants[cloud.variant].lods.len(),
             );
-            camera_list.push((cloud.variant as usize, lod, instance(index, cloud)));
+            camera_list.push((cloud.variant, lod, cloud.instance));
         }
         camera_list.sort_by_key(|(v, l, _)| (*v, *l));
         let mut data: Vec<CumulusInstance> = Vec::with_capacity(camera_list.len() + clouds.len());
@@ -970,19 +987,15 @@ impl CumulusPass {
         if self.shadow_enabled {
             let mut shadow_list: Vec<(usize, usize, CumulusInstance)> = clouds
                 .iter()
-                .enumerate()
-                .map(|(index, cloud)| {
-                    let lods = variants[cloud.variant as usize].lods.len();
-                    (
-                        cloud.variant as usize,
-                        SHADOW_LOD.min(lods - 1),
-                        instance(index, cloud),
-                    )
+                .map(|cloud| {
+                    let lods = variants[cloud.variant].lods.len();
+                    (cloud.variant, SHADOW_LOD.min(lods - 1), cloud.instance)
                 })
                 .collect();
             shadow_list.sort_by_key(|(v, l, _)| (*v, *l));
             push_runs(&shadow_list, &mut self.shadow_draws, &mut data);
-            let spheres: Vec<(DVec3, f64)> = clouds.iter().map(sphere).collect();
+            let spheres: Vec<(DVec3, f64)> =
+                clouds.iter().map(|c| (c.centre_m, c.radius_m)).collect();
             let (matrix, depth_m) = shadow_clip_from_world(to_sun, &spheres);
             shadow_map.write(
                 queue,
