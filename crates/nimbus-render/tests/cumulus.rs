@@ -3,6 +3,8 @@
 //! cover front-lit, back-lit and grazing views, every lower level, the bump
 //! and both light-trap models.
 
+mod common;
+
 use glam::DVec3;
 use nimbus_physics::cumulus::shading::{
     CumulusShading, LightTrapModel, PointLight, ShadingTerms, SurfacePoint, bump_height, shade,
@@ -160,19 +162,6 @@ fn gpu_terms_match_the_cpu_reference() {
             ]);
             shader::compose(&files) + KERNEL
         };
-        let module = shader::create_module(device, "cumulus terms test", &source);
-        let storage = |binding, read_only, size| {
-            nimbus_render::binding::buffer_entry(
-                binding,
-                wgpu::BufferBindingType::Storage { read_only },
-                size,
-                wgpu::ShaderStages::COMPUTE,
-            )
-        };
-        let io_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("terms io"),
-            entries: &[storage(1, true, 144), storage(2, false, 16)],
-        });
         let uniform_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("terms uniform"),
             entries: &[nimbus_render::binding::uniform_layout_entry(
@@ -181,48 +170,10 @@ fn gpu_terms_match_the_cpu_reference() {
                 std::mem::size_of::<CumulusUniform>() as u64,
             )],
         });
-        let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-            label: Some("terms"),
-            bind_group_layouts: &[Some(&io_layout), Some(&uniform_layout)],
-            immediate_size: 0,
-        });
-        let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-            label: Some("terms"),
-            layout: Some(&layout),
-            module: &module,
-            entry_point: Some("terms_kernel"),
-            compilation_options: Default::default(),
-            cache: None,
-        });
-        let input = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-            label: Some("terms points"),
-            contents: bytemuck::cast_slice(&data),
-            usage: wgpu::BufferUsages::STORAGE,
-        });
-        let output = device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("terms results"),
-            size: (cases.len() * 48) as u64,
-            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
-            mapped_at_creation: false,
-        });
         let uniform_buffer = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
             label: Some("terms uniform"),
             contents: bytemuck::bytes_of(&uniform),
             usage: wgpu::BufferUsages::UNIFORM,
-        });
-        let io = device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("terms io"),
-            layout: &io_layout,
-            entries: &[
-                wgpu::BindGroupEntry {
-                    binding: 1,
-                    resource: input.as_entire_binding(),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 2,
-                    resource: output.as_entire_binding(),
-                },
-            ],
         });
         let uniform_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("terms uniform"),
@@ -232,18 +183,24 @@ fn gpu_terms_match_the_cpu_reference() {
                 resource: uniform_buffer.as_entire_binding(),
             }],
         });
-        let mut encoder = device.create_command_encoder(&Default::default());
-        {
-            let mut pass = encoder.begin_compute_pass(&Default::default());
-            pass.set_pipeline(&pipeline);
-            pass.set_bind_group(0, &io, &[]);
-            pass.set_bind_group(1, &uniform_group, &[]);
-            pass.dispatch_workgroups(cases.len().div_ceil(64) as u32, 1, 1);
-        }
-        h.gpu.queue.submit([encoder.finish()]);
-        let gpu: Vec<[f32; 4]> = h
-            .read_buffer_elements(&output, cases.len() * 3)
-            .expect("read");
+        // Nine vec4 per point in, three vec4 out.
+        let gpu: Vec<[f32; 4]> = common::run_kernel(
+            &h,
+            &common::Kernel {
+                label: "cumulus terms test",
+                source: &source,
+                entry: "terms_kernel",
+                input: bytemuck::cast_slice(&data),
+                input_stride: 144,
+                count: cases.len(),
+                outputs_per_item: 3,
+                extra: &[common::ExtraGroup {
+                    index: 1,
+                    layout: &uniform_layout,
+                    group: &uniform_group,
+                }],
+            },
+        );
         let light = PointLight {
             to_observer: DVec3::Z,
             to_sun: DVec3::Y,

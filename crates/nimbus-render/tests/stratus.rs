@@ -3,6 +3,8 @@
 //! the 1-D slab model, and the frame's radiosity result against
 //! nimbus_physics::radiosity::iterate run on the inputs the GPU computed.
 
+mod common;
+
 use nimbus_physics::cloud_layer::CloudLayerField;
 use nimbus_physics::radiosity::{PlaneField, RadiosityInputs, iterate};
 use nimbus_physics::transport::stratus::{OneDimensionalTable, one_dimensional};
@@ -201,7 +203,6 @@ fn view_path_kernel(@builtin(global_invocation_id) id: vec3<u32>) {
 fn gpu_view_path_matches_the_cpu_march() {
     use nimbus_physics::cloud_layer::path_inside_layer_m;
     use nimbus_render::shader;
-    use wgpu::util::DeviceExt;
 
     let mut h = headless();
     let scene = scene(0);
@@ -270,76 +271,29 @@ fn gpu_view_path_matches_the_cpu_march() {
     }
     assert!(rays.len() > 300, "{} rays", rays.len());
 
-    let device = &h.gpu.device;
     let source = {
         let mut files = shader::DRAWING_LIBRARIES.to_vec();
         files.extend(nimbus_render::stratus::DRAWING_LIBRARIES);
         shader::compose(&files) + VIEW_PATH_KERNEL
     };
-    let module = shader::create_module(device, "view path test", &source);
-    // One ray (two vec4) and one f32 at least.
-    let storage = |binding, read_only, size| {
-        nimbus_render::binding::buffer_entry(
-            binding,
-            wgpu::BufferBindingType::Storage { read_only },
-            size,
-            wgpu::ShaderStages::COMPUTE,
-        )
-    };
-    let io_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-        label: Some("view path io"),
-        entries: &[storage(1, true, 32), storage(2, false, 4)],
-    });
-    let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-        label: Some("view path test"),
-        bind_group_layouts: &[Some(&io_layout), None, None, Some(stratus.lookup_layout())],
-        immediate_size: 0,
-    });
-    let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-        label: Some("view path test"),
-        layout: Some(&pipeline_layout),
-        module: &module,
-        entry_point: Some("view_path_kernel"),
-        compilation_options: Default::default(),
-        cache: None,
-    });
-    let ray_buffer = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-        label: Some("view path rays"),
-        contents: bytemuck::cast_slice(&rays),
-        usage: wgpu::BufferUsages::STORAGE,
-    });
-    let length_buffer = device.create_buffer(&wgpu::BufferDescriptor {
-        label: Some("view path lengths"),
-        size: (rays.len() * 4) as u64,
-        usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
-        mapped_at_creation: false,
-    });
-    let io = device.create_bind_group(&wgpu::BindGroupDescriptor {
-        label: Some("view path io"),
-        layout: &io_layout,
-        entries: &[
-            wgpu::BindGroupEntry {
-                binding: 1,
-                resource: ray_buffer.as_entire_binding(),
-            },
-            wgpu::BindGroupEntry {
-                binding: 2,
-                resource: length_buffer.as_entire_binding(),
-            },
-        ],
-    });
-    let mut encoder = device.create_command_encoder(&Default::default());
-    {
-        let mut pass = encoder.begin_compute_pass(&Default::default());
-        pass.set_pipeline(&pipeline);
-        pass.set_bind_group(0, &io, &[]);
-        pass.set_bind_group(3, stratus.lookup_group().expect("group"), &[]);
-        pass.dispatch_workgroups(rays.len().div_ceil(64) as u32, 1, 1);
-    }
-    h.gpu.queue.submit([encoder.finish()]);
-    let gpu: Vec<f32> = h
-        .read_buffer_elements(&length_buffer, rays.len())
-        .expect("read");
+    // One ray (two vec4) in, one f32 out.
+    let gpu: Vec<f32> = common::run_kernel(
+        &h,
+        &common::Kernel {
+            label: "view path test",
+            source: &source,
+            entry: "view_path_kernel",
+            input: bytemuck::cast_slice(&rays),
+            input_stride: 32,
+            count: rays.len(),
+            outputs_per_item: 1,
+            extra: &[common::ExtraGroup {
+                index: 3,
+                layout: stratus.lookup_layout(),
+                group: stratus.lookup_group().expect("group"),
+            }],
+        },
+    );
 
     let (mut worst, mut side_entries_through_cloud) = (0.0f64, 0);
     for (ray, &gpu_length) in rays.iter().zip(&gpu) {
