@@ -517,7 +517,9 @@ struct FieldCloud {
 /// What the clouds of a frame are.
 #[derive(Clone, Debug, PartialEq)]
 struct FieldKey {
-    settings: CumulusSettings,
+    /// The settings with the shader's parameters and terms left at their
+    /// defaults: changing those does not move the clouds.
+    placement: CumulusSettings,
     area_centre_m: [f64; 2],
     area_side_m: f64,
 }
@@ -889,7 +891,11 @@ impl CumulusPass {
             return Ok(());
         };
         let key = FieldKey {
-            settings: settings.clone(),
+            placement: CumulusSettings {
+                shading: Default::default(),
+                terms: Default::default(),
+                ..settings.clone()
+            },
             area_centre_m: [0.0, 0.0],
             area_side_m: settings.area_m.unwrap_or(scene.terrain.extent_m),
         };
