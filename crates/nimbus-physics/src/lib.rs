@@ -13,6 +13,7 @@ pub mod noise;
 pub mod optics;
 pub mod photometry;
 pub mod radiosity;
+pub mod rain;
 pub mod sh;
 pub mod sky;
 pub mod terrain;

@@ -1,0 +1,18 @@
+//! Rain, after Blanchard (2023, §4.2–4.3) and Rousseau et al. (2006, 2008):
+//! the Marshall–Palmer drop-size distribution that ties the number of drops
+//! to the rain intensity ([`dsd`]), drag and terminal fall speed ([`drag`]),
+//! the wind field the drops are carried by ([`wind`]), the "rain box" of
+//! drops around the camera and its recycling ([`rain_box`]), the rain zones
+//! under the clouds ([`zones`]), and the CPU reference of the drop dynamics
+//! that the GPU simulation runs step for step ([`simulation`]).
+//!
+//! Units: metres, seconds, m/s; drop diameters in millimetres where a name
+//! says `_mm` (the meteorologists' unit), metres otherwise.
+
+pub mod drag;
+pub mod dsd;
+pub mod rain_box;
+pub mod random;
+pub mod simulation;
+pub mod wind;
+pub mod zones;
