@@ -37,6 +37,8 @@ enum Command {
     /// mesh with the shader's attributes, exported as binary glTF (.glb)
     /// with the hierarchy as JSON.
     Cumulus(commands::cumulus::CumulusArgs),
+    /// Rain: drop sizes and fall speeds, and the CPU rain simulation's statistics.
+    Rain(commands::rain::RainArgs),
 }
 
 fn main() -> ExitCode {
@@ -78,6 +80,7 @@ fn main() -> ExitCode {
         Command::Optics(args) => commands::optics::run(&args),
         Command::Slab(args) => commands::slab::run(&args),
         Command::Cumulus(args) => commands::cumulus::run(&args),
+        Command::Rain(args) => commands::rain::run(&args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

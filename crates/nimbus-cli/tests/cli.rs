@@ -76,6 +76,8 @@ fn help_is_available_for_every_subcommand() {
         &["slab", "plot", "--help"],
         &["optics", "dsd", "--help"],
         &["cumulus", "--help"],
+        &["rain", "terminal-velocity", "--help"],
+        &["rain", "stats", "--help"],
     ] {
         let out = nimbus(sub, &dir);
         assert!(out.status.success(), "{sub:?}");
@@ -563,6 +565,7 @@ fn bench_prints_one_json_document_with_per_pass_times() {
                 "cumulus_shadow",
                 "sky",
                 "terrain",
+                "objects",
                 "cumulus",
                 "cumulus_fringes",
                 "stratus",
@@ -907,4 +910,189 @@ fn cumulus_bad_input_fails_with_one_line() {
         assert_fails_with(&nimbus(args, &dir), fragments);
     }
     assert_eq!(files_in(&dir), ["flat.json", "typo.json"]);
+}
+
+fn json_stdout(out: &Output) -> serde_json::Value {
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    serde_json::from_slice(&out.stdout).expect("one JSON document on stdout")
+}
+
+/// Gunn & Kinzer, J. Meteor. 6, 1949, Table 2: the fit within 5 % from 0.5
+/// to 5 mm, the measured value beside it, null off the table.
+#[test]
+fn rain_terminal_velocity_matches_gunn_and_kinzer_1949_as_json() {
+    let dir = temp_dir("rain-speed");
+    let measured = [
+        (0.5, 2.06),
+        (1.0, 4.03),
+        (2.0, 6.49),
+        (3.0, 8.06),
+        (4.0, 8.83),
+        (5.0, 9.09),
+    ];
+    let rows = json_stdout(&nimbus(
+        &[
+            "rain",
+            "terminal-velocity",
+            "--diameter-mm",
+            "0.5,1,2,3,4,5,2.5",
+            "--json",
+        ],
+        &dir,
+    ));
+    let rows = rows.as_array().expect("array");
+    assert_eq!(rows.len(), 7);
+    for (row, (d, v)) in rows.iter().zip(measured) {
+        assert_eq!(row["diameter_mm"], d);
+        assert_eq!(row["gunn_kinzer_m_s"], v);
+        let speed = row["speed_m_s"].as_f64().expect("speed");
+        assert!((speed - v).abs() / v < 0.05, "{d} mm: {speed} vs {v}");
+        let cd = row["drag_coefficient"].as_f64().expect("C_d");
+        assert!((0.4..1.5).contains(&cd), "{d} mm: C_d {cd}");
+    }
+    assert!(rows[6]["gunn_kinzer_m_s"].is_null(), "{}", rows[6]);
+}
+
+fn rain_stats(args: &[&str], dir: &Path) -> serde_json::Value {
+    let mut all = vec!["rain", "stats", "--json"];
+    all.extend_from_slice(args);
+    json_stdout(&nimbus(&all, dir))
+}
+
+/// The drop count in the box follows the Marshall–Palmer expectation
+/// (Blanchard 2023, §4.2.2) at light and torrential rain, with no NaN.
+#[test]
+fn rain_stats_drop_counts_follow_marshall_palmer_at_1_and_100_mm_h() {
+    let dir = temp_dir("rain-stats");
+    for (intensity, radius) in [("1", "3"), ("100", "2")] {
+        let r = rain_stats(
+            &[
+                "--intensity-mm-h",
+                intensity,
+                "--seconds",
+                "1",
+                "--box-radius-m",
+                radius,
+            ],
+            &dir,
+        );
+        let error = r["relative_error"].as_f64().expect("relative_error");
+        assert!(error.abs() < 0.03, "{intensity} mm/h: {r}");
+        assert!(r["expected_drops"].as_f64().expect("expected") > 10_000.0);
+        assert_eq!(r["non_finite_values"], 0, "{r}");
+        assert_eq!(r["steps"], 120);
+    }
+}
+
+/// Drag on the velocity relative to the air carries the drops with a steady wind.
+#[test]
+fn rain_stats_drops_move_with_the_wind() {
+    let dir = temp_dir("rain-wind");
+    let r = rain_stats(
+        &[
+            "--intensity-mm-h",
+            "10",
+            "--seconds",
+            "1",
+            "--box-radius-m",
+            "2",
+            "--wind-m-s",
+            "8,0,0",
+        ],
+        &dir,
+    );
+    let v = &r["mean_horizontal_velocity_m_s"];
+    let (x, z) = (v[0].as_f64().expect("x"), v[1].as_f64().expect("z"));
+    assert!((x - 8.0).abs() < 0.16 && z.abs() < 0.16, "{r}");
+    assert!(r["recycled_per_second"].as_f64().expect("recycled") > 0.0);
+}
+
+/// No rain: no drops, no division by zero; gusts and turbulence stay finite.
+#[test]
+fn rain_stats_handles_no_rain_and_gusts() {
+    let dir = temp_dir("rain-edge");
+    let r = rain_stats(&["--intensity-mm-h", "0", "--seconds", "0.5"], &dir);
+    assert_eq!(r["simulated_drops"], 0);
+    assert!(r["relative_error"].is_null(), "{r}");
+    assert!(r["recycled_per_second"].is_null(), "{r}");
+    let r = rain_stats(
+        &[
+            "--intensity-mm-h",
+            "10",
+            "--seconds",
+            "3",
+            "--box-radius-m",
+            "1.5",
+            "--wind-m-s",
+            "5,0,-2",
+            "--gusts",
+        ],
+        &dir,
+    );
+    assert_eq!(r["non_finite_values"], 0, "{r}");
+    let error = r["relative_error"].as_f64().expect("relative_error");
+    assert!(error.abs() < 0.05, "{r}");
+}
+
+#[test]
+fn rain_bad_input_fails_with_one_line() {
+    let dir = temp_dir("rain-bad");
+    let cases: [(&[&str], &[&str]); 6] = [
+        (
+            &["rain", "terminal-velocity", "--diameter-mm", "-1"],
+            &["--diameter-mm -1", "(0, 8]"],
+        ),
+        (
+            &["rain", "terminal-velocity", "--diameter-mm", "1,abc"],
+            &["--diameter-mm", "abc"],
+        ),
+        (
+            &["rain", "stats", "--intensity-mm-h", "1000"],
+            &["--intensity-mm-h 1000", "[0, 300]"],
+        ),
+        (
+            &[
+                "rain",
+                "stats",
+                "--intensity-mm-h",
+                "5",
+                "--wind-m-s",
+                "NaN,0,0",
+            ],
+            &["--wind-m-s NaN,0,0", "finite"],
+        ),
+        (
+            &[
+                "rain",
+                "stats",
+                "--intensity-mm-h",
+                "300",
+                "--box-radius-m",
+                "50",
+            ],
+            &["--intensity-mm-h 300", "at most 20000000"],
+        ),
+        (
+            &[
+                "rain",
+                "stats",
+                "--intensity-mm-h",
+                "5",
+                "--min-diameter-mm",
+                "2",
+                "--max-diameter-mm",
+                "1",
+            ],
+            &["--max-diameter-mm 1", "--min-diameter-mm"],
+        ),
+    ];
+    for (args, fragments) in cases {
+        let out = nimbus(args, &dir);
+        assert_fails_with(&out, fragments);
+        assert!(out.stdout.is_empty(), "{args:?}");
+    }
 }

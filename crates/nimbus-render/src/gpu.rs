@@ -140,6 +140,8 @@ impl GpuContext {
             // renderer checks image and mesh sizes against these before allocating.
             required_limits: wgpu::Limits {
                 max_buffer_size: adapter.limits().max_buffer_size,
+                // Millions of rain drops live in one storage buffer.
+                max_storage_buffer_binding_size: adapter.limits().max_storage_buffer_binding_size,
                 ..wgpu::Limits::default().using_resolution(adapter.limits())
             },
             experimental_features: wgpu::ExperimentalFeatures::disabled(),

@@ -100,7 +100,8 @@ impl HeadlessRenderer {
                 DEPTH_FORMAT,
                 width,
                 height,
-                wgpu::TextureUsages::empty(),
+                // The rain's streaks and mist read the depth.
+                wgpu::TextureUsages::TEXTURE_BINDING,
             );
             self.targets = Some((output, depth));
         }

@@ -3,7 +3,7 @@
 //! The frame's pass order lives in [`Renderer::encode`] and nowhere else:
 //! the atmosphere's LUTs and lighting inputs (when their inputs changed),
 //! the stratus layer's field and radiosity, the cumulus shadow map, sky,
-//! terrain, the cumulus bodies and fringes, the stratus layer, the cumulus
+//! terrain, the static objects, the cumulus bodies and fringes, the stratus layer, the cumulus
 //! fringes' composite, exposure, then tone mapping into the caller's output
 //! target. Every pass writes GPU timestamps when the device supports them.
 
@@ -11,6 +11,8 @@ use crate::atmosphere::AtmospherePass;
 use crate::cumulus::{CloudShadowMap, CumulusPass};
 use crate::exposure::ExposurePass;
 use crate::frame::{FrameBinding, FrameUniform};
+use crate::objects::ObjectsPass;
+use crate::rain::RainPass;
 use crate::scene::Scene;
 use crate::sky::{SkyPass, SkySettings};
 use crate::stratus::StratusPass;
@@ -20,7 +22,7 @@ use crate::timing::GpuTimer;
 use crate::tonemap::TonemapPass;
 
 /// Names of the passes in frame order, as reported by timings.
-pub const PASS_NAMES: [&str; 15] = [
+pub const PASS_NAMES: [&str; 19] = [
     "transmittance",
     "multiple_scattering",
     "sky_view",
@@ -28,12 +30,16 @@ pub const PASS_NAMES: [&str; 15] = [
     "lighting",
     "stratus_lighting",
     "cumulus_shadow",
+    "rain_simulation",
     "sky",
     "terrain",
+    "objects",
     "cumulus",
     "cumulus_fringes",
     "stratus",
     "cumulus_composite",
+    "rain_mist",
+    "rain",
     "exposure",
     "tonemap",
 ];
@@ -41,13 +47,17 @@ pub const PASS_NAMES: [&str; 15] = [
 /// Timer slots of the passes after the atmosphere's.
 const STRATUS_LIGHTING_PASS_INDEX: u32 = crate::atmosphere::PASS_NAMES.len() as u32;
 const CUMULUS_SHADOW_PASS_INDEX: u32 = STRATUS_LIGHTING_PASS_INDEX + 1;
-const SKY_PASS_INDEX: u32 = CUMULUS_SHADOW_PASS_INDEX + 1;
+const RAIN_SIMULATION_PASS_INDEX: u32 = CUMULUS_SHADOW_PASS_INDEX + 1;
+const SKY_PASS_INDEX: u32 = RAIN_SIMULATION_PASS_INDEX + 1;
 const TERRAIN_PASS_INDEX: u32 = SKY_PASS_INDEX + 1;
-const CUMULUS_PASS_INDEX: u32 = TERRAIN_PASS_INDEX + 1;
+const OBJECTS_PASS_INDEX: u32 = TERRAIN_PASS_INDEX + 1;
+const CUMULUS_PASS_INDEX: u32 = OBJECTS_PASS_INDEX + 1;
 const CUMULUS_FRINGES_PASS_INDEX: u32 = CUMULUS_PASS_INDEX + 1;
 const STRATUS_PASS_INDEX: u32 = CUMULUS_FRINGES_PASS_INDEX + 1;
 const CUMULUS_COMPOSITE_PASS_INDEX: u32 = STRATUS_PASS_INDEX + 1;
-const EXPOSURE_PASS_INDEX: u32 = CUMULUS_COMPOSITE_PASS_INDEX + 1;
+const RAIN_MIST_PASS_INDEX: u32 = CUMULUS_COMPOSITE_PASS_INDEX + 1;
+const RAIN_PASS_INDEX: u32 = RAIN_MIST_PASS_INDEX + 1;
+const EXPOSURE_PASS_INDEX: u32 = RAIN_PASS_INDEX + 1;
 const TONEMAP_PASS_INDEX: u32 = EXPOSURE_PASS_INDEX + 1;
 
 /// How the renderer is set up.
@@ -115,6 +125,12 @@ pub enum RenderError {
     /// The cumulus shapes could not be made.
     #[error(transparent)]
     Cumulus(#[from] crate::cumulus::CumulusError),
+    /// The static objects' geometry could not be built.
+    #[error(transparent)]
+    Objects(#[from] crate::objects::ObjectsError),
+    /// The rain cannot be simulated on this device.
+    #[error(transparent)]
+    Rain(#[from] crate::rain::RainError),
 }
 
 /// Lighting depends only on these scene values; recomputed when they change.
@@ -128,9 +144,11 @@ pub struct Renderer {
     exposure: ExposurePass,
     sky: SkyPass,
     terrain: TerrainPass,
+    objects: ObjectsPass,
     stratus: StratusPass,
     cloud_shadow: CloudShadowMap,
     cumulus: CumulusPass,
+    rain: RainPass,
     tonemap: TonemapPass,
     hdr: Option<Target>,
     timer: Option<GpuTimer>,
@@ -165,12 +183,24 @@ impl Renderer {
             atmosphere.lookup_layout(),
             stratus.lookup_layout(),
         );
+        let objects = ObjectsPass::new(
+            device,
+            &frame.layout,
+            atmosphere.lookup_layout(),
+            stratus.lookup_layout(),
+        );
         let cumulus = CumulusPass::new(
             device,
             &frame.layout,
             atmosphere.lookup_layout(),
             stratus.lookup_layout(),
             &cloud_shadow,
+        );
+        let rain = RainPass::new(
+            device,
+            &frame.layout,
+            atmosphere.lookup_layout(),
+            stratus.lookup_layout(),
         );
         let tonemap = TonemapPass::new(device, queue, descriptor.output_format);
         let exposure = ExposurePass::new(device, &frame.layout);
@@ -187,9 +217,11 @@ impl Renderer {
             exposure,
             sky,
             terrain,
+            objects,
             stratus,
             cloud_shadow,
             cumulus,
+            rain,
             tonemap,
             hdr: None,
             timer,
@@ -286,6 +318,8 @@ impl Renderer {
             &self.cloud_shadow,
         )?;
         self.terrain.prepare_sun(&self.queue, scene.sun.direction());
+        self.objects
+            .prepare(&self.device, &self.queue, scene, &self.cloud_shadow)?;
         if let Some(terrain) = self.terrain.terrain() {
             self.stratus
                 .prepare(&self.device, &self.queue, scene, terrain, time_s)?;
@@ -299,7 +333,33 @@ impl Renderer {
             width,
             height,
         )?;
+        let camera = crate::frame::Camera::from_settings(&scene.camera, width, height);
+        let occluders = self.occluders();
+        let strides: Vec<u64> = occluders.iter().map(|g| g.vertex_stride).collect();
+        let generation = (self.objects.generation(), self.terrain.generation());
+        let footprints = self.cumulus.footprints_m();
+        self.rain.prepare(
+            &self.device,
+            &self.queue,
+            scene,
+            &camera,
+            time_s,
+            &footprints,
+            generation,
+            &strides,
+        )?;
         Ok(())
+    }
+
+    /// What stops the rain: the terrain and the static objects.
+    fn occluders(&self) -> Vec<crate::occluders::OccluderGeometry<'_>> {
+        [
+            self.terrain.occluder_geometry(),
+            self.objects.occluder_geometry(),
+        ]
+        .into_iter()
+        .flatten()
+        .collect()
     }
 
     /// Records the frame: atmosphere LUTs, sky, terrain, tone mapping. Call
@@ -350,6 +410,26 @@ impl Renderer {
         if !self.cumulus.shadow_enabled() {
             run[CUMULUS_SHADOW_PASS_INDEX as usize] = false;
         }
+        // 3b. The rain: its shadow map when needed, the steps since the last
+        // frame, and the list of drops in view.
+        let rain = self.rain.enabled();
+        if rain {
+            self.rain.encode_simulation(
+                encoder,
+                frame,
+                &self.occluders(),
+                self.timer
+                    .as_ref()
+                    .map(|t| t.compute_pass_writes(RAIN_SIMULATION_PASS_INDEX)),
+            );
+        } else {
+            for index in [RAIN_SIMULATION_PASS_INDEX, RAIN_PASS_INDEX] {
+                run[index as usize] = false;
+            }
+        }
+        if !self.rain.mist_enabled() {
+            run[RAIN_MIST_PASS_INDEX as usize] = false;
+        }
         let cumulus = self.cumulus.enabled();
         if !cumulus {
             for index in [
@@ -359,6 +439,9 @@ impl Renderer {
             ] {
                 run[index as usize] = false;
             }
+        }
+        if !self.objects.enabled() {
+            run[OBJECTS_PASS_INDEX as usize] = false;
         }
         if let Ok(mut last) = self.passes_run.lock() {
             *last = run;
@@ -388,6 +471,19 @@ impl Renderer {
                 wgpu::LoadOp::Load,
             );
             self.terrain.draw(&mut pass, frame, atmosphere, stratus);
+        }
+        // 5b. Static objects (boxes, glTF meshes), depth-tested like the terrain.
+        if self.objects.enabled() {
+            let mut pass = self.hdr_pass(
+                encoder,
+                "objects",
+                OBJECTS_PASS_INDEX,
+                hdr,
+                targets.depth,
+                wgpu::LoadOp::Load,
+                wgpu::LoadOp::Load,
+            );
+            self.objects.draw(&mut pass, frame, atmosphere, stratus);
         }
         // 6. Cumulus: opaque bodies (depth written), then the fringes'
         // order-independent accumulation against that depth.
@@ -454,6 +550,56 @@ impl Renderer {
                 multiview_mask: None,
             });
             self.cumulus.draw_composite(&mut pass);
+        }
+        // 8b. Rain mist beyond the rain box, over everything (reads the depth).
+        if self.rain.mist_enabled() {
+            let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+                label: Some("rain mist"),
+                color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+                    view: &hdr.view,
+                    depth_slice: None,
+                    resolve_target: None,
+                    ops: wgpu::Operations {
+                        load: wgpu::LoadOp::Load,
+                        store: wgpu::StoreOp::Store,
+                    },
+                })],
+                depth_stencil_attachment: None,
+                timestamp_writes: self
+                    .timer
+                    .as_ref()
+                    .map(|t| t.pass_writes(RAIN_MIST_PASS_INDEX)),
+                occlusion_query_set: None,
+                multiview_mask: None,
+            });
+            self.rain
+                .draw_mist(&mut pass, targets.depth, [frame, atmosphere, stratus]);
+        }
+        // 8c. Rain streaks and splashes, depth-tested against a read-only
+        // depth that they also read, to fade where they meet surfaces.
+        if rain {
+            let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+                label: Some("rain"),
+                color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+                    view: &hdr.view,
+                    depth_slice: None,
+                    resolve_target: None,
+                    ops: wgpu::Operations {
+                        load: wgpu::LoadOp::Load,
+                        store: wgpu::StoreOp::Store,
+                    },
+                })],
+                depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
+                    view: targets.depth,
+                    depth_ops: None,
+                    stencil_ops: None,
+                }),
+                timestamp_writes: self.timer.as_ref().map(|t| t.pass_writes(RAIN_PASS_INDEX)),
+                occlusion_query_set: None,
+                multiview_mask: None,
+            });
+            self.rain
+                .draw(&mut pass, targets.depth, [frame, atmosphere, stratus]);
         }
         // 9. Exposure: meter the frame (automatic exposure) or pass the manual EV through.
         {
@@ -586,6 +732,21 @@ impl Renderer {
     /// The stratus pass (its radiosity and uniform).
     pub fn stratus(&self) -> &StratusPass {
         &self.stratus
+    }
+
+    /// The rain pass.
+    pub fn rain(&self) -> &RainPass {
+        &self.rain
+    }
+
+    /// The static objects' pass (their occluder geometry and bounds).
+    pub fn objects(&self) -> &ObjectsPass {
+        &self.objects
+    }
+
+    /// The terrain pass (its occluder geometry).
+    pub fn terrain(&self) -> &TerrainPass {
+        &self.terrain
     }
 
     /// The terrain's albedo map (RGB albedo, A water mask), once prepared.

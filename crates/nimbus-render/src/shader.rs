@@ -35,6 +35,13 @@ pub const FULLSCREEN: WgslFile = WgslFile {
     name: "shaders/fullscreen.wgsl",
     source: include_str!("shaders/fullscreen.wgsl"),
 };
+/// Lambertian surfaces lit by the sun and the environment, `lambert_radiance`
+/// (needs `COMMON`, the atmosphere lookups and the stratus lookup); shared by
+/// the terrain and the static objects.
+pub const LAMBERT: WgslFile = WgslFile {
+    name: "shaders/lambert.wgsl",
+    source: include_str!("shaders/lambert.wgsl"),
+};
 /// Shading of open water (needs `COMMON` and the atmosphere lookups).
 pub const WATER: WgslFile = WgslFile {
     name: "shaders/water.wgsl",
@@ -48,6 +55,12 @@ pub fn all_modules() -> Vec<(&'static str, String)> {
     modules.extend([
         ("sky", crate::sky::shader_source()),
         ("terrain", crate::terrain::shader_source()),
+        ("objects", crate::objects::shader_source()),
+        ("rain simulation", crate::rain::simulation_shader_source()),
+        ("rain visibility", crate::rain::visibility_shader_source()),
+        ("rain streaks", crate::rain::streaks_shader_source()),
+        ("rain mist", crate::rain::mist_shader_source()),
+        ("rain shadow map", crate::rain::occluders_shader_source()),
         ("exposure", crate::exposure::shader_source()),
         ("tonemap", crate::tonemap::shader_source()),
         ("radiosity", crate::radiosity::shader_source()),

@@ -151,6 +151,7 @@ golden_scene!(golden_low_sun, "golden-hour");
 golden_scene!(golden_sunset, "sunset");
 golden_scene!(golden_twilight_sun_5_degrees_below_horizon, "twilight");
 golden_scene!(golden_view_from_10_km, "high-altitude");
+golden_scene!(golden_objects_shed, "objects-shed");
 
 /// Golden images of the stratus scenes, at twice the size so that the glory,
 /// fogbow and silver lining stay visible in them.

@@ -3,6 +3,7 @@
 pub mod bench;
 pub mod cumulus;
 pub mod optics;
+pub mod rain;
 pub mod render;
 pub mod scene;
 pub mod slab;
@@ -16,15 +17,12 @@ use std::path::{Path, PathBuf};
 pub const MAX_SIDE_PX: u32 = nimbus_render::scene::MAX_IMAGE_SIDE_PX;
 
 /// Loads the scene file, or the embedded default scene when none is given,
-/// and warns on standard error about sections that are not rendered yet.
+/// and warns on standard error about a camera under the ground.
 pub fn load_scene(path: Option<&Path>) -> anyhow::Result<Scene> {
     let scene = match path {
         Some(path) => Scene::from_file(path)?,
         None => Scene::embedded_default(),
     };
-    for name in scene.reserved_sections_present() {
-        eprintln!("nimbus: warning: [{name}] is validated but not rendered by this version");
-    }
     let [x, y, z] = scene.camera.position_m;
     let ground = nimbus_physics::terrain::ground_height_m(&scene.terrain, x, z)
         .max(scene.terrain.water_level_m);

@@ -825,6 +825,17 @@ impl CumulusPass {
         self.shadow_enabled
     }
 
+    /// The placed clouds' footprints as (x, z, radius), m: their bounding
+    /// spheres seen from below (where rain under cumulus falls).
+    pub fn footprints_m(&self) -> Vec<[f32; 3]> {
+        self.field.as_ref().map_or_else(Vec::new, |(_, clouds)| {
+            clouds
+                .iter()
+                .map(|c| [c.centre_m.x as f32, c.centre_m.z as f32, c.radius_m as f32])
+                .collect()
+        })
+    }
+
     /// Number of clouds in the field and number drawn this frame.
     pub fn cloud_counts(&self) -> (usize, usize) {
         let drawn = self.draws.iter().map(|d| d.instances.len()).sum();

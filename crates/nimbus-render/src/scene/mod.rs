@@ -6,14 +6,25 @@
 //! [`Scene::from_toml_str`] with a [`SceneError`] that names the file, the key,
 //! the value and what is allowed.
 
+mod objects;
+mod rain;
 mod validate;
 
+pub use objects::{
+    BOX_TRIANGLES, DEFAULT_OBJECT_ALBEDO, MAX_OBJECT_TRIANGLES, MAX_OBJECTS, ObjectKind,
+    ObjectShape, SceneObject,
+};
+pub use rain::{
+    MAX_RAIN_DROPS, RainAreaSettings, RainBoxKind, RainSettings, TurbulenceSettings,
+    WindPrimitiveKindSetting, WindPrimitiveSettings,
+};
 pub use validate::SceneError;
 
 use nimbus_physics::atmosphere::AtmosphereParams;
 use nimbus_physics::cumulus::shading::{CumulusShading, ShadingTerms};
 use nimbus_physics::terrain::TerrainParams;
 use serde::{Deserialize, Serialize};
+use std::path::{Path, PathBuf};
 
 /// The text of the embedded default scene (`scenes/default.toml`).
 pub const DEFAULT_SCENE_TOML: &str = include_str!("../../../../scenes/default.toml");
@@ -47,10 +58,19 @@ pub struct Scene {
     pub cumulus: Option<CumulusSettings>,
     /// Stratiform cloud layer.
     pub stratus: Option<StratusSettings>,
-    /// Rain (reserved: parsed and validated, not rendered yet).
+    /// Rain: particles around the camera, streaks, splashes and mist.
     pub rain: Option<RainSettings>,
-    /// Wind: carries the stratiform layer.
+    /// Wind: carries the stratiform layer and the rain.
     pub wind: Option<WindSettings>,
+    /// Static objects (`[[objects]]`): boxes and glTF meshes.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub objects: Vec<SceneObject>,
+    /// Directory that relative paths in the scene (`objects[].gltf`) are
+    /// resolved against ([`Scene::resolve_path`]): the scene file's
+    /// directory for [`Scene::from_file`], `None` (the current directory)
+    /// for scenes parsed from text. Not a key of the file.
+    #[serde(skip)]
+    pub base_dir: Option<PathBuf>,
 }
 
 /// Output image size (`[image]`).
@@ -291,22 +311,6 @@ impl Default for StratusSettings {
     }
 }
 
-/// Rain (`[rain]`, reserved).
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields, default)]
-pub struct RainSettings {
-    /// Rain intensity, mm/h, in [0, 300].
-    pub intensity_mm_h: f64,
-}
-
-impl Default for RainSettings {
-    fn default() -> Self {
-        Self {
-            intensity_mm_h: 5.0,
-        }
-    }
-}
-
 /// Uniform wind (`[wind]`): carries the cloud layer.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
@@ -315,6 +319,10 @@ pub struct WindSettings {
     pub speed_m_s: f64,
     /// Direction the wind blows from, degrees clockwise from north, in [0, 360].
     pub from_deg: f64,
+    /// Frozen turbulence carried by the wind (gusts felt by the rain).
+    pub turbulence: Option<TurbulenceSettings>,
+    /// Local flow primitives (uniform jets, sources and sinks, vortices, gust fronts).
+    pub primitives: Vec<WindPrimitiveSettings>,
 }
 
 impl Default for WindSettings {
@@ -322,6 +330,8 @@ impl Default for WindSettings {
         Self {
             speed_m_s: 5.0,
             from_deg: 270.0,
+            turbulence: None,
+            primitives: Vec::new(),
         }
     }
 }
@@ -339,11 +349,26 @@ impl WindSettings {
 
 impl Scene {
     /// Parses and validates a scene from TOML text; `file` names the source in errors.
+    /// Relative paths in it resolve against the current directory.
     pub fn from_toml_str(text: &str, file: &str) -> Result<Self, SceneError> {
+        Self::from_toml_str_in(text, file, None)
+    }
+
+    /// Like [`Self::from_toml_str`], with relative paths in the scene
+    /// resolved against `base_dir` (see [`Scene::base_dir`]).
+    pub fn from_toml_str_in(
+        text: &str,
+        file: &str,
+        base_dir: Option<&Path>,
+    ) -> Result<Self, SceneError> {
         let deserializer =
             toml::de::Deserializer::parse(text).map_err(|e| SceneError::syntax(file, text, &e))?;
-        let scene: Scene = serde_path_to_error::deserialize(deserializer)
+        let mut scene: Scene = serde_path_to_error::deserialize(deserializer)
             .map_err(|e| SceneError::from_path_error(file, text, e))?;
+        // `Path::parent` of a bare file name is the empty path: the current directory.
+        scene.base_dir = base_dir
+            .filter(|d| !d.as_os_str().is_empty())
+            .map(Path::to_path_buf);
         scene.validate(file)?;
         Ok(scene)
     }
@@ -355,23 +380,13 @@ impl Scene {
             file: file.clone(),
             message: e.to_string(),
         })?;
-        Self::from_toml_str(&text, &file)
+        Self::from_toml_str_in(&text, &file, path.parent())
     }
 
     /// The embedded default scene.
     pub fn embedded_default() -> Self {
         // The embedded file is checked by a unit test, so this cannot fail in a release.
         Self::from_toml_str(DEFAULT_SCENE_TOML, "<default scene>").unwrap_or_default()
-    }
-
-    /// Names of the reserved sections present in this scene, which this
-    /// version parses but does not render yet.
-    pub fn reserved_sections_present(&self) -> Vec<&'static str> {
-        let mut names = Vec::new();
-        if self.rain.is_some() {
-            names.push("rain");
-        }
-        names
     }
 }
 

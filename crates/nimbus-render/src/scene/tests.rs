@@ -18,7 +18,6 @@ fn error_of(text: &str) -> String {
 fn embedded_default_scene_parses_and_validates() {
     let scene = Scene::from_toml_str(DEFAULT_SCENE_TOML, "default.toml").expect("default scene");
     assert_eq!(scene, Scene::embedded_default());
-    assert!(scene.reserved_sections_present().is_empty());
 }
 
 #[test]
@@ -267,11 +266,46 @@ fn the_sun_is_given_by_angles_or_by_time_and_place() {
 }
 
 #[test]
-fn reserved_sections_are_parsed_and_listed() {
-    let scene =
-        Scene::from_toml_str("[rain]\nintensity_mm_h = 12.5\n[wind]\n", "s.toml").expect("scene");
-    assert_eq!(scene.rain.as_ref().map(|r| r.intensity_mm_h), Some(12.5));
-    assert_eq!(scene.reserved_sections_present(), vec!["rain"]);
+fn rain_and_wind_sections_parse() {
+    let scene = Scene::from_toml_str(
+        "[rain]\nintensity_mm_h = 12.5\nbox_shape = \"frustum\"\n[[rain.areas]]\ncenter_m = [0, 0]\nradius_m = 900\n[wind]\n[[wind.primitives]]\nkind = \"gust_front\"\nspeed_m_s = 8\naxis = [1, 0, 0]\n",
+        "s.toml",
+    )
+    .expect("scene");
+    let rain = scene.rain.as_ref().expect("rain");
+    assert_eq!(rain.intensity_mm_h, 12.5);
+    assert_eq!(rain.box_shape, RainBoxKind::Frustum);
+    assert_eq!(rain.areas[0].edge_m, 500.0);
+    let wind = scene.wind.as_ref().expect("wind");
+    assert_eq!(wind.primitives[0].kind, WindPrimitiveKindSetting::GustFront);
+    for (text, key) in [
+        (
+            "[rain]\nmax_diameter_mm = 0.3",
+            "rain.max_diameter_mm = 0.3",
+        ),
+        ("[rain]\nmax_drops = 0", "rain.max_drops = 0"),
+        ("[rain]\nbox_radius_m = 1000", "rain.box_radius_m = 1000"),
+        ("[rain]\nexposure_s = nan", "rain.exposure_s"),
+        (
+            "[[rain.areas]]\ncenter_m = [0, 0]\nradius_m = 10\nedge_m = 20",
+            "rain.areas[0].edge_m = 20",
+        ),
+        (
+            "[[wind.primitives]]\nkind = \"vortex\"\nspeed_m_s = 500",
+            "wind.primitives[0].speed_m_s = 500",
+        ),
+        (
+            "[[wind.primitives]]\nkind = \"vortex\"\nspeed_m_s = 5\naxis = [0, 0, 0]",
+            "wind.primitives[0].axis",
+        ),
+        (
+            "[wind.turbulence]\ntile_m = 1",
+            "wind.turbulence.tile_m = 1",
+        ),
+    ] {
+        let m = error_of(text);
+        assert!(m.contains(key), "{text}: {m}");
+    }
 }
 
 #[test]

@@ -102,12 +102,17 @@ impl SceneError {
 }
 
 /// Collects range checks against one file, stopping at the first failure.
-struct Checker<'a> {
-    file: &'a str,
+pub(super) struct Checker<'a> {
+    pub(super) file: &'a str,
 }
 
 impl Checker<'_> {
-    fn invalid(&self, key: &str, value: impl Display, allowed: impl Into<String>) -> SceneError {
+    pub(super) fn invalid(
+        &self,
+        key: &str,
+        value: impl Display,
+        allowed: impl Into<String>,
+    ) -> SceneError {
         SceneError::Invalid {
             file: self.file.to_owned(),
             key: key.to_owned(),
@@ -117,7 +122,7 @@ impl Checker<'_> {
     }
 
     /// `lo <= value <= hi`, and finite.
-    fn closed(&self, key: &str, value: f64, lo: f64, hi: f64) -> Result<(), SceneError> {
+    pub(super) fn closed(&self, key: &str, value: f64, lo: f64, hi: f64) -> Result<(), SceneError> {
         if value.is_finite() && value >= lo && value <= hi {
             Ok(())
         } else {
@@ -130,7 +135,7 @@ impl Checker<'_> {
     }
 
     /// `lo < value < hi`, and finite.
-    fn open(&self, key: &str, value: f64, lo: f64, hi: f64) -> Result<(), SceneError> {
+    pub(super) fn open(&self, key: &str, value: f64, lo: f64, hi: f64) -> Result<(), SceneError> {
         if value.is_finite() && value > lo && value < hi {
             Ok(())
         } else {
@@ -138,7 +143,13 @@ impl Checker<'_> {
         }
     }
 
-    fn integer(&self, key: &str, value: u64, lo: u64, hi: u64) -> Result<(), SceneError> {
+    pub(super) fn integer(
+        &self,
+        key: &str,
+        value: u64,
+        lo: u64,
+        hi: u64,
+    ) -> Result<(), SceneError> {
         if (lo..=hi).contains(&value) {
             Ok(())
         } else {
@@ -146,7 +157,13 @@ impl Checker<'_> {
         }
     }
 
-    fn vector(&self, key: &str, value: &[f64], lo: f64, hi: f64) -> Result<(), SceneError> {
+    pub(super) fn vector(
+        &self,
+        key: &str,
+        value: &[f64],
+        lo: f64,
+        hi: f64,
+    ) -> Result<(), SceneError> {
         if value.iter().all(|v| v.is_finite() && *v >= lo && *v <= hi) {
             Ok(())
         } else {
@@ -161,7 +178,7 @@ impl Checker<'_> {
 
 /// World coordinates are bounded so that f32 positions on the GPU keep
 /// sub-metre precision.
-const MAX_COORDINATE_M: f64 = 1.0e6;
+pub(super) const MAX_COORDINATE_M: f64 = 1.0e6;
 
 impl Scene {
     fn validate_sun(&self, c: &Checker<'_>) -> Result<(), SceneError> {
@@ -500,13 +517,12 @@ impl Scene {
                 32,
             )?;
         }
-        if let Some(rain) = &self.rain {
-            c.closed("rain.intensity_mm_h", rain.intensity_mm_h, 0.0, 300.0)?;
-        }
         if let Some(wind) = &self.wind {
             c.closed("wind.speed_m_s", wind.speed_m_s, 0.0, 100.0)?;
             c.closed("wind.from_deg", wind.from_deg, 0.0, 360.0)?;
         }
+        self.validate_objects(&c)?;
+        self.validate_rain(&c)?;
         Ok(())
     }
 }

@@ -74,6 +74,27 @@ pub fn compute_shader_source() -> String {
     shader::compose(&files)
 }
 
+/// The thickness field of a scene's stratus layer, carried by its wind
+/// (the CPU twin of `field.wgsl`; the rain zones read it too).
+pub fn cloud_layer_field(
+    scene: &Scene,
+    settings: &crate::scene::StratusSettings,
+) -> CloudLayerField {
+    let wind = scene
+        .wind
+        .as_ref()
+        .map_or([0.0, 0.0], |w| w.velocity_xz_m_s());
+    CloudLayerField {
+        max_thickness_m: settings.thickness_m,
+        coverage: settings.coverage,
+        feature_size_m: settings.feature_size_m,
+        octaves: settings.detail,
+        seed: settings.seed,
+        wind_velocity_m_s: wind,
+        evolution_time_s: settings.evolution_time_s,
+    }
+}
+
 /// Texels of the P_S and P² tables over 0–180°.
 pub const PHASE_TEXELS: usize = 1024;
 /// Texels of the P_F table over 0–θ_f.
@@ -535,19 +556,8 @@ impl StratusPass {
             queue.write_buffer(&self.uniform, 0, bytemuck::bytes_of(&self.current));
             return Ok(());
         };
-        let wind = scene
-            .wind
-            .as_ref()
-            .map_or([0.0, 0.0], |w| w.velocity_xz_m_s());
-        let field = CloudLayerField {
-            max_thickness_m: settings.thickness_m,
-            coverage: settings.coverage,
-            feature_size_m: settings.feature_size_m,
-            octaves: settings.detail,
-            seed: settings.seed,
-            wind_velocity_m_s: wind,
-            evolution_time_s: settings.evolution_time_s,
-        };
+        let field = cloud_layer_field(scene, &settings);
+        let wind = field.wind_velocity_m_s;
         let (threshold, ramp) = field.threshold_and_ramp();
         // Window: `extent_m` square around the camera, its corner snapped to
         // whole texels so that the grid does not swim as the camera moves.

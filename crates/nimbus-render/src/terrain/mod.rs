@@ -8,6 +8,7 @@
 
 use crate::binding;
 use crate::cumulus::CloudShadowMap;
+use crate::occluders::OccluderGeometry;
 use crate::renderer::{RenderError, Renderer};
 use crate::shader::{self, WgslFile};
 use crate::targets::{DEPTH_FORMAT, HDR_FORMAT};
@@ -25,7 +26,7 @@ pub fn shader_source() -> String {
     let mut files = shader::DRAWING_LIBRARIES.to_vec();
     files.extend(crate::stratus::DRAWING_LIBRARIES);
     files.extend(crate::cumulus::SHADOW_LIBRARIES);
-    files.extend([shader::WATER, TERRAIN_WGSL]);
+    files.extend([shader::LAMBERT, shader::WATER, TERRAIN_WGSL]);
     shader::compose(&files)
 }
 
@@ -43,6 +44,9 @@ pub struct TerrainVertex {
 
 const VERTEX_ATTRIBUTES: [wgpu::VertexAttribute; 3] =
     wgpu::vertex_attr_array![0 => Float32x3, 1 => Float32x3, 2 => Float32x2];
+
+// The occluder consumers read the position at the start of each vertex.
+const _: () = assert!(std::mem::offset_of!(TerrainVertex, position_m) == 0);
 
 /// Builds the triangle mesh of a terrain: one vertex per grid point, two
 /// triangles per cell, counter-clockwise seen from above.
@@ -104,6 +108,8 @@ pub struct TerrainPass {
     group_layout: wgpu::BindGroupLayout,
     sampler: wgpu::Sampler,
     mesh: Option<TerrainMesh>,
+    /// Incremented whenever the mesh is rebuilt (the rain redraws its shadow map).
+    generation: u64,
 }
 
 impl TerrainPass {
@@ -182,6 +188,7 @@ impl TerrainPass {
             group_layout,
             sampler,
             mesh: None,
+            generation: 0,
         }
     }
 
@@ -273,6 +280,7 @@ impl TerrainPass {
                 },
             ],
         });
+        self.generation += 1;
         self.mesh = Some(TerrainMesh {
             params: params.clone(),
             terrain,
@@ -331,6 +339,22 @@ impl TerrainPass {
     /// The albedo texture, once prepared.
     pub fn albedo_texture(&self) -> Option<&wgpu::Texture> {
         self.mesh.as_ref().map(|m| &m.albedo)
+    }
+
+    /// Counts the mesh's rebuilds.
+    pub fn generation(&self) -> u64 {
+        self.generation
+    }
+
+    /// The terrain's triangles for occlusion maps (world position at offset
+    /// 0 of each vertex, `u32` indices), once prepared.
+    pub fn occluder_geometry(&self) -> Option<OccluderGeometry<'_>> {
+        self.mesh.as_ref().map(|m| OccluderGeometry {
+            vertices: &m.vertices,
+            indices: &m.indices,
+            index_count: m.index_count,
+            vertex_stride: std::mem::size_of::<TerrainVertex>() as u64,
+        })
     }
 
     /// Records the draw into `pass`.

@@ -5,7 +5,8 @@
 // by the layer's directional transmittance T_C and the indirect light is the
 // radiosity's R_G (Bouthors et al. 2006, §5). Needs common.wgsl, the
 // atmosphere lookups, stratus/field.wgsl, stratus/lookup.wgsl, the cumulus
-// shadow libraries and water.wgsl. Cumulus shade it through their shadow map.
+// shadow libraries, shaders/lambert.wgsl (`lambert_radiance`, shared with the
+// objects pass) and water.wgsl. Cumulus shade it through their shadow map.
 
 // Group 1: the albedo map. RGB: linear albedo (sRGB-encoded storage);
 // A: water mask (1 = water).
@@ -36,14 +37,6 @@ fn terrain_vertex(v: TerrainVertex) -> TerrainVarying {
     out.normal = v.normal;
     out.uv = v.uv;
     return out;
-}
-
-// Radiance of a Lambertian surface of albedo `albedo` with unit normal `n` at `position_m`.
-// `sun_visibility` is the fraction of the sun's light reaching the point.
-fn lambert_radiance(albedo: vec3<f32>, position_m: vec3<f32>, n: vec3<f32>, sun_visibility: vec3<f32>) -> vec3<f32> {
-    let direct = sun_irradiance_at(position_m) * max(dot(n, frame.sun_direction), 0.0) * sun_visibility;
-    let environment = stratus_ground_irradiance(position_m, n, sh_irradiance(lighting, n));
-    return albedo / PI * (direct + environment);
 }
 
 @fragment
