@@ -563,6 +563,7 @@ fn bench_prints_one_json_document_with_per_pass_times() {
                 "lighting",
                 "stratus_lighting",
                 "cumulus_shadow",
+                "rain_simulation",
                 "sky",
                 "terrain",
                 "objects",
@@ -570,6 +571,8 @@ fn bench_prints_one_json_document_with_per_pass_times() {
                 "cumulus_fringes",
                 "stratus",
                 "cumulus_composite",
+                "rain_mist",
+                "rain",
                 "exposure",
                 "tonemap"
             ]

@@ -153,6 +153,28 @@ golden_scene!(golden_twilight_sun_5_degrees_below_horizon, "twilight");
 golden_scene!(golden_view_from_10_km, "high-altitude");
 golden_scene!(golden_objects_shed, "objects-shed");
 
+/// Golden images of the rain scenes at their own size (480×270; streaks are
+/// thinner than a pixel at the small golden size), ten seconds in.
+macro_rules! golden_rain_scene {
+    ($test:ident, $file:literal) => {
+        #[test]
+        fn $test() {
+            let scene = scene_file(concat!($file, ".toml"));
+            let image = headless()
+                .render_rgba8(&scene, scene.image.width, scene.image.height, 10.0)
+                .expect("render");
+            assert_matches_golden($file, &image);
+        }
+    };
+}
+
+golden_rain_scene!(golden_rain_drizzle, "rain-drizzle");
+golden_rain_scene!(golden_rain_heavy, "rain-heavy");
+golden_rain_scene!(golden_rain_strong_crosswind, "rain-crosswind");
+golden_rain_scene!(golden_rain_around_a_roofed_shelter, "rain-shelter");
+golden_rain_scene!(golden_rain_against_a_dark_background, "rain-dark-background");
+golden_rain_scene!(golden_rain_against_a_bright_background, "rain-bright-background");
+
 /// Golden images of the stratus scenes, at twice the size so that the glory,
 /// fogbow and silver lining stay visible in them.
 macro_rules! golden_stratus_scene {

@@ -466,7 +466,7 @@ mod tests {
 
     fn glb(json: &str, bin: &[u8]) -> Vec<u8> {
         let mut json = json.as_bytes().to_vec();
-        while json.len() % 4 != 0 {
+        while !json.len().is_multiple_of(4) {
             json.push(b' ');
         }
         let total = 12 + 8 + json.len() + 8 + bin.len();

@@ -92,7 +92,7 @@ impl Default for RainSettings {
             exposure_s: 1.0 / 60.0,
             min_streak_width_px: 1.0,
             splashes: true,
-            splash_radius_m: 8.0,
+            splash_radius_m: 4.0,
             mist: true,
             ceiling_m: None,
             under_clouds: false,

@@ -313,6 +313,7 @@ fn wind_from_the_west_blows_towards_the_east() {
     let wind = WindSettings {
         speed_m_s: 10.0,
         from_deg: 270.0,
+        ..WindSettings::default()
     };
     let [x, z] = wind.velocity_xz_m_s();
     assert!((x - 10.0).abs() < 1e-9 && z.abs() < 1e-9);
