@@ -591,6 +591,9 @@ fn bench_prints_one_json_document_with_per_pass_times() {
                 "cumulus_fringes",
                 "stratus",
                 "cumulus_composite",
+                "rain_simulation",
+                "rain_mist",
+                "rain",
                 "exposure",
                 "tonemap",
             ];

@@ -172,8 +172,14 @@ golden_rain_scene!(golden_rain_drizzle, "rain-drizzle");
 golden_rain_scene!(golden_rain_heavy, "rain-heavy");
 golden_rain_scene!(golden_rain_strong_crosswind, "rain-crosswind");
 golden_rain_scene!(golden_rain_around_a_roofed_shelter, "rain-shelter");
-golden_rain_scene!(golden_rain_against_a_dark_background, "rain-dark-background");
-golden_rain_scene!(golden_rain_against_a_bright_background, "rain-bright-background");
+golden_rain_scene!(
+    golden_rain_against_a_dark_background,
+    "rain-dark-background"
+);
+golden_rain_scene!(
+    golden_rain_against_a_bright_background,
+    "rain-bright-background"
+);
 
 /// Golden images of the stratus scenes, at twice the size so that the glory,
 /// fogbow and silver lining stay visible in them.

@@ -157,11 +157,15 @@ fn alive_in(drops: &[DropGpu], lo: [f32; 3], hi: [f32; 3]) -> usize {
 #[test]
 fn no_rain_falls_under_the_shelters_roof() {
     let mut h = headless();
-    let path = std::path::Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/../../scenes/rain-shelter.toml"));
+    let path = std::path::Path::new(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../../scenes/rain-shelter.toml"
+    ));
     let scene = Scene::from_file(path).expect("scene");
     // A few frames of rain.
     for frame in 0..4 {
-        h.render_frame(&scene, 160, 90, 10.0 + frame as f32 / 30.0).expect("frame");
+        h.render_frame(&scene, 160, 90, 10.0 + frame as f32 / 30.0)
+            .expect("frame");
     }
     let drops = read_drops(&h);
     // Under the roof (6 m × 4 m, underside 31.8 m, the ground at 28.8 m),
@@ -169,6 +173,9 @@ fn no_rain_falls_under_the_shelters_roof() {
     let under = alive_in(&drops, [-5301.0, 29.8, 998.8], [-5298.0, 31.6, 1001.2]);
     // The same volume in the open, between the camera and the shelter.
     let open = alive_in(&drops, [-5301.0, 29.8, 1004.0], [-5298.0, 31.6, 1006.4]);
-    assert_eq!(under, 0, "{under} drops under the roof ({open} in the open)");
+    assert_eq!(
+        under, 0,
+        "{under} drops under the roof ({open} in the open)"
+    );
     assert!(open > 50, "{open} drops in the open");
 }
