@@ -530,74 +530,26 @@ impl Renderer {
         }
         // 8. The cumulus fringes over everything behind them.
         if cumulus {
-            let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
-                label: Some("cumulus composite"),
-                color_attachments: &[Some(wgpu::RenderPassColorAttachment {
-                    view: &hdr.view,
-                    depth_slice: None,
-                    resolve_target: None,
-                    ops: wgpu::Operations {
-                        load: wgpu::LoadOp::Load,
-                        store: wgpu::StoreOp::Store,
-                    },
-                })],
-                depth_stencil_attachment: None,
-                timestamp_writes: self
-                    .timer
-                    .as_ref()
-                    .map(|t| t.pass_writes(CUMULUS_COMPOSITE_PASS_INDEX)),
-                occlusion_query_set: None,
-                multiview_mask: None,
-            });
+            let mut pass = self.overlay_pass(
+                encoder,
+                "cumulus composite",
+                CUMULUS_COMPOSITE_PASS_INDEX,
+                hdr,
+                None,
+            );
             self.cumulus.draw_composite(&mut pass);
         }
         // 8b. Rain mist beyond the rain box, over everything (reads the depth).
         if self.rain.mist_enabled() {
-            let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
-                label: Some("rain mist"),
-                color_attachments: &[Some(wgpu::RenderPassColorAttachment {
-                    view: &hdr.view,
-                    depth_slice: None,
-                    resolve_target: None,
-                    ops: wgpu::Operations {
-                        load: wgpu::LoadOp::Load,
-                        store: wgpu::StoreOp::Store,
-                    },
-                })],
-                depth_stencil_attachment: None,
-                timestamp_writes: self
-                    .timer
-                    .as_ref()
-                    .map(|t| t.pass_writes(RAIN_MIST_PASS_INDEX)),
-                occlusion_query_set: None,
-                multiview_mask: None,
-            });
+            let mut pass = self.overlay_pass(encoder, "rain mist", RAIN_MIST_PASS_INDEX, hdr, None);
             self.rain
                 .draw_mist(&mut pass, targets.depth, [frame, atmosphere, stratus]);
         }
         // 8c. Rain streaks and splashes, depth-tested against a read-only
         // depth that they also read, to fade where they meet surfaces.
         if rain {
-            let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
-                label: Some("rain"),
-                color_attachments: &[Some(wgpu::RenderPassColorAttachment {
-                    view: &hdr.view,
-                    depth_slice: None,
-                    resolve_target: None,
-                    ops: wgpu::Operations {
-                        load: wgpu::LoadOp::Load,
-                        store: wgpu::StoreOp::Store,
-                    },
-                })],
-                depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
-                    view: targets.depth,
-                    depth_ops: None,
-                    stencil_ops: None,
-                }),
-                timestamp_writes: self.timer.as_ref().map(|t| t.pass_writes(RAIN_PASS_INDEX)),
-                occlusion_query_set: None,
-                multiview_mask: None,
-            });
+            let mut pass =
+                self.overlay_pass(encoder, "rain", RAIN_PASS_INDEX, hdr, Some(targets.depth));
             self.rain
                 .draw(&mut pass, targets.depth, [frame, atmosphere, stratus]);
         }
@@ -638,6 +590,40 @@ impl Renderer {
         if let Some(timer) = &self.timer {
             timer.resolve(encoder);
         }
+    }
+
+    /// A pass drawing over the HDR target as it is (colour loaded and kept),
+    /// with the depth attached read-only when given.
+    fn overlay_pass<'e>(
+        &self,
+        encoder: &'e mut wgpu::CommandEncoder,
+        label: &str,
+        index: u32,
+        hdr: &Target,
+        read_only_depth: Option<&wgpu::TextureView>,
+    ) -> wgpu::RenderPass<'e> {
+        encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+            label: Some(label),
+            color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+                view: &hdr.view,
+                depth_slice: None,
+                resolve_target: None,
+                ops: wgpu::Operations {
+                    load: wgpu::LoadOp::Load,
+                    store: wgpu::StoreOp::Store,
+                },
+            })],
+            depth_stencil_attachment: read_only_depth.map(|view| {
+                wgpu::RenderPassDepthStencilAttachment {
+                    view,
+                    depth_ops: None,
+                    stencil_ops: None,
+                }
+            }),
+            timestamp_writes: self.timer.as_ref().map(|t| t.pass_writes(index)),
+            occlusion_query_set: None,
+            multiview_mask: None,
+        })
     }
 
     #[allow(clippy::too_many_arguments)]

@@ -84,3 +84,11 @@ fn terminal_speed_m_s(d_mm: f32) -> f32 {
     }
     return (9.65 - 10.3 * exp(-0.3)) * max(d_mm, 0.0) / 0.5;
 }
+
+// PCG hash of one 32-bit word (Jarzynski & Olano, "Hash Functions for GPU
+// Rendering", JCGT 2020); nimbus_physics::rain::random::pcg_hash.
+fn pcg_hash(input: u32) -> u32 {
+    let state = input * 747796405u + 2891336453u;
+    let word = ((state >> ((state >> 28u) + 4u)) ^ state) * 277803737u;
+    return (word >> 22u) ^ word;
+}

@@ -17,12 +17,6 @@
 
 // ---- Random numbers (nimbus_physics::rain::random).
 
-fn pcg_hash(input: u32) -> u32 {
-    let state = input * 747796405u + 2891336453u;
-    let word = ((state >> ((state >> 28u) + 4u)) ^ state) * 277803737u;
-    return (word >> 22u) ^ word;
-}
-
 fn uniform_random(id: u32, step_index: u32, salt: u32) -> f32 {
     let h = pcg_hash(id ^ pcg_hash(step_index ^ pcg_hash(salt)));
     return (f32(h >> 8u) + 0.5) * (1.0 / 16777216.0);

@@ -42,14 +42,8 @@ struct StreakVarying {
     @location(2) @interpolate(flat) alpha: f32,
 }
 
-fn pcg_hash_draw(input: u32) -> u32 {
-    let state = input * 747796405u + 2891336453u;
-    let word = ((state >> ((state >> 28u) + 4u)) ^ state) * 277803737u;
-    return (word >> 22u) ^ word;
-}
-
 fn hash_unit(key: u32) -> f32 {
-    return (f32(pcg_hash_draw(key) >> 8u) + 0.5) * (1.0 / 16777216.0);
+    return (f32(pcg_hash(key) >> 8u) + 0.5) * (1.0 / 16777216.0);
 }
 
 // Clip-space corners of the streak from `head` to `tail` (world) for a drop
