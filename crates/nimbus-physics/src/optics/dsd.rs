@@ -28,6 +28,7 @@
 //! set the spacing that tight tolerances need (see docs/PERFORMANCE.md).
 
 use super::angular::{IntensityScratch, MirroredAngles, accumulate_intensity};
+use super::chebyshev;
 use super::mie::MieCoefficients;
 use super::special::ln_gamma;
 use num_complex::Complex64;
@@ -219,16 +220,18 @@ struct Sums {
     extinction: f64,
     scattering: f64,
     g_scattering: f64,
-    differential: Vec<f64>,
+    /// Per size class, the weighted sum of |S1|² + |S2|² at its Lobatto
+    /// points (empty until a droplet of that class is added).
+    intensity_samples: Vec<Vec<f64>>,
 }
 
 impl Sums {
-    fn zero(angles: usize) -> Self {
+    fn zero(classes: usize) -> Self {
         Self {
             extinction: 0.0,
             scattering: 0.0,
             g_scattering: 0.0,
-            differential: vec![0.0; angles],
+            intensity_samples: vec![Vec::new(); classes],
         }
     }
 
@@ -236,10 +239,67 @@ impl Sums {
         self.extinction += other.extinction;
         self.scattering += other.scattering;
         self.g_scattering += other.g_scattering;
-        for (a, b) in self.differential.iter_mut().zip(&other.differential) {
-            *a += b;
+        for (mine, theirs) in self.intensity_samples.iter_mut().zip(other.intensity_samples) {
+            if mine.is_empty() {
+                *mine = theirs;
+            } else {
+                for (a, b) in mine.iter_mut().zip(&theirs) {
+                    *a += b;
+                }
+            }
         }
         self
+    }
+
+    /// Σ over the nodes of weight · (|S1|² + |S2|²) at the cosines `mu`.
+    fn differential_at(&self, grids: &LobattoGrids, mu: &[f64]) -> Vec<f64> {
+        let mut planner = rustfft::FftPlanner::new();
+        let mut total: Vec<f64> = Vec::new();
+        for samples in self.intensity_samples.iter().filter(|s| !s.is_empty()) {
+            let coefficients = chebyshev::coefficients_from_lobatto(samples, &mut planner);
+            if total.len() < coefficients.len() {
+                total.resize(coefficients.len(), 0.0);
+            }
+            for (t, c) in total.iter_mut().zip(&coefficients) {
+                *t += c;
+            }
+        }
+        let _ = grids;
+        mu.iter().map(|&mu| chebyshev::evaluate(&total, mu)).collect()
+    }
+}
+
+/// The Lobatto grids of the size classes. The intensity of a droplet whose
+/// series has N orders is a polynomial of degree 2N in μ (see
+/// [`chebyshev`]); class q holds the droplets with 2N ≤ M_q = 32q − 2, so its
+/// M_q + 1 points are exactly 16q distinct |μ| (whole blocks of the angular
+/// kernel) and no droplet is sampled on more than 32 points beyond what it
+/// needs.
+struct LobattoGrids {
+    angles: Vec<MirroredAngles>,
+}
+
+impl LobattoGrids {
+    fn new(max_series_length: usize) -> Self {
+        let classes = Self::class_of(max_series_length) + 1;
+        let angles = (0..classes)
+            .map(|q| MirroredAngles::new(&chebyshev::lobatto_points(Self::points_minus_one(q))))
+            .collect();
+        Self { angles }
+    }
+
+    /// M_q.
+    fn points_minus_one(class: usize) -> usize {
+        32 * (class + 1) - 2
+    }
+
+    /// The smallest class q with M_q ≥ 2N.
+    fn class_of(series_length: usize) -> usize {
+        (2 * series_length + 2).div_ceil(32).max(1) - 1
+    }
+
+    fn len(&self) -> usize {
+        self.angles.len()
     }
 }
 
@@ -250,13 +310,13 @@ fn integrate(
     dsd: &SizeDistribution,
     k: f64,
     m: Complex64,
-    angles: &MirroredAngles,
+    grids: &LobattoGrids,
     nodes: &[(f64, f64)],
 ) -> Sums {
     nodes
         .par_iter()
         .fold(
-            || (Sums::zero(angles.len()), IntensityScratch::default()),
+            || (Sums::zero(grids.len()), IntensityScratch::default()),
             |(mut sums, mut scratch), &(x, node_weight)| {
                 let r = x / k;
                 // dr = dx / k.
@@ -270,19 +330,18 @@ fn integrate(
                 sums.extinction += w * e.q_ext * area;
                 sums.scattering += w * e.q_sca * area;
                 sums.g_scattering += w * e.g * e.q_sca * area;
-                accumulate_intensity(
-                    &c.a,
-                    &c.b,
-                    angles,
-                    w / (2.0 * k * k),
-                    &mut scratch,
-                    &mut sums.differential,
-                );
+                let class = LobattoGrids::class_of(c.a.len());
+                let angles = &grids.angles[class];
+                let samples = &mut sums.intensity_samples[class];
+                if samples.is_empty() {
+                    samples.resize(angles.len(), 0.0);
+                }
+                accumulate_intensity(&c.a, &c.b, angles, w / (2.0 * k * k), &mut scratch, samples);
                 (sums, scratch)
             },
         )
         .map(|(sums, _)| sums)
-        .reduce(|| Sums::zero(angles.len()), Sums::add)
+        .reduce(|| Sums::zero(grids.len()), Sums::add)
 }
 
 /// Solid-angle weights of the angles (trapezoid rule in θ, 2π sin θ dθ), for
@@ -335,10 +394,10 @@ pub fn bulk_optics_observed(
         .collect();
     let all_angles: Vec<f64> = angles_deg.iter().chain(&forward_angles).copied().collect();
     let mu: Vec<f64> = all_angles.iter().map(|a| a.to_radians().cos()).collect();
-    let angles = MirroredAngles::new(&mu);
     let solid_angle = solid_angle_weights(angles_deg);
     let (r_lo, r_hi) = dsd.radius_range_m(1e-7);
     let (x_lo, x_hi) = (r_lo * k, r_hi * k);
+    let grids = LobattoGrids::new(super::mie::series_length(x_hi));
     // Nested trapezoid rule in size parameter, starting at a spacing of ½:
     // each level adds the midpoints of the last, so no node is computed twice.
     let mut intervals = (((x_hi - x_lo) / INITIAL_SPACING).ceil() as usize).max(4);
@@ -350,9 +409,12 @@ pub fn bulk_optics_observed(
         })
         .collect();
     on_level(first.len());
-    let mut raw = integrate(dsd, k, m, &angles, &first);
+    let mut raw = integrate(dsd, k, m, &grids, &first);
+    // Bulk values and the phase function at all angles (requested, then
+    // forward table).
     let finish = |raw: &Sums, spacing: f64| {
-        let phase: Vec<f64> = raw.differential[..angles_deg.len()]
+        let phase: Vec<f64> = raw
+            .differential_at(&grids, &mu)
             .iter()
             .map(|d| d / raw.scattering)
             .collect();
@@ -371,27 +433,25 @@ pub fn bulk_optics_observed(
         intervals *= 2;
         spacing *= 0.5;
         on_level(intervals + 1);
-        raw = raw.add(integrate(dsd, k, m, &angles, &midpoints));
+        raw = raw.add(integrate(dsd, k, m, &grids, &midpoints));
         let current = finish(&raw, spacing);
         let relative = |a: f64, b: f64| (a - b).abs() / b.abs().max(1e-300);
-        let moved: f64 = current
-            .3
+        let moved: f64 = current.3[..angles_deg.len()]
             .iter()
             .zip(&previous.3)
             .zip(&solid_angle)
             .map(|((a, b), w)| (a - b).abs() * w)
             .sum();
-        let total: f64 = current.3.iter().zip(&solid_angle).map(|(a, w)| a * w).sum();
+        let total: f64 = current.3[..angles_deg.len()]
+            .iter()
+            .zip(&solid_angle).map(|(a, w)| a * w).sum();
         let change = relative(current.0, previous.0)
             .max(relative(current.1, previous.1))
             .max((current.2 - previous.2).abs())
             .max(moved / total.max(1e-300));
         if change <= tolerance || intervals >= MAX_INTERVALS {
-            let forward_values = raw.differential[angles_deg.len()..]
-                .iter()
-                .map(|d| d / raw.scattering)
-                .collect();
-            let (extinction_per_m, scattering_per_m, g, phase) = current;
+            let (extinction_per_m, scattering_per_m, g, mut phase) = current;
+            let forward_values = phase.split_off(angles_deg.len());
             return BulkOptics {
                 forward_table: super::phase::PhaseTable::new(forward_angles, forward_values),
                 wavelength_nm,

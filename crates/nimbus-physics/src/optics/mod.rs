@@ -3,6 +3,7 @@
 //! from them (Bouthors, Neyret & Lefebvre 2006, §3 and §4.1).
 
 pub mod angular;
+pub mod chebyshev;
 pub mod dsd;
 pub mod mie;
 pub mod phase;
