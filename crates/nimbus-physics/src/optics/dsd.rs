@@ -14,18 +14,24 @@
 //! (sr⁻¹, unit integral over the sphere).
 //!
 //! Convergence criterion of the radius integral: the trapezoid rule in size
-//! parameter over the radii that carry all but 1e-7 of the cross-section
-//! moment ∫ r² n dr, starting at a spacing of ½ and halving (each level adds
-//! the midpoints of the last) until σ_ext, σ_sca and g change by less than
-//! the tolerance (relative; g absolute) and the phase function changes by
-//! less than the tolerance in the L1 norm over the sphere, ∫ |Δp| dΩ (the
-//! fraction of scattered energy that moves between angles). The DSD weight
-//! vanishes smoothly at both ends of the range, so for the smooth part of
-//! the integrand — diffraction, fogbow, glory — the trapezoid rule converges
-//! faster than any power of the spacing (Euler–Maclaurin), faster than the
-//! Gauss–Legendre panels used before. The narrow high-order Mie resonances
-//! (widths ≪ 0.01 in x for water) are sampled at random by any grid; they
-//! set the spacing that tight tolerances need (see docs/PERFORMANCE.md).
+//! parameter over the radii that carry all but a tenth of the tolerance of
+//! the cross-section moment ∫ r² n dr on each side, starting at a spacing of
+//! ½ and halving (each level adds the midpoints of the last) until σ_ext,
+//! σ_sca and g change by less than the tolerance (relative; g absolute) and
+//! the phase function changes by less than the tolerance in the L1 norm over
+//! the sphere, ∫ |Δp| dΩ (the fraction of scattered energy that moves
+//! between angles). The DSD weight is small and smooth at both ends of the
+//! range, so for the smooth part of the integrand — diffraction, fogbow,
+//! glory — the trapezoid rule converges faster than any power of the spacing
+//! (Euler–Maclaurin), faster than the Gauss–Legendre panels used before. The
+//! narrow high-order Mie resonances (widths ≪ 0.01 in x for water) are
+//! sampled at random by any grid; they set the spacing that tight tolerances
+//! need (see docs/PERFORMANCE.md).
+//!
+//! Each droplet's intensity is summed at the Chebyshev–Lobatto points of its
+//! size class, where it is an exact polynomial in cos θ (see [`chebyshev`]),
+//! so the cost per radius node does not grow with the number of requested
+//! angles; the sums are converted to those angles once per level.
 
 use super::angular::{IntensityScratch, MirroredAngles, accumulate_intensity};
 use super::chebyshev;
@@ -239,7 +245,11 @@ impl Sums {
         self.extinction += other.extinction;
         self.scattering += other.scattering;
         self.g_scattering += other.g_scattering;
-        for (mine, theirs) in self.intensity_samples.iter_mut().zip(other.intensity_samples) {
+        for (mine, theirs) in self
+            .intensity_samples
+            .iter_mut()
+            .zip(other.intensity_samples)
+        {
             if mine.is_empty() {
                 *mine = theirs;
             } else {
@@ -252,7 +262,7 @@ impl Sums {
     }
 
     /// Σ over the nodes of weight · (|S1|² + |S2|²) at the cosines `mu`.
-    fn differential_at(&self, grids: &LobattoGrids, mu: &[f64]) -> Vec<f64> {
+    fn differential_at(&self, mu: &[f64]) -> Vec<f64> {
         let mut planner = rustfft::FftPlanner::new();
         let mut total: Vec<f64> = Vec::new();
         for samples in self.intensity_samples.iter().filter(|s| !s.is_empty()) {
@@ -264,8 +274,9 @@ impl Sums {
                 *t += c;
             }
         }
-        let _ = grids;
-        mu.iter().map(|&mu| chebyshev::evaluate(&total, mu)).collect()
+        mu.iter()
+            .map(|&mu| chebyshev::evaluate(&total, mu))
+            .collect()
     }
 }
 
@@ -395,7 +406,10 @@ pub fn bulk_optics_observed(
     let all_angles: Vec<f64> = angles_deg.iter().chain(&forward_angles).copied().collect();
     let mu: Vec<f64> = all_angles.iter().map(|a| a.to_radians().cos()).collect();
     let solid_angle = solid_angle_weights(angles_deg);
-    let (r_lo, r_hi) = dsd.radius_range_m(1e-7);
+    // Droplets outside the range carry at most a tenth of the tolerance of
+    // the cross-section moment on each side, so leaving them out moves σ and
+    // the normalised phase function (L1) by at most 0.4 × tolerance.
+    let (r_lo, r_hi) = dsd.radius_range_m((0.1 * tolerance).clamp(1e-12, 1e-3));
     let (x_lo, x_hi) = (r_lo * k, r_hi * k);
     let grids = LobattoGrids::new(super::mie::series_length(x_hi));
     // Nested trapezoid rule in size parameter, starting at a spacing of ½:
@@ -414,7 +428,7 @@ pub fn bulk_optics_observed(
     // forward table).
     let finish = |raw: &Sums, spacing: f64| {
         let phase: Vec<f64> = raw
-            .differential_at(&grids, &mu)
+            .differential_at(&mu)
             .iter()
             .map(|d| d / raw.scattering)
             .collect();
@@ -444,7 +458,9 @@ pub fn bulk_optics_observed(
             .sum();
         let total: f64 = current.3[..angles_deg.len()]
             .iter()
-            .zip(&solid_angle).map(|(a, w)| a * w).sum();
+            .zip(&solid_angle)
+            .map(|(a, w)| a * w)
+            .sum();
         let change = relative(current.0, previous.0)
             .max(relative(current.1, previous.1))
             .max((current.2 - previous.2).abs())
@@ -479,6 +495,39 @@ const MAX_INTERVALS: usize = 1 << 20;
 mod tests {
     use super::*;
     use crate::optics::water::water_refractive_index;
+
+    #[test]
+    fn lobatto_sums_equal_the_direct_series_at_any_angle() {
+        // The size-class sums, converted to arbitrary angles, equal the
+        // weighted sum of |S1|² + |S2|² from the plain recurrence (Bohren &
+        // Huffman eq. 4.74) at every angle, forward peak and glory included.
+        let dsd = SizeDistribution::BOUTHORS_2006;
+        let m = water_refractive_index(550.0);
+        let k = 2.0 * std::f64::consts::PI / 550.0e-9;
+        let nodes: Vec<(f64, f64)> = [0.3, 4.7, 61.2, 180.9, 402.5]
+            .iter()
+            .map(|&x| (x, 1.0))
+            .collect();
+        let grids = LobattoGrids::new(crate::optics::mie::series_length(402.5));
+        let sums = integrate(&dsd, k, m, &grids, &nodes);
+        let angles_deg = [0.0, 0.05, 0.7, 3.3, 17.0, 90.0, 139.5, 179.2, 180.0];
+        let mu: Vec<f64> = angles_deg
+            .iter()
+            .map(|a: &f64| a.to_radians().cos())
+            .collect();
+        let lobatto = sums.differential_at(&mu);
+        let mut direct = vec![0.0; mu.len()];
+        for &(x, _) in &nodes {
+            let w = dsd.density(x / k) / k / (2.0 * k * k);
+            let c = MieCoefficients::new(x, m);
+            for (d, (s1, s2)) in direct.iter_mut().zip(c.amplitudes(&mu)) {
+                *d += w * (s1.norm_sqr() + s2.norm_sqr());
+            }
+        }
+        for (i, (a, b)) in lobatto.iter().zip(&direct).enumerate() {
+            assert!((a / b - 1.0).abs() < 1e-9, "{}°: {a} vs {b}", angles_deg[i]);
+        }
+    }
 
     #[test]
     fn distributions_are_normalised_with_the_stated_effective_radius() {
