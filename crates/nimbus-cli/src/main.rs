@@ -21,6 +21,8 @@ struct Cli {
 enum Command {
     /// Render a scene to a PNG (tone-mapped sRGB) or EXR (linear radiance) image.
     Render(commands::render::RenderArgs),
+    /// Render a scene's keyframed weather as a PNG sequence or an .mp4 video.
+    Animate(commands::animate::AnimateArgs),
     /// Render frames repeatedly and report per-pass GPU times.
     Bench(commands::bench::BenchArgs),
     /// Print or check scene files.
@@ -74,6 +76,7 @@ fn main() -> ExitCode {
     };
     let result = match cli.command {
         Command::Render(args) => commands::render::run(&args),
+        Command::Animate(args) => commands::animate::run(&args),
         Command::Bench(args) => commands::bench::run(&args),
         Command::Scene(args) => commands::scene::run(&args),
         Command::Sun(args) => commands::sun::run(&args),

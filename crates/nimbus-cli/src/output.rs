@@ -4,7 +4,7 @@
 
 use anyhow::Context;
 use nimbus_render::headless::{HdrImage, Rgba8Image};
-use std::io::Write;
+use std::io::{IsTerminal, Write};
 use std::path::{Path, PathBuf};
 
 /// Image file formats nimbus writes.
@@ -107,4 +107,55 @@ pub fn write_exr(path: &Path, image: &HdrImage) -> anyhow::Result<()> {
         })
         .with_context(|| format!("output {}: EXR write failed", path.display()))
     })
+}
+
+/// A progress line with an ETA on standard error, redrawn at most four
+/// times a second and only on a terminal; `total` is the amount of work.
+pub struct Progress {
+    label: String,
+    total: u64,
+    start: std::time::Instant,
+    show: bool,
+    last_draw: std::sync::Mutex<f64>,
+}
+
+impl Progress {
+    pub fn new(label: impl Into<String>, total: u64) -> Self {
+        Self {
+            label: label.into(),
+            total,
+            start: std::time::Instant::now(),
+            show: std::io::stderr().is_terminal(),
+            last_draw: std::sync::Mutex::new(f64::NEG_INFINITY),
+        }
+    }
+
+    /// Reports `done` units of work.
+    pub fn update(&self, done: u64) {
+        let elapsed = self.start.elapsed().as_secs_f64();
+        {
+            let mut last = self.last_draw.lock().unwrap_or_else(|e| e.into_inner());
+            if !self.show || (elapsed - *last < 0.25 && done < self.total) {
+                return;
+            }
+            *last = elapsed;
+        }
+        let eta = elapsed * (self.total.saturating_sub(done)) as f64 / done.max(1) as f64;
+        let mut stderr = std::io::stderr();
+        let _ = write!(
+            stderr,
+            "\rnimbus: {}: {done}/{} ({:.0} %), {elapsed:.1} s, ETA {eta:.1} s   ",
+            self.label,
+            self.total,
+            100.0 * done as f64 / self.total.max(1) as f64
+        );
+        let _ = stderr.flush();
+    }
+
+    /// Ends the progress line.
+    pub fn finish(&self) {
+        if self.show {
+            eprintln!();
+        }
+    }
 }

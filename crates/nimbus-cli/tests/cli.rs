@@ -69,6 +69,7 @@ fn help_is_available_for_every_subcommand() {
     for sub in [
         &["--help"][..],
         &["render", "--help"],
+        &["animate", "--help"],
         &["bench", "--help"],
         &["scene", "--help"],
         &["slab", "--help"],
@@ -1112,4 +1113,160 @@ fn rain_bad_input_fails_with_one_line() {
         assert_fails_with(&out, fragments);
         assert!(out.stdout.is_empty(), "{args:?}");
     }
+}
+
+/// The frames an `animate` run wrote, decoded.
+fn animation_frames(dir: &Path) -> Vec<image::RgbaImage> {
+    files_in(dir)
+        .iter()
+        .map(|name| {
+            assert!(
+                name.starts_with("frame_") && name.ends_with(".png"),
+                "{name}"
+            );
+            image::open(dir.join(name)).expect("png").to_rgba8()
+        })
+        .collect()
+}
+
+/// Mean absolute difference of two frames, 8-bit levels per channel.
+fn mean_difference(a: &image::RgbaImage, b: &image::RgbaImage) -> f64 {
+    let total: u64 = a
+        .as_raw()
+        .iter()
+        .zip(b.as_raw())
+        .map(|(x, y)| u64::from(x.abs_diff(*y)))
+        .sum();
+    total as f64 / a.as_raw().len() as f64
+}
+
+#[test]
+fn animate_static_weather_does_not_flicker() {
+    // Static camera and weather (no wind, no rain, no keyframes, a layer
+    // that does not evolve, no water ripples): every frame is the same,
+    // auto-exposure included.
+    let dir = temp_dir("animate-static");
+    std::fs::write(
+        dir.join("still.toml"),
+        "[camera]\nposition_m = [0.0, 900.0, 0.0]\nyaw_deg = 30.0\npitch_deg = 5.0\nauto_exposure = true\n\
+         [sun]\nazimuth_deg = 200.0\nelevation_deg = 25.0\n\
+         [terrain]\nwater_level_m = -5000.0\n\
+         [stratus]\nbase_m = 1500.0\nthickness_m = 300.0\ncoverage = 0.5\nevolution_time_s = 1000000.0\n\
+         [cumulus]\ncoverage = 0.1\nbase_m = 1200.0\n",
+    )
+    .expect("scene");
+    let out = nimbus(
+        &[
+            "animate",
+            "still.toml",
+            "--seconds",
+            "1",
+            "--fps",
+            "5",
+            "--width",
+            "64",
+            "--height",
+            "36",
+            "-o",
+            "frames",
+        ],
+        &dir,
+    );
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let frames = animation_frames(&dir.join("frames"));
+    assert_eq!(frames.len(), 5);
+    for pair in frames.windows(2) {
+        assert_eq!(mean_difference(&pair[0], &pair[1]), 0.0);
+    }
+}
+
+#[test]
+fn animate_the_default_sunset_and_shower_smoothly() {
+    // The default scene's keyframes: the sun sinks and the shower grows.
+    // Frames change steadily: no frame stands out from the mean of its two
+    // neighbours (a flicker) by more than the neighbours differ from each
+    // other, and the last frame is darker than the first (the sunset).
+    let dir = temp_dir("animate-default");
+    let out = nimbus(
+        &[
+            "animate",
+            "--seconds",
+            "10",
+            "--fps",
+            "0.6",
+            "--width",
+            "64",
+            "--height",
+            "36",
+            "-o",
+            "frames",
+        ],
+        &dir,
+    );
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let frames = animation_frames(&dir.join("frames"));
+    assert_eq!(frames.len(), 6);
+    for i in 1..frames.len() - 1 {
+        let (a, b, c) = (&frames[i - 1], &frames[i], &frames[i + 1]);
+        let midpoint: Vec<u8> = a
+            .as_raw()
+            .iter()
+            .zip(c.as_raw())
+            .map(|(x, y)| ((u16::from(*x) + u16::from(*y)) / 2) as u8)
+            .collect();
+        let midpoint = image::RgbaImage::from_raw(a.width(), a.height(), midpoint).expect("size");
+        let flicker = mean_difference(b, &midpoint);
+        let motion = mean_difference(a, c);
+        assert!(
+            flicker <= 0.5 * motion + 1.0,
+            "frame {i}: flicker {flicker}, motion {motion}"
+        );
+    }
+    let brightness = |f: &image::RgbaImage| f.as_raw().iter().map(|&v| f64::from(v)).sum::<f64>();
+    assert!(brightness(&frames[5]) < brightness(&frames[0]));
+}
+
+#[test]
+fn animate_bad_input_fails_with_one_line() {
+    let dir = temp_dir("animate-bad");
+    let out = nimbus(&["animate", "--seconds", "-1", "-o", "frames"], &dir);
+    assert_fails_with(&out, &["--seconds", "-1"]);
+    let out = nimbus(
+        &["animate", "--seconds", "1", "--fps", "0", "-o", "frames"],
+        &dir,
+    );
+    assert_fails_with(&out, &["--fps", "0"]);
+    std::fs::write(dir.join("file"), "x").expect("file");
+    let out = nimbus(&["animate", "--seconds", "1", "-o", "file"], &dir);
+    assert_fails_with(&out, &["file", "not a directory"]);
+    std::fs::write(
+        dir.join("bad.toml"),
+        "[[keyframes]]\ntime_s = 1.0\nrain_intensity_mm_h = 5.0\n",
+    )
+    .expect("scene");
+    let out = nimbus(
+        &["animate", "bad.toml", "--seconds", "1", "-o", "frames"],
+        &dir,
+    );
+    assert_fails_with(
+        &out,
+        &["bad.toml", "keyframes[0].rain_intensity_mm_h", "[rain]"],
+    );
+    // Without ffmpeg on the PATH a video is refused before any work.
+    let out = Command::new(env!("CARGO_BIN_EXE_nimbus"))
+        .args(["animate", "--seconds", "1", "-o", "out.mp4"])
+        .current_dir(&dir)
+        .env("PATH", "/nonexistent")
+        .output()
+        .expect("run nimbus");
+    assert_fails_with(&out, &["out.mp4", "ffmpeg is not on the PATH"]);
+    assert_eq!(files_in(&dir), ["bad.toml", "file"]);
 }

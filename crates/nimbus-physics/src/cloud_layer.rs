@@ -156,8 +156,22 @@ impl CloudLayerField {
         1.0 - (1.0 - d) * (1.0 - d)
     }
 
-    /// Cloud thickness at world position (x, z), m, at time `time_s`.
+    /// Cloud thickness at world position (x, z), m, at time `time_s`, the
+    /// layer carried by its constant wind.
     pub fn thickness_m(&self, x_m: f64, z_m: f64, time_s: f64) -> f64 {
+        let drift = self.wind_velocity_m_s.map(|w| w * time_s);
+        self.thickness_with_drift_m(x_m, z_m, drift, time_s)
+    }
+
+    /// Cloud thickness at world position (x, z), m, at time `time_s`, the
+    /// layer moved by `drift_m` (x, z), m (the integral of a varying wind).
+    pub fn thickness_with_drift_m(
+        &self,
+        x_m: f64,
+        z_m: f64,
+        drift_m: [f64; 2],
+        time_s: f64,
+    ) -> f64 {
         let (threshold, ramp) = self.threshold_and_ramp();
         if threshold == f64::NEG_INFINITY {
             return self.max_thickness_m;
@@ -166,8 +180,8 @@ impl CloudLayerField {
             return 0.0;
         }
         let scale = 1.0 / self.feature_size_m;
-        let u = (x_m - self.wind_velocity_m_s[0] * time_s) * scale;
-        let v = (z_m - self.wind_velocity_m_s[1] * time_s) * scale;
+        let u = (x_m - drift_m[0]) * scale;
+        let v = (z_m - drift_m[1]) * scale;
         let w = time_s / self.evolution_time_s;
         let n = fbm_3d(u, v, w, self.seed, self.fractal());
         self.max_thickness_m * Self::profile((n - threshold) / ramp)

@@ -13,7 +13,8 @@ pub struct RenderArgs {
     /// Output image: .png (tone-mapped sRGB) or .exr (linear radiance, W·sr⁻¹·m⁻²).
     #[arg(short, long, default_value = "nimbus.png")]
     output: PathBuf,
-    /// Animation time, s (moves the water ripples).
+    /// Animation time, s: the scene's keyframed weather at that time, the
+    /// clouds carried by the wind, the water's ripples.
     #[arg(long, default_value_t = 0.0, value_name = "S")]
     time_s: f32,
 }
@@ -28,6 +29,8 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
         args.time_s
     );
     let (scene, width, height) = args.frame.scene_and_size()?;
+    // The keyframed weather at that time.
+    let scene = scene.at_time(f64::from(args.time_s));
     let mut headless = HeadlessRenderer::new(args.frame.adapter)?;
     eprintln!(
         "nimbus: rendering {width}×{height} on {}",

@@ -119,6 +119,29 @@ impl UtcDateTime {
         })
     }
 
+    /// Seconds since 1970-01-01T00:00:00Z (leap seconds not counted).
+    pub fn unix_seconds(&self) -> f64 {
+        let days = days_from_civil(self.year, self.month, self.day);
+        (days * 86_400 + self.hour as i64 * 3600 + self.minute as i64 * 60) as f64 + self.second
+    }
+
+    /// The date-time `seconds` after 1970-01-01T00:00:00Z.
+    pub fn from_unix_seconds(seconds: f64) -> Self {
+        let whole_minutes = (seconds / 60.0).floor();
+        let second = (seconds - whole_minutes * 60.0).clamp(0.0, 59.999_999);
+        let total_min = whole_minutes as i64;
+        let (days, minute_of_day) = (total_min.div_euclid(1440), total_min.rem_euclid(1440));
+        let (year, month, day) = civil_from_days(days);
+        Self {
+            year,
+            month,
+            day,
+            hour: (minute_of_day / 60) as u32,
+            minute: (minute_of_day % 60) as u32,
+            second,
+        }
+    }
+
     /// The year with its elapsed fraction (for ΔT).
     pub fn decimal_year(&self) -> f64 {
         let start = days_from_civil(self.year, 1, 1);
@@ -156,6 +179,17 @@ mod tests {
         assert_eq!((t.year, t.month, t.day, t.hour), (2023, 12, 31, 23));
         let t = UtcDateTime::parse("2024-02-29T23:59:59.5Z").expect("parse");
         assert_eq!((t.month, t.day, t.second), (2, 29, 59.5));
+    }
+
+    #[test]
+    fn unix_seconds_round_trip() {
+        // 2000-01-01T12:00:00Z is 946 728 000 s after the epoch.
+        let t = UtcDateTime::parse("2000-01-01T12:00:00Z").expect("parse");
+        assert_eq!(t.unix_seconds(), 946_728_000.0);
+        let t = UtcDateTime::parse("2024-02-29T23:59:59.5Z").expect("parse");
+        let back = UtcDateTime::from_unix_seconds(t.unix_seconds());
+        assert_eq!(back, t);
+        assert_eq!(UtcDateTime::parse(&back.to_string()).expect("parse"), t);
     }
 
     #[test]

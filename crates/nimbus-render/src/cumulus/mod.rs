@@ -464,6 +464,36 @@ fn field_cloud(index: usize, cloud: &CloudInstance, shape: &CumulusVariant) -> F
     }
 }
 
+/// `cloud` moved by the wind's drift (x, z), m; with `wrap_side_m`, its base
+/// kept inside the square of that side around `area_centre_m`.
+fn drifted_cloud(
+    cloud: &FieldCloud,
+    drift_m: [f64; 2],
+    area_centre_m: [f64; 2],
+    wrap_side_m: Option<f64>,
+) -> FieldCloud {
+    let base = cloud.instance.offset_scale;
+    let mut target = [
+        f64::from(base[0]) + drift_m[0],
+        f64::from(base[2]) + drift_m[1],
+    ];
+    if let Some(side) = wrap_side_m {
+        for (t, c) in target.iter_mut().zip(area_centre_m) {
+            *t = c - 0.5 * side + (*t - (c - 0.5 * side)).rem_euclid(side);
+        }
+    }
+    let shift = DVec3::new(
+        target[0] - f64::from(base[0]),
+        0.0,
+        target[1] - f64::from(base[2]),
+    );
+    let mut moved = cloud.clone();
+    moved.centre_m += shift;
+    moved.instance.offset_scale[0] = target[0] as f32;
+    moved.instance.offset_scale[2] = target[1] as f32;
+    moved
+}
+
 #[derive(Debug)]
 struct GpuLod {
     vertices: wgpu::Buffer,
@@ -538,6 +568,8 @@ pub struct CumulusPass {
     fringe: Option<FringeTargets>,
     variants: Option<(VariantParams, Vec<GpuVariant>)>,
     field: Option<(FieldKey, Vec<FieldCloud>)>,
+    /// The field's clouds where the wind has carried them this frame.
+    moved: Vec<FieldCloud>,
     instances: Option<wgpu::Buffer>,
     draws: Vec<Draw>,
     shadow_draws: Vec<Draw>,
@@ -807,6 +839,7 @@ impl CumulusPass {
             fringe: None,
             variants: None,
             field: None,
+            moved: Vec::new(),
             instances: None,
             draws: Vec::new(),
             shadow_draws: Vec::new(),
@@ -828,12 +861,10 @@ impl CumulusPass {
     /// The placed clouds' footprints as (x, z, radius), m: their bounding
     /// spheres seen from below (where rain under cumulus falls).
     pub fn footprints_m(&self) -> Vec<[f32; 3]> {
-        self.field.as_ref().map_or_else(Vec::new, |(_, clouds)| {
-            clouds
-                .iter()
-                .map(|c| [c.centre_m.x as f32, c.centre_m.z as f32, c.radius_m as f32])
-                .collect()
-        })
+        self.moved
+            .iter()
+            .map(|c| [c.centre_m.x as f32, c.centre_m.z as f32, c.radius_m as f32])
+            .collect()
     }
 
     /// Number of clouds in the field and number drawn this frame.
@@ -858,6 +889,7 @@ impl CumulusPass {
         self.draws.clear();
         self.shadow_draws.clear();
         let Some(settings) = &scene.cumulus else {
+            self.moved.clear();
             self.enabled = false;
             self.shadow_enabled = false;
             shadow_map.write(queue, &CloudShadowUniform::default());
@@ -950,9 +982,20 @@ impl CumulusPass {
                 .collect();
             self.field = Some((key, clouds));
         }
-        let Some((_, clouds)) = &self.field else {
+        let Some((key, placed)) = &self.field else {
             return Ok(());
         };
+        // The wind carries the clouds; a generated field wraps around its
+        // square area so that it never empties.
+        let drift = scene.cloud_drift_m(f64::from(frame.time_s));
+        let wrap = settings.clouds.is_empty().then_some(key.area_side_m);
+        self.moved.clear();
+        self.moved.extend(
+            placed
+                .iter()
+                .map(|cloud| drifted_cloud(cloud, drift, key.area_centre_m, wrap)),
+        );
+        let clouds = &self.moved;
         let uniform = CumulusUniform::new(settings, &scene.atmosphere, scene.sun.direction());
         queue.write_buffer(&self.uniform, 0, bytemuck::bytes_of(&uniform));
 

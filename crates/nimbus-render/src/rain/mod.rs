@@ -732,13 +732,14 @@ pub fn rain_zones(
         &[]
     };
     let side = scene.terrain.extent_m as f32;
+    let drift = scene.cloud_drift_m(time_s);
     RainZones::from_fn([0.0, 0.0], side, ZONE_MAP_SIZE, |x, z| {
         let mut factor = areas
             .iter()
             .map(|a| a.factor_at(x, z))
             .fold(0.0f32, f32::max);
         if let Some(field) = &stratus {
-            let h = field.thickness_m(x as f64, z as f64, time_s) as f32;
+            let h = field.thickness_with_drift_m(x as f64, z as f64, drift, time_s) as f32;
             // A soft edge over a third of the threshold (Puig-Centelles et al. 2009).
             factor = factor.max(smoothstep(threshold * 0.67, threshold, h));
         }

@@ -6,10 +6,12 @@
 //! [`Scene::from_toml_str`] with a [`SceneError`] that names the file, the key,
 //! the value and what is allowed.
 
+mod animation;
 mod objects;
 mod rain;
 mod validate;
 
+pub use animation::{Keyframe, MAX_KEYFRAMES, evaluate_track};
 pub use objects::{
     BOX_TRIANGLES, DEFAULT_OBJECT_ALBEDO, MAX_OBJECT_TRIANGLES, MAX_OBJECTS, ObjectKind,
     ObjectShape, SceneObject,
@@ -65,6 +67,9 @@ pub struct Scene {
     /// Static objects (`[[objects]]`): boxes and glTF meshes.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub objects: Vec<SceneObject>,
+    /// Keyframed weather (`[[keyframes]]`, see [`Scene::at_time`]).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub keyframes: Vec<Keyframe>,
     /// Directory that relative paths in the scene (`objects[].gltf`) are
     /// resolved against ([`Scene::resolve_path`]): the scene file's
     /// directory for [`Scene::from_file`], `None` (the current directory)
@@ -323,6 +328,11 @@ pub struct WindSettings {
     pub turbulence: Option<TurbulenceSettings>,
     /// Local flow primitives (uniform jets, sources and sinks, vortices, gust fronts).
     pub primitives: Vec<WindPrimitiveSettings>,
+    /// The horizontal distance (x, z), m, the air has moved at the frame's
+    /// time when the wind is keyframed (set by [`Scene::at_time`]); `None`:
+    /// velocity × time. Not a key of the file.
+    #[serde(skip)]
+    pub drift_m: Option<[f64; 2]>,
 }
 
 impl Default for WindSettings {
@@ -332,6 +342,7 @@ impl Default for WindSettings {
             from_deg: 270.0,
             turbulence: None,
             primitives: Vec::new(),
+            drift_m: None,
         }
     }
 }

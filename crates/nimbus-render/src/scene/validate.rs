@@ -309,6 +309,7 @@ impl Scene {
         c.closed("camera.adaptation_time_s", cam.adaptation_time_s, 0.0, 60.0)?;
 
         self.validate_sun(&c)?;
+        self.validate_keyframes(&c)?;
         let a = &self.atmosphere;
         c.closed(
             "atmosphere.bottom_radius_m",

@@ -9,8 +9,8 @@ struct Stratus {
     // x: 1 / feature size (1/m); y: noise value at the cloud edge n_c;
     // z: ramp width to full thickness (noise units); w: thickest cells, m.
     shape: vec4<f32>,
-    // xy: wind velocity (x east, z south), m/s; z: 1 / evolution time (1/s);
-    // w: the layer's time, s.
+    // xy: distance the wind has carried the layer (x east, z south), m;
+    // z: 1 / evolution time (1/s); w: the layer's time, s.
     motion: vec4<f32>,
     // x: mid-plane height, m; y: side of the thickness window, m; zw: the
     // window's min corner (x, z), m.
@@ -118,7 +118,7 @@ fn layer_thickness_m(s: Stratus, xz: vec2<f32>) -> f32 {
         return 0.0;
     }
     let t = s.motion.w;
-    let uv = (xz - s.motion.xy * t) * s.shape.x;
+    let uv = (xz - s.motion.xy) * s.shape.x;
     let n = fbm_3d(vec3<f32>(uv, t * s.motion.z), s.flags.z, s.flags.y);
     let d = clamp((n - s.shape.y) / s.shape.z, 0.0, 1.0);
     return s.shape.w * (1.0 - (1.0 - d) * (1.0 - d));

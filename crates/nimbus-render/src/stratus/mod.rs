@@ -113,7 +113,7 @@ pub const MIN_RADIOSITY_TEXEL_M: f64 = 100.0;
 pub struct StratusUniform {
     /// 1/feature size (1/m), edge threshold n_c, ramp width, thickest cells (m).
     pub shape: [f32; 4],
-    /// Wind velocity (x, z) m/s, 1/evolution time (1/s), time (s).
+    /// Wind drift (x, z) m ([`Scene::cloud_drift_m`]), 1/evolution time (1/s), time (s).
     pub motion: [f32; 4],
     /// Mid-plane height (m), window side (m), window min corner (x, z) (m).
     pub window: [f32; 4],
@@ -557,7 +557,7 @@ impl StratusPass {
             return Ok(());
         };
         let field = cloud_layer_field(scene, &settings);
-        let wind = field.wind_velocity_m_s;
+        let drift = scene.cloud_drift_m(f64::from(time_s));
         let (threshold, ramp) = field.threshold_and_ramp();
         // Window: `extent_m` square around the camera, its corner snapped to
         // whole texels so that the grid does not swim as the camera moves.
@@ -587,8 +587,8 @@ impl StratusPass {
                 settings.thickness_m as f32,
             ],
             motion: [
-                wind[0] as f32,
-                wind[1] as f32,
+                drift[0] as f32,
+                drift[1] as f32,
                 (1.0 / settings.evolution_time_s) as f32,
                 time_s,
             ],

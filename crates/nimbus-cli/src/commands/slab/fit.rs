@@ -3,7 +3,8 @@
 //! fluxes (Bouthors et al. 2006, appendix B), writing a table file that
 //! `OneDimensionalTable::from_file` reads.
 
-use super::{DropletArgs, Progress, check_photons};
+use super::{DropletArgs, check_photons};
+use crate::output::Progress;
 use clap::Args;
 use nimbus_physics::transport::fit::{FluxSample, fit_one_dimensional};
 use nimbus_physics::transport::monte_carlo::{BATCH_PHOTONS, TraceSettings, trace};

@@ -5,6 +5,7 @@
 mod fit;
 mod plot;
 
+use crate::output::Progress;
 use clap::{Args, Subcommand, ValueEnum};
 use nimbus_physics::optics::dsd::{SizeDistribution, bulk_optics};
 use nimbus_physics::optics::phase::PhaseTable;
@@ -16,7 +17,6 @@ use nimbus_physics::transport::monte_carlo::{
 use nimbus_physics::transport::phase_model::PhaseModel;
 use nimbus_physics::transport::stratus::{StratusModel, StratusOptics};
 use serde::Serialize;
-use std::io::{IsTerminal, Write};
 
 /// `nimbus slab`: one slab and view direction, or a subcommand.
 #[derive(Debug, Args)]
@@ -146,57 +146,6 @@ impl TracedMedium {
             optical_depth: self.extinction_per_m * thickness_m,
             single_scattering_albedo: self.albedo,
             phase: self.phase.clone(),
-        }
-    }
-}
-
-/// A progress line with an ETA on standard error, redrawn at most four
-/// times a second and only on a terminal; `total` is the amount of work.
-struct Progress {
-    label: String,
-    total: u64,
-    start: std::time::Instant,
-    show: bool,
-    last_draw: std::sync::Mutex<f64>,
-}
-
-impl Progress {
-    fn new(label: impl Into<String>, total: u64) -> Self {
-        Self {
-            label: label.into(),
-            total,
-            start: std::time::Instant::now(),
-            show: std::io::stderr().is_terminal(),
-            last_draw: std::sync::Mutex::new(f64::NEG_INFINITY),
-        }
-    }
-
-    /// Reports `done` units of work.
-    fn update(&self, done: u64) {
-        let elapsed = self.start.elapsed().as_secs_f64();
-        {
-            let mut last = self.last_draw.lock().unwrap_or_else(|e| e.into_inner());
-            if !self.show || (elapsed - *last < 0.25 && done < self.total) {
-                return;
-            }
-            *last = elapsed;
-        }
-        let eta = elapsed * (self.total.saturating_sub(done)) as f64 / done.max(1) as f64;
-        let mut stderr = std::io::stderr();
-        let _ = write!(
-            stderr,
-            "\rnimbus: {}: {done}/{} ({:.0} %), {elapsed:.1} s, ETA {eta:.1} s   ",
-            self.label,
-            self.total,
-            100.0 * done as f64 / self.total.max(1) as f64
-        );
-        let _ = stderr.flush();
-    }
-
-    /// Ends the progress line.
-    fn finish(&self) {
-        if self.show {
-            eprintln!();
         }
     }
 }

@@ -1,0 +1,420 @@
+//! Keyframed weather (`[[keyframes]]`): the scene at any animation time.
+//!
+//! Each keyframe sets some of the animated values at one time; every value
+//! is a track of its own through the keyframes that set it. Between keys a
+//! track follows a monotone cubic Hermite curve (Fritsch & Carlson, "Monotone
+//! piecewise cubic interpolation", SIAM J. Numer. Anal. 17, 1980): smooth
+//! (continuous slope), and never outside the range of its two neighbouring
+//! keys, so coverages stay in [0, 1] and intensities non-negative. Before
+//! the first key and after the last, a track holds its end value. Angles
+//! (sun azimuth, wind direction) turn the short way round.
+//!
+//! The clouds move with the wind: the distance the air has travelled is the
+//! integral of the keyed wind velocity over time, so changing the wind
+//! changes the clouds' speed, never their position, from one frame to the
+//! next.
+
+use super::Scene;
+use super::SceneError;
+use super::validate::Checker;
+use nimbus_physics::sky::UtcDateTime;
+use serde::{Deserialize, Serialize};
+
+/// Most keyframes in a scene.
+pub const MAX_KEYFRAMES: usize = 1024;
+
+/// One keyframe: the values that hold at `time_s` (keys left out are not keyed here).
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Keyframe {
+    /// Animation time of the key, s, ≥ 0; keys in increasing order.
+    pub time_s: f64,
+    /// Date and time of the sun (ISO 8601 with a zone); needs the scene's sun
+    /// given by `time_utc`, `latitude_deg` and `longitude_deg`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub sun_time_utc: Option<String>,
+    /// Sun azimuth, degrees clockwise from north, in [0, 360]; needs the
+    /// scene's sun given by angles.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub sun_azimuth_deg: Option<f64>,
+    /// Sun elevation, degrees, in [−90, 90]; needs the sun given by angles.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub sun_elevation_deg: Option<f64>,
+    /// Wind speed, m/s, in [0, 100]; needs `[wind]`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub wind_speed_m_s: Option<f64>,
+    /// Direction the wind blows from, degrees clockwise from north, in [0, 360]; needs `[wind]`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub wind_from_deg: Option<f64>,
+    /// Rain intensity, mm/h, in [0, 200]; needs `[rain]`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub rain_intensity_mm_h: Option<f64>,
+    /// Stratiform layer coverage, in [0, 1]; needs `[stratus]`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub stratus_coverage: Option<f64>,
+}
+
+/// A track: (time, value) keys in increasing time.
+type Track = Vec<(f64, f64)>;
+
+/// The tracks of a keyframe list.
+struct Tracks {
+    sun_time_s: Track,
+    sun_azimuth_deg: Track,
+    sun_elevation_deg: Track,
+    wind_speed_m_s: Track,
+    wind_from_deg: Track,
+    rain_intensity_mm_h: Track,
+    stratus_coverage: Track,
+}
+
+impl Tracks {
+    /// Assumes validated keyframes (times parse).
+    fn new(keys: &[Keyframe]) -> Self {
+        let track = |value: &dyn Fn(&Keyframe) -> Option<f64>| -> Track {
+            keys.iter()
+                .filter_map(|k| value(k).map(|v| (k.time_s, v)))
+                .collect()
+        };
+        Self {
+            sun_time_s: track(&|k| {
+                k.sun_time_utc
+                    .as_deref()
+                    .and_then(|t| UtcDateTime::parse(t).ok())
+                    .map(|t| t.unix_seconds())
+            }),
+            sun_azimuth_deg: unwrap_degrees(track(&|k| k.sun_azimuth_deg)),
+            sun_elevation_deg: track(&|k| k.sun_elevation_deg),
+            wind_speed_m_s: track(&|k| k.wind_speed_m_s),
+            wind_from_deg: unwrap_degrees(track(&|k| k.wind_from_deg)),
+            rain_intensity_mm_h: track(&|k| k.rain_intensity_mm_h),
+            stratus_coverage: track(&|k| k.stratus_coverage),
+        }
+    }
+}
+
+/// Shifts each angle by whole turns so that consecutive keys differ by at
+/// most half a turn (the short way round).
+fn unwrap_degrees(mut track: Track) -> Track {
+    for i in 1..track.len() {
+        let previous = track[i - 1].1;
+        let step = (track[i].1 - previous + 180.0).rem_euclid(360.0) - 180.0;
+        track[i].1 = previous + step;
+    }
+    track
+}
+
+/// The value of a track at time `t`: monotone cubic Hermite between keys
+/// (Fritsch–Carlson tangents), held constant outside; `None` for no keys.
+pub fn evaluate_track(track: &[(f64, f64)], t: f64) -> Option<f64> {
+    let (first, last) = (track.first()?, track.last()?);
+    if track.len() == 1 || t <= first.0 {
+        return Some(first.1);
+    }
+    if t >= last.0 {
+        return Some(last.1);
+    }
+    let i = track.partition_point(|k| k.0 <= t) - 1;
+    let slope = |j: usize| (track[j + 1].1 - track[j].1) / (track[j + 1].0 - track[j].0);
+    // Tangent at key j: zero at an extremum or a flat neighbour, else the
+    // harmonic mean of the neighbouring slopes (Fritsch & Butland's form of
+    // the Fritsch–Carlson condition), one-sided at the ends.
+    let tangent = |j: usize| {
+        if j == 0 {
+            return slope(0);
+        }
+        if j == track.len() - 1 {
+            return slope(j - 1);
+        }
+        let (a, b) = (slope(j - 1), slope(j));
+        if a * b <= 0.0 {
+            0.0
+        } else {
+            2.0 * a * b / (a + b)
+        }
+    };
+    let ((t0, v0), (t1, v1)) = (track[i], track[i + 1]);
+    let h = t1 - t0;
+    let s = (t - t0) / h;
+    let (s2, s3) = (s * s, s * s * s);
+    let h00 = 2.0 * s3 - 3.0 * s2 + 1.0;
+    let h10 = s3 - 2.0 * s2 + s;
+    let h01 = -2.0 * s3 + 3.0 * s2;
+    let h11 = s3 - s2;
+    Some(h00 * v0 + h10 * h * tangent(i) + h01 * v1 + h11 * h * tangent(i + 1))
+}
+
+/// Longest step of the wind integral, s.
+const DRIFT_STEP_S: f64 = 0.25;
+
+impl Scene {
+    /// Whether the scene has keyframes.
+    pub fn is_animated(&self) -> bool {
+        !self.keyframes.is_empty()
+    }
+
+    /// The scene at animation time `time_s`: every keyed value set from its
+    /// track, and the wind's drift (the distance the air has moved since
+    /// time 0) integrated along the keyed wind. Scenes without keyframes are
+    /// returned unchanged.
+    pub fn at_time(&self, time_s: f64) -> Scene {
+        let mut scene = self.clone();
+        if self.keyframes.is_empty() {
+            return scene;
+        }
+        let tracks = Tracks::new(&self.keyframes);
+        let at = |track: &Track| evaluate_track(track, time_s);
+        if let Some(seconds) = at(&tracks.sun_time_s) {
+            scene.sun.time_utc = Some(UtcDateTime::from_unix_seconds(seconds).to_string());
+        }
+        if let Some(azimuth) = at(&tracks.sun_azimuth_deg) {
+            scene.sun.azimuth_deg = Some(azimuth.rem_euclid(360.0));
+        }
+        if let Some(elevation) = at(&tracks.sun_elevation_deg) {
+            scene.sun.elevation_deg = Some(elevation);
+        }
+        if let Some(wind) = &mut scene.wind {
+            let keyed = !tracks.wind_speed_m_s.is_empty() || !tracks.wind_from_deg.is_empty();
+            let base = (wind.speed_m_s, wind.from_deg);
+            let velocity = |t: f64| {
+                let mut w = super::WindSettings {
+                    speed_m_s: evaluate_track(&tracks.wind_speed_m_s, t).unwrap_or(base.0),
+                    from_deg: evaluate_track(&tracks.wind_from_deg, t).unwrap_or(base.1),
+                    ..Default::default()
+                };
+                w.from_deg = w.from_deg.rem_euclid(360.0);
+                w.velocity_xz_m_s()
+            };
+            if keyed {
+                wind.speed_m_s = evaluate_track(&tracks.wind_speed_m_s, time_s).unwrap_or(base.0);
+                wind.from_deg = evaluate_track(&tracks.wind_from_deg, time_s)
+                    .unwrap_or(base.1)
+                    .rem_euclid(360.0);
+                // Simpson's rule over steps of at most DRIFT_STEP_S.
+                let steps = ((time_s.abs() / DRIFT_STEP_S).ceil() as usize).max(1) * 2;
+                let h = time_s / steps as f64;
+                let mut drift = [0.0, 0.0];
+                for j in 0..=steps {
+                    let weight = if j == 0 || j == steps {
+                        1.0
+                    } else if j % 2 == 1 {
+                        4.0
+                    } else {
+                        2.0
+                    };
+                    let v = velocity(j as f64 * h);
+                    drift[0] += weight * v[0];
+                    drift[1] += weight * v[1];
+                }
+                wind.drift_m = Some(drift.map(|d| d * h / 3.0));
+            }
+        }
+        if let (Some(rain), Some(intensity)) = (&mut scene.rain, at(&tracks.rain_intensity_mm_h)) {
+            rain.intensity_mm_h = intensity.max(0.0);
+        }
+        if let (Some(stratus), Some(coverage)) = (&mut scene.stratus, at(&tracks.stratus_coverage))
+        {
+            stratus.coverage = coverage.clamp(0.0, 1.0);
+        }
+        scene
+    }
+
+    /// The horizontal distance (x, z), m, the air (and the clouds in it) has
+    /// moved at animation time `time_s`: the integral of the keyed wind
+    /// ([`Self::at_time`] sets it) or the constant wind velocity × time.
+    pub fn cloud_drift_m(&self, time_s: f64) -> [f64; 2] {
+        self.wind.as_ref().map_or([0.0, 0.0], |w| {
+            w.drift_m
+                .unwrap_or_else(|| w.velocity_xz_m_s().map(|v| v * time_s))
+        })
+    }
+
+    pub(super) fn validate_keyframes(&self, c: &Checker<'_>) -> Result<(), SceneError> {
+        if self.keyframes.len() > MAX_KEYFRAMES {
+            return Err(c.invalid(
+                "keyframes",
+                format!("{} keyframes", self.keyframes.len()),
+                format!("at most {MAX_KEYFRAMES}"),
+            ));
+        }
+        let by_angles = self.sun.azimuth_deg.is_some() || self.sun.elevation_deg.is_some();
+        let by_time = self.sun.time_utc.is_some();
+        let mut previous: Option<f64> = None;
+        for (i, key) in self.keyframes.iter().enumerate() {
+            let name = |field: &str| format!("keyframes[{i}].{field}");
+            c.closed(&name("time_s"), key.time_s, 0.0, 1.0e7)?;
+            if let Some(p) = previous
+                && key.time_s <= p
+            {
+                return Err(c.invalid(
+                    &name("time_s"),
+                    key.time_s,
+                    format!("must be greater than the previous keyframe's time_s ({p})"),
+                ));
+            }
+            previous = Some(key.time_s);
+            let requires = |field: &str, present: bool, what: &str| {
+                if present {
+                    Ok(())
+                } else {
+                    Err(c.invalid(&name(field), "set", format!("needs {what}")))
+                }
+            };
+            if let Some(text) = &key.sun_time_utc {
+                requires(
+                    "sun_time_utc",
+                    by_time,
+                    "the scene's sun given by time_utc, latitude_deg and longitude_deg",
+                )?;
+                UtcDateTime::parse(text).map_err(|e| c.invalid(&name("sun_time_utc"), text, e))?;
+            }
+            if let Some(azimuth) = key.sun_azimuth_deg {
+                requires(
+                    "sun_azimuth_deg",
+                    by_angles,
+                    "the scene's sun given by angles",
+                )?;
+                c.closed(&name("sun_azimuth_deg"), azimuth, 0.0, 360.0)?;
+            }
+            if let Some(elevation) = key.sun_elevation_deg {
+                requires(
+                    "sun_elevation_deg",
+                    by_angles,
+                    "the scene's sun given by angles",
+                )?;
+                c.closed(&name("sun_elevation_deg"), elevation, -90.0, 90.0)?;
+            }
+            if let Some(speed) = key.wind_speed_m_s {
+                requires("wind_speed_m_s", self.wind.is_some(), "a [wind] section")?;
+                c.closed(&name("wind_speed_m_s"), speed, 0.0, 100.0)?;
+            }
+            if let Some(from) = key.wind_from_deg {
+                requires("wind_from_deg", self.wind.is_some(), "a [wind] section")?;
+                c.closed(&name("wind_from_deg"), from, 0.0, 360.0)?;
+            }
+            if let Some(intensity) = key.rain_intensity_mm_h {
+                requires(
+                    "rain_intensity_mm_h",
+                    self.rain.is_some(),
+                    "a [rain] section",
+                )?;
+                c.closed(&name("rain_intensity_mm_h"), intensity, 0.0, 200.0)?;
+            }
+            if let Some(coverage) = key.stratus_coverage {
+                requires(
+                    "stratus_coverage",
+                    self.stratus.is_some(),
+                    "a [stratus] section",
+                )?;
+                c.closed(&name("stratus_coverage"), coverage, 0.0, 1.0)?;
+            }
+        }
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn tracks_pass_through_their_keys_without_overshoot() {
+        let track = [(0.0, 0.0), (1.0, 0.9), (2.0, 1.0), (4.0, 0.2)];
+        for &(t, v) in &track {
+            assert!((evaluate_track(&track, t).expect("keys") - v).abs() < 1e-12);
+        }
+        // Monotone between monotone keys, within each pair's range.
+        let mut previous = 0.0;
+        for i in 0..=200 {
+            let t = i as f64 * 0.01;
+            let v = evaluate_track(&track, t).expect("keys");
+            assert!(
+                v >= previous - 1e-12 && (0.0..=1.0).contains(&v),
+                "t {t}: {v}"
+            );
+            previous = v;
+        }
+        for i in 200..=400 {
+            let v = evaluate_track(&track, i as f64 * 0.01).expect("keys");
+            assert!((0.2..=1.0).contains(&v));
+        }
+        // Held outside, smooth (no jump in slope) at an inner key.
+        assert_eq!(evaluate_track(&track, -3.0), Some(0.0));
+        assert_eq!(evaluate_track(&track, 9.0), Some(0.2));
+        let e = 1e-6;
+        let left = (evaluate_track(&track, 1.0).expect("k")
+            - evaluate_track(&track, 1.0 - e).expect("k"))
+            / e;
+        let right = (evaluate_track(&track, 1.0 + e).expect("k")
+            - evaluate_track(&track, 1.0).expect("k"))
+            / e;
+        assert!((left - right).abs() < 1e-4, "{left} vs {right}");
+        assert_eq!(evaluate_track(&[], 1.0), None);
+    }
+
+    #[test]
+    fn angles_turn_the_short_way() {
+        let track = unwrap_degrees(vec![(0.0, 350.0), (1.0, 10.0)]);
+        let mid = evaluate_track(&track, 0.5).expect("keys").rem_euclid(360.0);
+        assert!(
+            (mid - 0.0).abs() < 1e-9 || (mid - 360.0).abs() < 1e-9,
+            "{mid}"
+        );
+    }
+
+    fn scene(extra: &str) -> Result<Scene, SceneError> {
+        Scene::from_toml_str(
+            &format!(
+                "[sun]\nazimuth_deg = 180.0\nelevation_deg = 30.0\n[wind]\nspeed_m_s = 10.0\nfrom_deg = 270.0\n[rain]\nintensity_mm_h = 1.0\n{extra}"
+            ),
+            "test.toml",
+        )
+    }
+
+    #[test]
+    fn keyed_values_follow_the_keys_and_the_drift_integrates_the_wind() {
+        let s = scene(
+            "[[keyframes]]\ntime_s = 0.0\nsun_elevation_deg = 30.0\nwind_speed_m_s = 10.0\nrain_intensity_mm_h = 1.0\n\
+             [[keyframes]]\ntime_s = 10.0\nsun_elevation_deg = 2.0\nwind_speed_m_s = 0.0\nrain_intensity_mm_h = 20.0\n",
+        )
+        .expect("valid");
+        let start = s.at_time(0.0);
+        let end = s.at_time(10.0);
+        assert_eq!(start.sun.elevation_deg, Some(30.0));
+        assert_eq!(end.sun.elevation_deg, Some(2.0));
+        assert_eq!(end.rain.as_ref().map(|r| r.intensity_mm_h), Some(20.0));
+        // From the west (270°) the air moves east (+x): speed 10 → 0 along
+        // a cubic with end slopes equal to the secant (two keys): linear, so
+        // the air moves 50 m in 10 s, then stays.
+        let drift = end.cloud_drift_m(10.0);
+        assert!(
+            (drift[0] - 50.0).abs() < 1e-6 && drift[1].abs() < 1e-6,
+            "{drift:?}"
+        );
+        let later = s.at_time(20.0).cloud_drift_m(20.0);
+        assert!((later[0] - 50.0).abs() < 1e-6, "{later:?}");
+        // Without keyframes the drift is velocity × time.
+        let plain = scene("").expect("valid");
+        assert!((plain.cloud_drift_m(3.0)[0] - 30.0).abs() < 1e-9);
+        assert_eq!(plain.at_time(5.0), plain);
+    }
+
+    #[test]
+    fn bad_keyframes_are_rejected_with_their_key() {
+        let message = |extra: &str| scene(extra).expect_err("invalid").to_string();
+        let m = message("[[keyframes]]\ntime_s = 5.0\n[[keyframes]]\ntime_s = 5.0\n");
+        assert!(
+            m.contains("keyframes[1].time_s") && m.contains("greater"),
+            "{m}"
+        );
+        let m = message("[[keyframes]]\ntime_s = 0.0\nstratus_coverage = 0.5\n");
+        assert!(
+            m.contains("keyframes[0].stratus_coverage") && m.contains("[stratus]"),
+            "{m}"
+        );
+        let m = message("[[keyframes]]\ntime_s = 0.0\nsun_time_utc = \"2026-06-21T12:00:00Z\"\n");
+        assert!(m.contains("sun_time_utc"), "{m}");
+        let m = message("[[keyframes]]\ntime_s = 0.0\nrain_intensity_mm_h = -1.0\n");
+        assert!(m.contains("rain_intensity_mm_h") && m.contains("-1"), "{m}");
+    }
+}
