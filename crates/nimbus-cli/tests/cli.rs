@@ -1115,16 +1115,26 @@ fn rain_bad_input_fails_with_one_line() {
     }
 }
 
-/// The frames an `animate` run wrote, decoded.
-fn animation_frames(dir: &Path) -> Vec<image::RgbaImage> {
-    files_in(dir)
+/// Runs `nimbus animate` with `args` at 64×36 into `dir/frames` and
+/// returns the frames it wrote, decoded.
+fn animate(dir: &Path, args: &[&str]) -> Vec<image::RgbaImage> {
+    let mut all = vec!["animate", "--width", "64", "--height", "36", "-o", "frames"];
+    all.extend_from_slice(args);
+    let out = nimbus(&all, dir);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let frames = dir.join("frames");
+    files_in(&frames)
         .iter()
         .map(|name| {
             assert!(
                 name.starts_with("frame_") && name.ends_with(".png"),
                 "{name}"
             );
-            image::open(dir.join(name)).expect("png").to_rgba8()
+            image::open(frames.join(name)).expect("png").to_rgba8()
         })
         .collect()
 }
@@ -1155,29 +1165,7 @@ fn animate_static_weather_does_not_flicker() {
          [cumulus]\ncoverage = 0.1\nbase_m = 1200.0\n",
     )
     .expect("scene");
-    let out = nimbus(
-        &[
-            "animate",
-            "still.toml",
-            "--seconds",
-            "1",
-            "--fps",
-            "5",
-            "--width",
-            "64",
-            "--height",
-            "36",
-            "-o",
-            "frames",
-        ],
-        &dir,
-    );
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    let frames = animation_frames(&dir.join("frames"));
+    let frames = animate(&dir, &["still.toml", "--seconds", "1", "--fps", "5"]);
     assert_eq!(frames.len(), 5);
     for pair in frames.windows(2) {
         assert_eq!(mean_difference(&pair[0], &pair[1]), 0.0);
@@ -1191,28 +1179,7 @@ fn animate_the_default_sunset_and_shower_smoothly() {
     // neighbours (a flicker) by more than the neighbours differ from each
     // other, and the last frame is darker than the first (the sunset).
     let dir = temp_dir("animate-default");
-    let out = nimbus(
-        &[
-            "animate",
-            "--seconds",
-            "10",
-            "--fps",
-            "0.6",
-            "--width",
-            "64",
-            "--height",
-            "36",
-            "-o",
-            "frames",
-        ],
-        &dir,
-    );
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    let frames = animation_frames(&dir.join("frames"));
+    let frames = animate(&dir, &["--seconds", "10", "--fps", "0.6"]);
     assert_eq!(frames.len(), 6);
     for i in 1..frames.len() - 1 {
         let (a, b, c) = (&frames[i - 1], &frames[i], &frames[i + 1]);

@@ -107,16 +107,21 @@ impl UtcDateTime {
         // Shift to UTC through whole minutes; the seconds are unaffected.
         let total_min = days_from_civil(year, month, day) * 1440 + hour as i64 * 60 + minute as i64
             - offset_min;
+        Ok(Self::from_minutes(total_min, second))
+    }
+
+    /// The date-time `total_min` whole minutes after the epoch plus `second`.
+    fn from_minutes(total_min: i64, second: f64) -> Self {
         let (days, minute_of_day) = (total_min.div_euclid(1440), total_min.rem_euclid(1440));
         let (year, month, day) = civil_from_days(days);
-        Ok(Self {
+        Self {
             year,
             month,
             day,
             hour: (minute_of_day / 60) as u32,
             minute: (minute_of_day % 60) as u32,
             second,
-        })
+        }
     }
 
     /// Seconds since 1970-01-01T00:00:00Z (leap seconds not counted).
@@ -129,17 +134,7 @@ impl UtcDateTime {
     pub fn from_unix_seconds(seconds: f64) -> Self {
         let whole_minutes = (seconds / 60.0).floor();
         let second = (seconds - whole_minutes * 60.0).clamp(0.0, 59.999_999);
-        let total_min = whole_minutes as i64;
-        let (days, minute_of_day) = (total_min.div_euclid(1440), total_min.rem_euclid(1440));
-        let (year, month, day) = civil_from_days(days);
-        Self {
-            year,
-            month,
-            day,
-            hour: (minute_of_day / 60) as u32,
-            minute: (minute_of_day % 60) as u32,
-            second,
-        }
+        Self::from_minutes(whole_minutes as i64, second)
     }
 
     /// The year with its elapsed fraction (for ΔT).
