@@ -464,18 +464,11 @@ impl Simulation {
         self.time_s += STEP_S;
         self.step += 1;
         self.rain_box = rain_box;
-        let inputs = StepInputs {
-            params: self.params,
-            rain_box,
-            wind: &self.wind,
-            zones: &self.zones,
-            time_s: self.time_s,
-            step: self.step,
-            dt_s: STEP_S,
-            ground_height_m: self.ground_height_m,
-        };
-        let (recycled, splashes) = self
-            .drops
+        // The drops leave `self` while they step, so that the inputs can
+        // borrow the rest of it.
+        let mut drops = std::mem::take(&mut self.drops);
+        let inputs = self.inputs(rain_box, STEP_S);
+        let (recycled, splashes) = drops
             .par_iter_mut()
             .enumerate()
             .map(|(id, drop)| {
@@ -488,6 +481,7 @@ impl Simulation {
                 )
             })
             .reduce(|| (0, 0), |a, b| (a.0 + b.0, a.1 + b.1));
+        self.drops = drops;
         self.recycled += recycled;
         self.splashes += splashes;
     }
