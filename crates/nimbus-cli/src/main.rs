@@ -23,6 +23,9 @@ enum Command {
     Render(commands::render::RenderArgs),
     /// Render a scene's keyframed weather as a PNG sequence or an .mp4 video.
     Animate(commands::animate::AnimateArgs),
+    /// Open a window on a scene: fly and orbit cameras, a panel of every
+    /// parameter, hot reload of the scene file and the shaders.
+    View(commands::view::ViewArgs),
     /// Render frames repeatedly and report per-pass GPU times.
     Bench(commands::bench::BenchArgs),
     /// Print or check scene files.
@@ -77,6 +80,7 @@ fn main() -> ExitCode {
     let result = match cli.command {
         Command::Render(args) => commands::render::run(&args),
         Command::Animate(args) => commands::animate::run(&args),
+        Command::View(args) => commands::view::run(&args),
         Command::Bench(args) => commands::bench::run(&args),
         Command::Scene(args) => commands::scene::run(&args),
         Command::Sun(args) => commands::sun::run(&args),

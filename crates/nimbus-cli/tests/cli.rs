@@ -70,6 +70,7 @@ fn help_is_available_for_every_subcommand() {
         &["--help"][..],
         &["render", "--help"],
         &["animate", "--help"],
+        &["view", "--help"],
         &["bench", "--help"],
         &["scene", "--help"],
         &["slab", "--help"],

@@ -76,6 +76,8 @@ pub struct GpuContext {
     pub queue: wgpu::Queue,
     /// The adapter's description.
     pub adapter_info: wgpu::AdapterInfo,
+    /// The adapter.
+    pub adapter: wgpu::Adapter,
 }
 
 fn is_software(info: &wgpu::AdapterInfo) -> bool {
@@ -97,11 +99,26 @@ impl GpuContext {
     /// primary ones: Vulkan, Metal, DX12) and creates a device with timestamp
     /// queries where the adapter supports them.
     pub fn new(preference: AdapterPreference) -> Result<Self, GpuError> {
+        Self::with_instance(&Self::instance(), preference, None)
+    }
+
+    /// A wgpu instance on the backends named by `WGPU_BACKEND`, else the
+    /// primary ones (Vulkan, Metal, DX12).
+    pub fn instance() -> wgpu::Instance {
         let mut descriptor = wgpu::InstanceDescriptor::new_without_display_handle_from_env();
         if std::env::var_os("WGPU_BACKEND").is_none() {
             descriptor.backends = wgpu::Backends::PRIMARY;
         }
-        let instance = wgpu::Instance::new(descriptor);
+        wgpu::Instance::new(descriptor)
+    }
+
+    /// Like [`Self::new`] on the caller's instance, with an adapter that can
+    /// present to `surface` when one is given (a window's).
+    pub fn with_instance(
+        instance: &wgpu::Instance,
+        preference: AdapterPreference,
+        surface: Option<&wgpu::Surface<'_>>,
+    ) -> Result<Self, GpuError> {
         let mut adapters = pollster::block_on(instance.enumerate_adapters(wgpu::Backends::all()));
         let seen = adapters
             .iter()
@@ -113,6 +130,9 @@ impl GpuContext {
             AdapterPreference::Hardware => !is_software(&a.get_info()),
             AdapterPreference::Software => is_software(&a.get_info()),
         });
+        if let Some(surface) = surface {
+            adapters.retain(|a| a.is_surface_supported(surface));
+        }
         // Stable order: device type, then name, so that the choice is repeatable.
         adapters.sort_by_key(|a| {
             let info = a.get_info();
@@ -125,6 +145,8 @@ impl GpuContext {
                 preference,
                 seen: if seen.is_empty() {
                     "none".to_owned()
+                } else if surface.is_some() {
+                    format!("{seen}; none of them can draw to the window")
                 } else {
                     seen
                 },
@@ -156,6 +178,7 @@ impl GpuContext {
             device,
             queue,
             adapter_info,
+            adapter,
         })
     }
 

@@ -131,6 +131,10 @@ pub enum RenderError {
     /// The rain cannot be simulated on this device.
     #[error(transparent)]
     Rain(#[from] crate::rain::RainError),
+    /// A shader or pipeline failed validation (WGSL read from disk by
+    /// [`crate::shader::set_source_dir`] that does not compile).
+    #[error("the renderer's shaders do not compile: {0}")]
+    Shaders(String),
 }
 
 /// Lighting depends only on these scene values; recomputed when they change.
@@ -226,6 +230,25 @@ impl Renderer {
             hdr: None,
             timer,
             passes_run: std::sync::Mutex::new([false; PASS_NAMES.len()]),
+        }
+    }
+
+    /// Like [`Self::new`], but catches validation errors of the shaders and
+    /// pipelines instead of leaving them to the device's error handler: for
+    /// shader development, where the WGSL comes from disk
+    /// ([`crate::shader::set_source_dir`]) and may not compile.
+    pub fn try_new(
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        descriptor: &RendererDescriptor,
+    ) -> Result<Self, RenderError> {
+        let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
+        let renderer = Self::new(device, queue, descriptor);
+        match pollster::block_on(scope.pop()) {
+            None => Ok(renderer),
+            Some(error) => Err(RenderError::Shaders(crate::shader::map_error_positions(
+                &error.to_string(),
+            ))),
         }
     }
 

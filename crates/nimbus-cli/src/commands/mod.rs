@@ -9,6 +9,7 @@ pub mod render;
 pub mod scene;
 pub mod slab;
 pub mod sun;
+pub mod view;
 
 use anyhow::Context;
 use nimbus_render::{AdapterPreference, Scene};
@@ -37,7 +38,7 @@ pub fn load_scene(path: Option<&Path>) -> anyhow::Result<Scene> {
 }
 
 /// Parses `--adapter`.
-fn parse_adapter(text: &str) -> Result<AdapterPreference, String> {
+pub(crate) fn parse_adapter(text: &str) -> Result<AdapterPreference, String> {
     text.parse()
 }
 
