@@ -3,7 +3,7 @@
 //! hot reload; screenshots.
 
 use super::camera::{CameraMode, MoveInput, ViewerCamera};
-use super::editor::SceneEditor;
+use super::editor::{SceneEditor, keyed_value_changed};
 use super::panel::{self, Clock, PanelState, PassTimes};
 use super::watch::FileWatch;
 use anyhow::Context as _;
@@ -272,6 +272,7 @@ impl Viewer {
             clock: Clock {
                 time_s: 0.0,
                 playing: true,
+                keyframes: true,
             },
             keys: HashSet::new(),
             drag_from: None,
@@ -505,8 +506,7 @@ impl Viewer {
         // The scene: the last valid one, posed by the camera, at the clock's time.
         let scene = self
             .editor
-            .posed_scene(&self.camera)
-            .at_time(self.clock.time_s);
+            .scene_at(&self.camera, self.clock.time_s, self.clock.keyframes);
         let prepared = self
             .renderer
             .prepare(&scene, width, height, self.clock.time_s as f32);
@@ -536,8 +536,9 @@ impl Viewer {
         let raw_input = self.egui_state.take_egui_input(&self.window);
         let egui_ctx = self.egui_ctx.clone();
         let mut full_output = egui_ctx.run_ui(raw_input, |ui| self.ui(ui));
-        let edited = full_output.platform_output.clone();
-        self.egui_state.handle_platform_output(&self.window, edited);
+        let platform_output = std::mem::take(&mut full_output.platform_output);
+        self.egui_state
+            .handle_platform_output(&self.window, platform_output);
         let pixels_per_point = full_output.pixels_per_point;
         let paint_jobs = self
             .egui_ctx
@@ -629,7 +630,18 @@ impl Viewer {
                     );
                 });
             if actions.edited {
-                self.editor.apply();
+                let before = self.editor.scene.clone();
+                if self.editor.apply()
+                    && self.clock.keyframes
+                    && keyed_value_changed(&before, &self.editor.scene)
+                {
+                    // The keyframes would undo the edit at once.
+                    self.clock.keyframes = false;
+                    self.set_status(
+                        "keyframes off: a keyed value was edited (Animation turns them back on)"
+                            .to_owned(),
+                    );
+                }
             }
             if actions.save {
                 self.save();

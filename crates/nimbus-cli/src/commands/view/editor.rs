@@ -169,6 +169,27 @@ pub fn optional_section(name: &str) -> Option<toml::Value> {
     }
 }
 
+/// Whether `after` differs from `before` in a value that `before`'s
+/// keyframes drive (the sun, the wind's speed and direction, the rain's
+/// intensity, the stratus coverage): an edit that the keyframes would
+/// override at once.
+pub fn keyed_value_changed(before: &Scene, after: &Scene) -> bool {
+    let keyed = |f: fn(&nimbus_render::scene::Keyframe) -> bool| before.keyframes.iter().any(f);
+    let sun = keyed(|k| {
+        k.sun_time_utc.is_some() || k.sun_azimuth_deg.is_some() || k.sun_elevation_deg.is_some()
+    }) && before.sun != after.sun;
+    let wind_of = |s: &Scene| s.wind.as_ref().map(|w| (w.speed_m_s, w.from_deg));
+    let wind = keyed(|k| k.wind_speed_m_s.is_some() || k.wind_from_deg.is_some())
+        && wind_of(before) != wind_of(after);
+    let rain = keyed(|k| k.rain_intensity_mm_h.is_some())
+        && before.rain.as_ref().map(|r| r.intensity_mm_h)
+            != after.rain.as_ref().map(|r| r.intensity_mm_h);
+    let stratus = keyed(|k| k.stratus_coverage.is_some())
+        && before.stratus.as_ref().map(|s| s.coverage)
+            != after.stratus.as_ref().map(|s| s.coverage);
+    sun || wind || rain || stratus
+}
+
 /// The scene of the viewer: the edited document and the last valid scene.
 #[derive(Debug)]
 pub struct SceneEditor {
@@ -260,11 +281,22 @@ impl SceneEditor {
         }
     }
 
-    /// The scene drawn: the last valid one, posed by the viewer's camera.
+    /// The scene with the camera's pose: what is saved.
     pub fn posed_scene(&self, camera: &ViewerCamera) -> Scene {
         let mut scene = self.scene.clone();
         camera.write_to(&mut scene.camera);
         scene
+    }
+
+    /// The scene drawn at `time_s`: posed by the camera, with the keyframed
+    /// weather at that time when `keyframes` is on (else the values of the
+    /// panel, the clouds still carried by the wind).
+    pub fn scene_at(&self, camera: &ViewerCamera, time_s: f64, keyframes: bool) -> Scene {
+        let mut scene = self.posed_scene(camera);
+        if !keyframes {
+            scene.keyframes.clear();
+        }
+        scene.at_time(time_s)
     }
 
     /// The scene file's text for the drawn scene with the camera's pose.
@@ -353,6 +385,36 @@ mod tests {
         assert_eq!(back.camera, editor.posed_scene(&camera).camera);
         assert!(!dir.join("saved.toml.tmp").exists());
         std::fs::remove_dir_all(&dir).ok();
+    }
+
+    #[test]
+    fn edits_of_keyed_values_are_recognised() {
+        // The default scene keys the sun's elevation, the wind and the rain.
+        let before = Scene::embedded_default();
+        assert!(!before.keyframes.is_empty());
+        let mut after = before.clone();
+        after.terrain.height_scale_m += 100.0;
+        assert!(!keyed_value_changed(&before, &after));
+        after.sun.elevation_deg = Some(5.0);
+        after.sun.azimuth_deg = Some(100.0);
+        assert!(keyed_value_changed(&before, &after));
+        let mut after = before.clone();
+        after.stratus.as_mut().expect("stratus").coverage = 0.1;
+        assert!(!keyed_value_changed(&before, &after), "coverage is not keyed");
+        after.rain.as_mut().expect("rain").intensity_mm_h = 50.0;
+        assert!(keyed_value_changed(&before, &after));
+        // Without keyframes nothing is keyed.
+        let mut unkeyed = before.clone();
+        unkeyed.keyframes.clear();
+        assert!(!keyed_value_changed(&unkeyed, &after));
+
+        // Keyframes off: the panel's value is drawn whatever the time.
+        let editor = SceneEditor::new(after.clone(), None).expect("editor");
+        let camera = ViewerCamera::from_settings(&after.camera);
+        let late = editor.scene_at(&camera, 9.0, false);
+        assert_eq!(late.rain.expect("rain").intensity_mm_h, 50.0);
+        let keyed = editor.scene_at(&camera, 9.0, true);
+        assert_ne!(keyed.rain.expect("rain").intensity_mm_h, 50.0);
     }
 
     #[test]

@@ -101,6 +101,8 @@ pub struct Clock {
     pub time_s: f64,
     /// Whether time runs.
     pub playing: bool,
+    /// Whether the scene's keyframes drive the weather (off: the panel's values).
+    pub keyframes: bool,
 }
 
 /// Smoothed per-pass GPU times for the overlay.
@@ -159,7 +161,7 @@ pub fn timing_overlay(ctx: &egui::Context, times: Option<&PassTimes>, adapter: &
                     };
                     if times.frame_s > 0.0 {
                         ui.label(format!(
-                            "frame {:7.2} ms ({:.0} fps)",
+                            "frame {:7.2} ms ({:.1} fps)",
                             times.frame_s * 1e3,
                             1.0 / times.frame_s
                         ));
@@ -369,6 +371,10 @@ fn clock_controls(ui: &mut egui::Ui, editor: &SceneEditor, clock: &mut Clock) {
         }
         ui.add(egui::Slider::new(&mut clock.time_s, 0.0..=end_s).text("time, s"));
     });
+    if !editor.scene.keyframes.is_empty() {
+        ui.checkbox(&mut clock.keyframes, "Apply the keyframes")
+            .on_hover_text("Editing a keyed value (sun, wind, rain intensity, stratus coverage) turns them off");
+    }
 }
 
 /// One top-level section: a switch when the scene may leave it out, then
