@@ -130,6 +130,7 @@ impl GpuContext {
             AdapterPreference::Hardware => !is_software(&a.get_info()),
             AdapterPreference::Software => is_software(&a.get_info()),
         });
+        let of_preferred_kind = adapters.len();
         if let Some(surface) = surface {
             adapters.retain(|a| a.is_surface_supported(surface));
         }
@@ -145,7 +146,7 @@ impl GpuContext {
                 preference,
                 seen: if seen.is_empty() {
                     "none".to_owned()
-                } else if surface.is_some() {
+                } else if of_preferred_kind > 0 {
                     format!("{seen}; none of them can draw to the window")
                 } else {
                     seen

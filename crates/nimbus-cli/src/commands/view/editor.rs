@@ -400,7 +400,10 @@ mod tests {
         assert!(keyed_value_changed(&before, &after));
         let mut after = before.clone();
         after.stratus.as_mut().expect("stratus").coverage = 0.1;
-        assert!(!keyed_value_changed(&before, &after), "coverage is not keyed");
+        assert!(
+            !keyed_value_changed(&before, &after),
+            "coverage is not keyed"
+        );
         after.rain.as_mut().expect("rain").intensity_mm_h = 50.0;
         assert!(keyed_value_changed(&before, &after));
         // Without keyframes nothing is keyed.
