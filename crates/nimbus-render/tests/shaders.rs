@@ -32,16 +32,16 @@ fn wgsl_layout(module: &naga::Module, struct_name: &str) -> (u32, Vec<(String, u
     let mut layouter = naga::proc::Layouter::default();
     layouter.update(module.to_ctx()).expect("layout");
     for (_, ty) in module.types.iter() {
-        if ty.name.as_deref() == Some(struct_name) {
-            if let naga::TypeInner::Struct { members, span } = &ty.inner {
-                return (
-                    *span,
-                    members
-                        .iter()
-                        .map(|m| (m.name.clone().unwrap_or_default(), m.offset))
-                        .collect(),
-                );
-            }
+        if ty.name.as_deref() == Some(struct_name)
+            && let naga::TypeInner::Struct { members, span } = &ty.inner
+        {
+            return (
+                *span,
+                members
+                    .iter()
+                    .map(|m| (m.name.clone().unwrap_or_default(), m.offset))
+                    .collect(),
+            );
         }
     }
     panic!("struct {struct_name} not found");

@@ -170,14 +170,13 @@ impl SunSettings {
     pub fn angles_deg(&self) -> (f64, f64) {
         if let (Some(time), Some(lat), Some(lon)) =
             (&self.time_utc, self.latitude_deg, self.longitude_deg)
+            && let Ok(t) = nimbus_physics::sky::UtcDateTime::parse(time)
         {
-            if let Ok(t) = nimbus_physics::sky::UtcDateTime::parse(time) {
-                let p = nimbus_physics::sky::solar_position(
-                    &t,
-                    &nimbus_physics::sky::Observer::at(lat, lon),
-                );
-                return (p.azimuth_deg, p.elevation_deg());
-            }
+            let p = nimbus_physics::sky::solar_position(
+                &t,
+                &nimbus_physics::sky::Observer::at(lat, lon),
+            );
+            return (p.azimuth_deg, p.elevation_deg());
         }
         (
             self.azimuth_deg.unwrap_or(DEFAULT_SUN_ANGLES_DEG.0),

@@ -482,10 +482,9 @@ impl Viewer {
             .options
             .frames
             .is_some_and(|n| self.frames_drawn + 1 == n)
+            && let Some(path) = self.options.screenshot.clone()
         {
-            if let Some(path) = self.options.screenshot.clone() {
-                self.screenshot_to = Some(path);
-            }
+            self.screenshot_to = Some(path);
         }
 
         let surface_texture = match self.surface.get_current_texture() {
@@ -601,12 +600,11 @@ impl Viewer {
         }
         self.window.pre_present_notify();
         self.gpu.queue.present(surface_texture);
-        if self.render_error.is_none() {
-            if let (Some(times), Some(frame)) =
+        if self.render_error.is_none()
+            && let (Some(times), Some(frame)) =
                 (&mut self.times, self.renderer.read_pass_times_ms())
-            {
-                times.add(&frame);
-            }
+        {
+            times.add(&frame);
         }
         self.frames_drawn += 1;
         Ok(())
@@ -685,14 +683,14 @@ impl Viewer {
                         });
                 });
         }
-        if let Some((message, since)) = &self.status {
-            if since.elapsed() < STATUS_DURATION {
-                egui::Area::new(egui::Id::unique("nimbus status"))
-                    .anchor(egui::Align2::RIGHT_BOTTOM, egui::vec2(-8.0, -8.0))
-                    .show(&ctx, |ui| {
-                        egui::Frame::popup(ui.style()).show(ui, |ui| ui.label(message));
-                    });
-            }
+        if let Some((message, since)) = &self.status
+            && since.elapsed() < STATUS_DURATION
+        {
+            egui::Area::new(egui::Id::unique("nimbus status"))
+                .anchor(egui::Align2::RIGHT_BOTTOM, egui::vec2(-8.0, -8.0))
+                .show(&ctx, |ui| {
+                    egui::Frame::popup(ui.style()).show(ui, |ui| ui.label(message));
+                });
         }
     }
 
