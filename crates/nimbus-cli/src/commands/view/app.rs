@@ -214,10 +214,7 @@ impl Viewer {
                 }
             }));
         nimbus_render::shader::set_source_dir(options.shader_dir.clone());
-        let descriptor = RendererDescriptor {
-            output_format: format,
-            timestamps: true,
-        };
+        let descriptor = renderer_descriptor(format);
         let mut shader_error = None;
         let renderer = match Renderer::try_new(&gpu.device, &gpu.queue, &descriptor) {
             Ok(renderer) => renderer,
@@ -426,10 +423,7 @@ impl Viewer {
             }
         }
         if self.shader_watch.as_mut().is_some_and(FileWatch::changed) {
-            let descriptor = RendererDescriptor {
-                output_format: self.config.format,
-                timestamps: true,
-            };
+            let descriptor = renderer_descriptor(self.config.format);
             match Renderer::try_new(&self.gpu.device, &self.gpu.queue, &descriptor) {
                 Ok(renderer) => {
                     self.renderer = renderer;
@@ -527,7 +521,18 @@ impl Viewer {
                 },
             );
         } else {
-            clear(&mut encoder, &view);
+            // The scene cannot be drawn: a dark window under the panel and the error.
+            window_pass(
+                &mut encoder,
+                &view,
+                "clear",
+                wgpu::LoadOp::Clear(wgpu::Color {
+                    r: 0.05,
+                    g: 0.05,
+                    b: 0.06,
+                    a: 1.0,
+                }),
+            );
         }
 
         // The panel and the overlays; left out of screenshots.
@@ -561,24 +566,8 @@ impl Viewer {
                 &paint_jobs,
                 &screen,
             );
-            let mut pass = encoder
-                .begin_render_pass(&wgpu::RenderPassDescriptor {
-                    label: Some("egui"),
-                    color_attachments: &[Some(wgpu::RenderPassColorAttachment {
-                        view: &view,
-                        depth_slice: None,
-                        resolve_target: None,
-                        ops: wgpu::Operations {
-                            load: wgpu::LoadOp::Load,
-                            store: wgpu::StoreOp::Store,
-                        },
-                    })],
-                    depth_stencil_attachment: None,
-                    timestamp_writes: None,
-                    occlusion_query_set: None,
-                    multiview_mask: None,
-                })
-                .forget_lifetime();
+            let mut pass =
+                window_pass(&mut encoder, &view, "egui", wgpu::LoadOp::Load).forget_lifetime();
             self.egui_renderer.render(&mut pass, &paint_jobs, &screen);
             drop(pass);
             self.gpu
@@ -755,21 +744,29 @@ fn depth_target(device: &wgpu::Device, width: u32, height: u32) -> Target {
     )
 }
 
-/// Clears the window (when the scene cannot be drawn).
-fn clear(encoder: &mut wgpu::CommandEncoder, view: &wgpu::TextureView) {
+/// The renderer's set-up for a window of the given surface format.
+fn renderer_descriptor(format: wgpu::TextureFormat) -> RendererDescriptor {
+    RendererDescriptor {
+        output_format: format,
+        timestamps: true,
+    }
+}
+
+/// A render pass on the window's colour alone (the panel, or clearing it).
+fn window_pass<'a>(
+    encoder: &'a mut wgpu::CommandEncoder,
+    view: &wgpu::TextureView,
+    label: &str,
+    load: wgpu::LoadOp<wgpu::Color>,
+) -> wgpu::RenderPass<'a> {
     encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
-        label: Some("clear"),
+        label: Some(label),
         color_attachments: &[Some(wgpu::RenderPassColorAttachment {
             view,
             depth_slice: None,
             resolve_target: None,
             ops: wgpu::Operations {
-                load: wgpu::LoadOp::Clear(wgpu::Color {
-                    r: 0.05,
-                    g: 0.05,
-                    b: 0.06,
-                    a: 1.0,
-                }),
+                load,
                 store: wgpu::StoreOp::Store,
             },
         })],
@@ -777,5 +774,5 @@ fn clear(encoder: &mut wgpu::CommandEncoder, view: &wgpu::TextureView) {
         timestamp_writes: None,
         occlusion_query_set: None,
         multiview_mask: None,
-    });
+    })
 }

@@ -58,17 +58,20 @@ pub fn run(args: &ViewArgs) -> anyhow::Result<()> {
             dir.display()
         );
     }
+    // The renderer's source directory holds `shaders/common.wgsl`.
+    let is_source_dir =
+        |dir: &std::path::Path| dir.join(nimbus_render::shader::COMMON.name).is_file();
     let shader_dir = match &args.shader_dir {
         Some(dir) => {
             anyhow::ensure!(
-                dir.join("shaders/common.wgsl").is_file(),
+                is_source_dir(dir),
                 "--shader-dir {}: not the renderer's source directory (no shaders/common.wgsl in it)",
                 dir.display()
             );
             Some(dir.clone())
         }
         None => Some(PathBuf::from(nimbus_render::shader::CHECKOUT_SOURCE_DIR))
-            .filter(|d| d.join("shaders/common.wgsl").is_file()),
+            .filter(|d| is_source_dir(d)),
     }
     .filter(|_| !args.no_watch);
     app::run(app::Options {
