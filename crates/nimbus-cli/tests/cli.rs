@@ -557,6 +557,12 @@ fn bench_prints_one_json_document_with_per_pass_times() {
         serde_json::from_slice(&out.stdout).expect("stdout is one JSON document");
     assert_eq!(report["width"], 64);
     assert_eq!(report["frames"], 5);
+    // The default scene rains: the report says how many drops were drawn.
+    assert!(
+        report["rain_drops"].as_u64().is_some_and(|n| n > 1000),
+        "{}",
+        report["rain_drops"]
+    );
     assert!(report["adapter"].as_str().is_some_and(|s| !s.is_empty()));
     assert!(
         report["frame_wall"]["median_ms"]

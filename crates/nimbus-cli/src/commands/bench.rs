@@ -65,6 +65,9 @@ struct Report {
     width: u32,
     height: u32,
     frames: u32,
+    /// Rain drops simulated and drawn in the last frame (absent without rain).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    rain_drops: Option<u32>,
     timestamps_supported: bool,
     /// Per-pass GPU time from timestamp queries (empty when unsupported).
     passes: Vec<PassReport>,
@@ -112,6 +115,10 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
         width,
         height,
         frames: args.frames,
+        rain_drops: {
+            let rain = headless.renderer.rain();
+            rain.enabled().then(|| rain.dispatched_drops())
+        },
         timestamps_supported: timestamps,
         passes: if timestamps {
             PASS_NAMES
@@ -138,6 +145,9 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
             report.adapter, report.backend, report.device_type
         );
         println!("size      {width}×{height}, {} frames", report.frames);
+        if let Some(drops) = report.rain_drops {
+            println!("rain      {drops} drops");
+        }
         for pass in &report.passes {
             match &pass.stats {
                 Some(stats) => println!(
