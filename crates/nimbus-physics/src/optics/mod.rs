@@ -8,6 +8,7 @@ pub mod dsd;
 pub mod mie;
 pub mod phase;
 pub mod quadrature;
+pub mod resonance;
 pub mod sampling;
 pub mod special;
 pub mod spectral;
