@@ -1160,8 +1160,11 @@ fn mean_difference(a: &image::RgbaImage, b: &image::RgbaImage) -> f64 {
 #[test]
 fn animate_static_weather_does_not_flicker() {
     // Static camera and weather (no wind, no rain, no keyframes, a layer
-    // that does not evolve, no water ripples): every frame is the same,
-    // auto-exposure included.
+    // that barely evolves, no water ripples): the frames are the same,
+    // auto-exposure included, but for rounding. The layer still evolves by
+    // a millionth of its evolution time per second, which can move a pixel
+    // that sits on a rounding boundary by one level; flicker (exposure
+    // hunting, noise reseeded per frame) would move many pixels by more.
     let dir = temp_dir("animate-static");
     std::fs::write(
         dir.join("still.toml"),
@@ -1175,7 +1178,16 @@ fn animate_static_weather_does_not_flicker() {
     let frames = animate(&dir, &["still.toml", "--seconds", "1", "--fps", "5"]);
     assert_eq!(frames.len(), 5);
     for pair in frames.windows(2) {
-        assert_eq!(mean_difference(&pair[0], &pair[1]), 0.0);
+        let largest = pair[0]
+            .as_raw()
+            .iter()
+            .zip(pair[1].as_raw())
+            .map(|(a, b)| a.abs_diff(*b))
+            .max()
+            .unwrap_or(0);
+        assert!(largest <= 1, "a channel moved by {largest} levels");
+        let mean = mean_difference(&pair[0], &pair[1]);
+        assert!(mean < 1e-3, "mean difference {mean} levels");
     }
 }
 

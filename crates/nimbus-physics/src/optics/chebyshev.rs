@@ -55,6 +55,33 @@ pub fn evaluate(coefficients: &[f64], mu: f64) -> f64 {
     mu * b1 - b2 + coefficients.first().copied().unwrap_or(0.0)
 }
 
+/// ∫_{−1}^{1} T_k(μ) dμ: 2/(1 − k²) for even k, 0 for odd k.
+fn integral_of_t(k: usize) -> f64 {
+    if k % 2 == 1 {
+        0.0
+    } else {
+        2.0 / (1.0 - (k * k) as f64)
+    }
+}
+
+/// ∫_{−1}^{1} Σ_k c_k T_k(μ) dμ.
+pub fn integral(coefficients: &[f64]) -> f64 {
+    coefficients
+        .iter()
+        .enumerate()
+        .map(|(k, c)| c * integral_of_t(k))
+        .sum()
+}
+
+/// ∫_{−1}^{1} μ Σ_k c_k T_k(μ) dμ, from μ T_k = (T_{k+1} + T_{|k−1|})/2.
+pub fn first_moment(coefficients: &[f64]) -> f64 {
+    coefficients
+        .iter()
+        .enumerate()
+        .map(|(k, c)| c * 0.5 * (integral_of_t(k + 1) + integral_of_t(k.abs_diff(1))))
+        .sum()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -68,6 +95,14 @@ mod tests {
         for mu in [-1.0, -0.73, 0.0, 0.31, 0.999, 1.0] {
             assert!((evaluate(&c, mu) - p(mu)).abs() < 1e-13, "μ {mu}");
         }
+        // ∫p = 6 + 2 = 8, ∫μp = −4/3 − 2/9 (odd parts only).
+        assert!((integral(&c) - 8.0).abs() < 1e-13, "{}", integral(&c));
+        let moment = -4.0 / 3.0 - 2.0 / 9.0;
+        assert!(
+            (first_moment(&c) - moment).abs() < 1e-13,
+            "{}",
+            first_moment(&c)
+        );
         // T_k coefficients of μ⁷ beyond degree 7 vanish.
         assert!(c[8].abs() < 1e-14 && c[9].abs() < 1e-14, "{c:?}");
     }

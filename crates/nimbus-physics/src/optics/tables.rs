@@ -48,7 +48,7 @@ impl CloudOpticsParams {
     /// A stable text key of every parameter (and the table format version).
     fn key(&self) -> String {
         format!(
-            "nimbus-cloud-optics-v3 {:?} {} {} {} {}",
+            "nimbus-cloud-optics-v4 {:?} {} {} {} {}",
             self.dsd, self.forward_peak_deg, self.texels, self.peak_texels, self.tolerance
         )
     }
