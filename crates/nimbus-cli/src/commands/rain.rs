@@ -11,7 +11,7 @@ use nimbus_physics::rain::rain_box::{RainBox, RainBoxShape};
 use nimbus_physics::rain::simulation::{
     RainParams, STEP_S, Simulation, expected_drop_count, target_drop_count,
 };
-use nimbus_physics::rain::wind::{TurbulenceGrid, WindField, WindPrimitive, WindPrimitiveKind};
+use nimbus_physics::rain::wind::{WindField, WindGrid, WindPrimitive, WindPrimitiveKind};
 use nimbus_physics::rain::zones::RainZones;
 use serde::Serialize;
 use std::io::{IsTerminal, Write};
@@ -352,7 +352,7 @@ fn wind_field(mean_m_s: Vec3, gusts: bool) -> WindField {
             period_s: 4.0,
             front_speed_m_s: 15.0,
         });
-        field.turbulence = Some(TurbulenceGrid::generate(16, 64.0, 2.0, 1));
+        field.grid = Some(WindGrid::turbulence(16, 64.0, 2.0, 1));
     }
     field
 }

@@ -1,13 +1,14 @@
-//! The wind the drops are carried by: W(x, t) = a mean wind + frozen
-//! turbulence from a periodic 3-D velocity grid carried along by the mean
-//! wind (Taylor's hypothesis) + flow primitives after Wejchert & Haumann,
-//! "Animation aerodynamics", SIGGRAPH 1991 (uniform flow, source/sink,
-//! vortex) and gust fronts crossing the scene.
+//! The wind the drops are carried by: W(x, t) = a mean wind + a periodic 3-D
+//! velocity grid (generated frozen turbulence carried along by the mean wind,
+//! Taylor's hypothesis, or a field read from a file, fixed in the world or
+//! carried) + flow primitives after Wejchert & Haumann, "Animation
+//! aerodynamics", SIGGRAPH 1991 (uniform flow, source/sink, vortex) and gust
+//! fronts crossing the scene.
 //!
 //! Blanchard (2023, §4.2.1) splits the wind into a global direction W_D and
 //! local perturbations W_L(x, t) (a vector field); this is that split, with
 //! W_L built from a grid and primitives. Every function here has a WGSL twin
-//! in `nimbus-render/src/rain/wind.wgsl`, evaluated in f32 the same way.
+//! in `nimbus-render/src/rain/simulation.wgsl`, evaluated in f32 the same way.
 //!
 //! Units: positions m, velocities m/s, times s.
 
@@ -144,16 +145,190 @@ impl WindPrimitive {
     }
 }
 
-/// A periodic grid of wind velocities (the scene's turbulence), sampled
-/// trilinearly with wrap-around.
+/// A periodic grid of wind velocities (the scene's turbulence or a field
+/// read from a file), sampled trilinearly with wrap-around.
 #[derive(Clone, Debug, PartialEq)]
-pub struct TurbulenceGrid {
-    /// Cells per side (the grid is cubic and periodic).
-    pub cells_per_side: u32,
-    /// Cell size, m.
+pub struct WindGrid {
+    /// Grid points along x, y and z (the grid repeats with this period).
+    pub cells: [u32; 3],
+    /// Spacing of the grid points, m.
     pub cell_m: f32,
+    /// World position of grid point (0, 0, 0) at time 0, m.
+    pub origin_m: Vec3,
+    /// Whether the grid moves with the mean wind (frozen turbulence) or
+    /// stays in place in the world.
+    pub carried: bool,
     /// Velocities, x fastest then y then z, m/s (w unused, for the GPU's vec4 layout).
     pub velocities_m_s: Vec<[f32; 4]>,
+}
+
+/// Most grid points of a wind grid read from a file (64 MiB on the GPU).
+pub const MAX_WIND_GRID_POINTS: u64 = 1 << 22;
+
+/// Why a wind-field file cannot be used.
+#[derive(Debug, thiserror::Error)]
+pub enum WindGridError {
+    /// Not a NumPy array file of the supported kind.
+    #[error("{0}")]
+    Format(String),
+    /// A value that is not a finite speed of at most 300 m/s.
+    #[error(
+        "velocity {value} at grid point (x {x}, y {y}, z {z}) is not a finite speed of at most 300 m/s"
+    )]
+    Value {
+        /// The value.
+        value: f64,
+        /// Grid point.
+        x: usize,
+        /// Grid point.
+        y: usize,
+        /// Grid point.
+        z: usize,
+    },
+}
+
+impl WindGrid {
+    /// Reads a wind field from the bytes of a NumPy `.npy` file (format
+    /// versions 1–3): little-endian float32 or float64, C order, shape
+    /// (nz, ny, nx, 3) — the velocity (x, y, z) in m/s at grid point
+    /// (x, y, z), y up — with nx, ny, nz ≥ 2 and at most
+    /// [`MAX_WIND_GRID_POINTS`] points. The grid repeats beyond its
+    /// n·`cell_m` extent on each axis.
+    pub fn from_npy(
+        bytes: &[u8],
+        cell_m: f32,
+        origin_m: Vec3,
+        carried: bool,
+    ) -> Result<Self, WindGridError> {
+        let format = |m: &str| WindGridError::Format(m.to_owned());
+        if bytes.len() < 10 || &bytes[..6] != b"\x93NUMPY" {
+            return Err(format("not a NumPy .npy file (no \\x93NUMPY magic)"));
+        }
+        let (header_len, start) = match bytes[6] {
+            1 => (u16::from_le_bytes([bytes[8], bytes[9]]) as usize, 10),
+            2 | 3 if bytes.len() >= 12 => (
+                u32::from_le_bytes([bytes[8], bytes[9], bytes[10], bytes[11]]) as usize,
+                12,
+            ),
+            v => {
+                return Err(WindGridError::Format(format!(
+                    "unsupported .npy version {v}"
+                )));
+            }
+        };
+        let header = bytes
+            .get(start..start + header_len)
+            .and_then(|h| std::str::from_utf8(h).ok())
+            .ok_or_else(|| format("truncated or unreadable .npy header"))?;
+        // The header is a Python dict literal: {'descr': '<f4',
+        // 'fortran_order': False, 'shape': (nz, ny, nx, 3), }.
+        let value_of = |key: &str| -> Option<&str> {
+            let at = header.find(&format!("'{key}'"))? + key.len() + 2;
+            let rest = header[at..].trim_start().strip_prefix(':')?.trim_start();
+            Some(rest)
+        };
+        let descr = value_of("descr").ok_or_else(|| format("the header has no 'descr'"))?;
+        let width = if descr.starts_with("'<f4'") {
+            4
+        } else if descr.starts_with("'<f8'") {
+            8
+        } else {
+            return Err(WindGridError::Format(format!(
+                "dtype {}: must be little-endian float32 ('<f4') or float64 ('<f8')",
+                descr.split(',').next().unwrap_or(descr).trim()
+            )));
+        };
+        if !value_of("fortran_order").is_some_and(|v| v.starts_with("False")) {
+            return Err(format("the array must be in C order (fortran_order False)"));
+        }
+        let shape_text = value_of("shape")
+            .and_then(|v| v.strip_prefix('('))
+            .and_then(|v| v.split(')').next())
+            .ok_or_else(|| format("the header has no 'shape'"))?;
+        let shape: Vec<usize> = shape_text
+            .split(',')
+            .map(str::trim)
+            .filter(|t| !t.is_empty())
+            .map(|t| t.parse::<usize>())
+            .collect::<Result<_, _>>()
+            .map_err(|_| {
+                WindGridError::Format(format!("shape ({shape_text}) is not a tuple of sizes"))
+            })?;
+        let [nz, ny, nx, 3] = shape[..] else {
+            return Err(WindGridError::Format(format!(
+                "shape ({shape_text}): must be (nz, ny, nx, 3)"
+            )));
+        };
+        let points = (nx as u64) * (ny as u64) * (nz as u64);
+        if nx < 2 || ny < 2 || nz < 2 || points > MAX_WIND_GRID_POINTS {
+            return Err(WindGridError::Format(format!(
+                "shape ({shape_text}): needs at least 2 points per axis and at most {MAX_WIND_GRID_POINTS} points"
+            )));
+        }
+        let data = &bytes[start + header_len..];
+        let count = points as usize * 3;
+        if data.len() < count * width {
+            return Err(WindGridError::Format(format!(
+                "the data hold {} bytes, the shape needs {}",
+                data.len(),
+                count * width
+            )));
+        }
+        let value = |i: usize| -> f64 {
+            let b = &data[i * width..(i + 1) * width];
+            if width == 4 {
+                f32::from_le_bytes([b[0], b[1], b[2], b[3]]) as f64
+            } else {
+                f64::from_le_bytes([b[0], b[1], b[2], b[3], b[4], b[5], b[6], b[7]])
+            }
+        };
+        let mut velocities_m_s = Vec::with_capacity(points as usize);
+        for point in 0..points as usize {
+            let mut v = [0.0f32; 4];
+            for (c, slot) in v.iter_mut().take(3).enumerate() {
+                let x = value(3 * point + c);
+                if !(x.is_finite() && x.abs() <= 300.0) {
+                    return Err(WindGridError::Value {
+                        value: x,
+                        x: point % nx,
+                        y: point / nx % ny,
+                        z: point / (nx * ny),
+                    });
+                }
+                *slot = x as f32;
+            }
+            velocities_m_s.push(v);
+        }
+        Ok(Self {
+            cells: [nx as u32, ny as u32, nz as u32],
+            cell_m,
+            origin_m,
+            carried,
+            velocities_m_s,
+        })
+    }
+
+    /// The velocities as a NumPy `.npy` file (version 1, float32, shape
+    /// (nz, ny, nx, 3)), the format [`Self::from_npy`] reads.
+    pub fn to_npy(&self) -> Vec<u8> {
+        let [nx, ny, nz] = self.cells;
+        let mut header =
+            format!("{{'descr': '<f4', 'fortran_order': False, 'shape': ({nz}, {ny}, {nx}, 3), }}");
+        // Magic (6) + version (2) + length (2) + header + newline, padded
+        // with spaces to a multiple of 64 bytes (the format's alignment).
+        let unpadded = 10 + header.len() + 1;
+        header.push_str(&" ".repeat(unpadded.next_multiple_of(64) - unpadded));
+        header.push('\n');
+        let mut bytes = b"\x93NUMPY\x01\x00".to_vec();
+        bytes.extend_from_slice(&(header.len() as u16).to_le_bytes());
+        bytes.extend_from_slice(header.as_bytes());
+        for v in &self.velocities_m_s {
+            for c in &v[..3] {
+                bytes.extend_from_slice(&c.to_le_bytes());
+            }
+        }
+        bytes
+    }
 }
 
 /// Random Fourier modes in a generated turbulence grid.
@@ -162,14 +337,15 @@ const TURBULENCE_MODES: u32 = 48;
 /// least `cells_per_side / 4` cells and trilinear sampling resolves it.
 const TURBULENCE_MAX_WAVENUMBER: i32 = 4;
 
-impl TurbulenceGrid {
+impl WindGrid {
     /// Divergence-free random turbulence, periodic over a tile of `tile_m`,
     /// with RMS speed `rms_speed_m_s`: a sum of Fourier modes a·cos(k·x + φ)
     /// with a ⊥ k (each mode, hence the sum, has zero divergence) and
     /// amplitudes falling as |k|^(−5/6) per mode, so that energy per unit
     /// wavenumber falls as the Kolmogorov k^(−5/3) for modes spread evenly
     /// over the shells.
-    pub fn generate(cells_per_side: u32, tile_m: f32, rms_speed_m_s: f32, seed: u32) -> Self {
+    /// The grid is carried by the mean wind (Taylor's frozen turbulence).
+    pub fn turbulence(cells_per_side: u32, tile_m: f32, rms_speed_m_s: f32, seed: u32) -> Self {
         let n = cells_per_side.max(2);
         let mut modes = Vec::new();
         let mut draw = 0u32;
@@ -211,8 +387,10 @@ impl TurbulenceGrid {
             velocities.iter().map(|v| v.length_squared()).sum::<f32>() / velocities.len() as f32;
         let scale = rms_speed_m_s / mean_square.sqrt().max(1e-12);
         Self {
-            cells_per_side: n,
+            cells: [n; 3],
             cell_m: tile_m / n as f32,
+            origin_m: Vec3::ZERO,
+            carried: true,
             velocities_m_s: velocities
                 .into_iter()
                 .map(|v| {
@@ -224,13 +402,14 @@ impl TurbulenceGrid {
     }
 
     fn at(&self, i: i32, j: i32, k: i32) -> Vec3 {
-        let n = self.cells_per_side as i32;
-        let index = (i.rem_euclid(n) + n * (j.rem_euclid(n) + n * k.rem_euclid(n))) as usize;
+        let [nx, ny, nz] = self.cells.map(|n| n as i32);
+        let index = (i.rem_euclid(nx) + nx * (j.rem_euclid(ny) + ny * k.rem_euclid(nz))) as usize;
         let v = self.velocities_m_s[index];
         Vec3::new(v[0], v[1], v[2])
     }
 
-    /// Trilinear sample at `p`, m/s (grid points at integer multiples of the cell size).
+    /// Trilinear sample at `p` relative to the grid's point (0, 0, 0), m/s
+    /// (grid points at integer multiples of the cell size).
     pub fn sample(&self, p: Vec3) -> Vec3 {
         let g = p / self.cell_m;
         let base = g.floor();
@@ -250,8 +429,8 @@ impl TurbulenceGrid {
 pub struct WindField {
     /// The mean (global) wind, m/s.
     pub mean_m_s: Vec3,
-    /// Frozen turbulence, carried by the mean wind.
-    pub turbulence: Option<TurbulenceGrid>,
+    /// A velocity grid: frozen turbulence or a field from a file.
+    pub grid: Option<WindGrid>,
     /// Local primitives, at most [`MAX_WIND_PRIMITIVES`].
     pub primitives: Vec<WindPrimitive>,
 }
@@ -268,8 +447,12 @@ impl WindField {
     /// W(p, t), m/s.
     pub fn velocity_m_s(&self, p: Vec3, t_s: f32) -> Vec3 {
         let mut w = self.mean_m_s;
-        if let Some(grid) = &self.turbulence {
-            w += grid.sample(p - self.mean_m_s * t_s);
+        if let Some(grid) = &self.grid {
+            let mut q = p - grid.origin_m;
+            if grid.carried {
+                q -= self.mean_m_s * t_s;
+            }
+            w += grid.sample(q);
         }
         for primitive in self.primitives.iter().take(MAX_WIND_PRIMITIVES) {
             w += primitive.velocity_m_s(p, t_s);
@@ -281,6 +464,125 @@ impl WindField {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A small grid whose velocity says where it is: (x, 10 y, 100 z) at
+    /// grid point (x, y, z).
+    fn labelled_grid(carried: bool) -> WindGrid {
+        let cells = [4u32, 3, 2];
+        let mut velocities_m_s = Vec::new();
+        for z in 0..cells[2] {
+            for y in 0..cells[1] {
+                for x in 0..cells[0] {
+                    velocities_m_s.push([x as f32, 10.0 * y as f32, 100.0 * z as f32, 0.0]);
+                }
+            }
+        }
+        WindGrid {
+            cells,
+            cell_m: 2.0,
+            origin_m: Vec3::new(10.0, -4.0, 6.0),
+            carried,
+            velocities_m_s,
+        }
+    }
+
+    #[test]
+    fn wind_grids_round_trip_through_npy_files() {
+        let grid = labelled_grid(false);
+        let bytes = grid.to_npy();
+        // The header is padded to a multiple of 64 bytes, as NumPy writes it.
+        assert_eq!(
+            (10 + u16::from_le_bytes([bytes[8], bytes[9]]) as usize) % 64,
+            0
+        );
+        let read = WindGrid::from_npy(&bytes, 2.0, grid.origin_m, false).expect("npy");
+        assert_eq!(read, grid);
+        // float64 files read too: the same header with '<f8' and 8-byte values.
+        let header_len = u16::from_le_bytes([bytes[8], bytes[9]]) as usize;
+        let header = std::str::from_utf8(&bytes[10..10 + header_len]).expect("utf8");
+        let mut doubles = bytes[..10].to_vec();
+        doubles.extend_from_slice(header.replace("<f4", "<f8").as_bytes());
+        for v in &grid.velocities_m_s {
+            for c in &v[..3] {
+                doubles.extend_from_slice(&(*c as f64).to_le_bytes());
+            }
+        }
+        assert_eq!(
+            WindGrid::from_npy(&doubles, 2.0, grid.origin_m, false).expect("f8"),
+            grid
+        );
+    }
+
+    #[test]
+    fn bad_npy_files_are_refused_with_a_reason() {
+        let good = labelled_grid(false).to_npy();
+        let header_len = 10 + u16::from_le_bytes([good[8], good[9]]) as usize;
+        let with_header = |from: &str, to: &str| {
+            let mut b = good.clone();
+            let text = std::str::from_utf8(&good[10..header_len])
+                .expect("utf8")
+                .replace(from, to);
+            assert_eq!(text.len(), header_len - 10);
+            b[10..header_len].copy_from_slice(text.as_bytes());
+            b
+        };
+        let mut nan = good.clone();
+        nan[header_len + 4 * 7..header_len + 4 * 8].copy_from_slice(&f32::NAN.to_le_bytes());
+        let cases: Vec<(Vec<u8>, &str)> = vec![
+            (b"PK\x03\x04 not npy".to_vec(), "magic"),
+            (with_header("<f4", ">f4"), "dtype"),
+            (with_header("<f4", "<i4"), "dtype"),
+            (with_header("False", "True "), "C order"),
+            (
+                with_header("(2, 3, 4, 3)", "(2, 3, 4, 2)"),
+                "(nz, ny, nx, 3)",
+            ),
+            (with_header("(2, 3, 4, 3)", "(1, 3, 4, 3)"), "at least 2"),
+            (good[..good.len() - 4].to_vec(), "bytes"),
+            (nan, "(x 2, y 0, z 0)"),
+        ];
+        for (bytes, reason) in cases {
+            let error = WindGrid::from_npy(&bytes, 1.0, Vec3::ZERO, false)
+                .expect_err(reason)
+                .to_string();
+            assert!(error.contains(reason), "{error:?} should say {reason:?}");
+        }
+    }
+
+    #[test]
+    fn a_fixed_grid_stays_put_and_a_carried_one_moves_with_the_mean_wind() {
+        let mean = Vec3::new(3.0, 0.0, -1.0);
+        let fixed = WindField {
+            mean_m_s: mean,
+            grid: Some(labelled_grid(false)),
+            primitives: Vec::new(),
+        };
+        // Grid point (1, 2, 1) is at origin + 2 m × (1, 2, 1), at every time.
+        let p = Vec3::new(12.0, 0.0, 8.0);
+        for t in [0.0, 7.5] {
+            let w = fixed.velocity_m_s(p, t) - mean;
+            assert!((w - Vec3::new(1.0, 20.0, 100.0)).length() < 1e-4, "{w}");
+        }
+        // Halfway between points (1, 2, 1) and (2, 2, 1); and the grid
+        // wraps: x = 4 cells further is the same point.
+        let halfway = fixed.velocity_m_s(p + Vec3::X, 0.0) - mean;
+        assert!(
+            (halfway - Vec3::new(1.5, 20.0, 100.0)).length() < 1e-4,
+            "{halfway}"
+        );
+        let wrapped = fixed.velocity_m_s(p + Vec3::X * 8.0, 0.0) - mean;
+        assert!(
+            (wrapped - Vec3::new(1.0, 20.0, 100.0)).length() < 1e-4,
+            "{wrapped}"
+        );
+        // Carried: at time t the point that was at p is at p + mean·t.
+        let carried = WindField {
+            grid: Some(labelled_grid(true)),
+            ..fixed
+        };
+        let w = carried.velocity_m_s(p + mean * 2.0, 2.0) - mean;
+        assert!((w - Vec3::new(1.0, 20.0, 100.0)).length() < 1e-4, "{w}");
+    }
 
     fn divergence(f: impl Fn(Vec3) -> Vec3, p: Vec3, h: f32) -> f32 {
         let dx = (f(p + Vec3::X * h) - f(p - Vec3::X * h)).x;
@@ -357,7 +659,7 @@ mod tests {
 
     #[test]
     fn turbulence_is_divergence_free_periodic_and_has_its_rms_speed() {
-        let grid = TurbulenceGrid::generate(32, 64.0, 2.0, 9);
+        let grid = WindGrid::turbulence(32, 64.0, 2.0, 9);
         let rms = (grid
             .velocities_m_s
             .iter()

@@ -131,13 +131,13 @@ pub struct RainUniform {
     pub box_size: [f32; 4],
     /// Camera angular velocity, bounding radius.
     pub box_angular_velocity: [f32; 4],
-    /// Mean wind, turbulence cell size.
+    /// Mean wind, wind grid spacing.
     pub wind_mean: [f32; 4],
     /// Intensity, diameters, ceiling.
     pub drops: [f32; 4],
     /// Zone map corner and texel, exposure time.
     pub zones: [f32; 4],
-    /// Drops dispatched, capacity, primitives, turbulence cells.
+    /// Drops dispatched, capacity, primitives, 1 with a wind grid.
     pub counts: [u32; 4],
     /// Zone size, splash capacity, occlusion, splashes.
     pub flags: [u32; 4],
@@ -147,6 +147,10 @@ pub struct RainUniform {
     pub camera_velocity: [f32; 4],
     /// Mist start and layer end, splash radius, mist on.
     pub mist: [f32; 4],
+    /// The wind grid's points along x, y, z, and 1 when the mean wind carries it.
+    pub wind_grid: [u32; 4],
+    /// World position of the wind grid's point (0, 0, 0) at time 0, m.
+    pub wind_grid_origin: [f32; 4],
     /// Wind primitives.
     pub primitives: [WindPrimitiveUniform; MAX_WIND_PRIMITIVES],
 }
@@ -196,6 +200,9 @@ pub enum RainError {
         /// Drops that fit.
         max_drops: u64,
     },
+    /// The wind field's file no longer reads.
+    #[error("{0}")]
+    WindField(String),
 }
 
 /// Settings that decide the GPU buffers and the drops' placement: when they
@@ -848,14 +855,14 @@ impl RainPass {
             contents: bytemuck::bytes_of(&0u32),
             usage: storage,
         });
-        let turbulence_data: Vec<[f32; 4]> = wind
-            .turbulence
+        let grid_data: Vec<[f32; 4]> = wind
+            .grid
             .as_ref()
             .map(|t| t.velocities_m_s.clone())
             .unwrap_or_else(|| vec![[0.0; 4]]);
-        let turbulence = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-            label: Some("rain turbulence"),
-            contents: bytemuck::cast_slice(&turbulence_data),
+        let wind_grid = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("rain wind grid"),
+            contents: bytemuck::cast_slice(&grid_data),
             usage: storage,
         });
         let zones = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
@@ -886,7 +893,7 @@ impl RainPass {
                 },
                 wgpu::BindGroupEntry {
                     binding: 3,
-                    resource: turbulence.as_entire_binding(),
+                    resource: wind_grid.as_entire_binding(),
                 },
                 wgpu::BindGroupEntry {
                     binding: 4,
@@ -1005,7 +1012,11 @@ impl RainPass {
                 .into());
             }
             Renderer::check_buffer_size(device, "rain.max_drops", bytes)?;
-            let wind = scene.wind.as_ref().map(|w| w.field()).unwrap_or_default();
+            let wind = scene.wind_field().map_err(RainError::WindField)?;
+            if let Some(grid) = &wind.grid {
+                let bytes = std::mem::size_of_val(grid.velocities_m_s.as_slice()) as u64;
+                Renderer::check_buffer_size(device, "wind.field.file", bytes)?;
+            }
             let zones = rain_zones(scene, &settings, time_s as f64, cumulus_footprints_m);
             self.state = Some(self.create_state(device, queue, key, capacity, wind, zones));
         }
@@ -1288,7 +1299,7 @@ fn rain_uniform(
             gust,
         };
     }
-    let turbulence = wind.turbulence.as_ref();
+    let grid = wind.grid.as_ref();
     let zones = &state.zone_map;
     // The first mist layer ends where the largest drops' streaks shrink below a pixel.
     let pixel_angle = (2.0 * (0.5 * camera.fov_y_rad).tan() / 1080.0) as f32;
@@ -1306,7 +1317,7 @@ fn rain_uniform(
             .to_array(),
         wind_mean: wind
             .mean_m_s
-            .extend(turbulence.map_or(1.0, |t| t.cell_m))
+            .extend(grid.map_or(1.0, |g| g.cell_m))
             .to_array(),
         drops: [
             params.intensity_mm_h,
@@ -1324,7 +1335,7 @@ fn rain_uniform(
             state.dispatched,
             state.capacity,
             wind.primitives.len().min(MAX_WIND_PRIMITIVES) as u32,
-            turbulence.map_or(0, |t| t.cells_per_side),
+            u32::from(grid.is_some()),
         ],
         flags: [zones.size, SPLASH_CAPACITY, 1, settings.splashes as u32],
         occlusion_from_world: occlusion.to_cols_array_2d(),
@@ -1338,6 +1349,10 @@ fn rain_uniform(
             settings.splash_radius_m as f32,
             settings.mist as u32 as f32,
         ],
+        wind_grid: grid.map_or([0; 4], |g| {
+            [g.cells[0], g.cells[1], g.cells[2], u32::from(g.carried)]
+        }),
+        wind_grid_origin: grid.map_or([0.0; 4], |g| g.origin_m.extend(0.0).to_array()),
         primitives,
     }
 }

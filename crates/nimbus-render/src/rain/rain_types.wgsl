@@ -24,13 +24,13 @@ struct Rain {
     box_size: vec4<f32>,
     // xyz: the camera's angular velocity, rad/s; w: the box's bounding radius, m.
     box_angular_velocity: vec4<f32>,
-    // xyz: mean wind, m/s; w: turbulence cell size, m.
+    // xyz: mean wind, m/s; w: wind grid spacing, m.
     wind_mean: vec4<f32>,
     // x: intensity, mm/h; y: smallest diameter, mm; z: largest, mm; w: ceiling (cloud base), m.
     drops: vec4<f32>,
     // x, y: zone map corner (x, z), m; z: zone texel, m; w: streak exposure time, s.
     zones: vec4<f32>,
-    // x: drops dispatched; y: capacity; z: wind primitives; w: turbulence cells per side.
+    // x: drops dispatched; y: capacity; z: wind primitives; w: 1 with a wind grid.
     counts: vec4<u32>,
     // x: zone map texels per side; y: splash capacity; z: 1 with a rain shadow map; w: 1 with splashes.
     flags: vec4<u32>,
@@ -41,6 +41,10 @@ struct Rain {
     // x: mist start (the box's radius), m; y: end of the first mist layer, m;
     // z: splashes are made within this distance of the camera, m; w: 1 with mist.
     mist: vec4<f32>,
+    // xyz: the wind grid's points along x, y, z; w: 1 when the mean wind carries it.
+    wind_grid: vec4<u32>,
+    // xyz: world position of the wind grid's point (0, 0, 0) at time 0, m.
+    wind_grid_origin: vec4<f32>,
     primitives: array<WindPrimitive, 16>,
 }
 

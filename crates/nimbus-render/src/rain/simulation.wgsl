@@ -8,7 +8,7 @@
 @group(1) @binding(0) var<uniform> rain: Rain;
 @group(1) @binding(1) var<uniform> rain_step: RainStep;
 @group(1) @binding(2) var<storage, read_write> drops: array<Drop>;
-@group(1) @binding(3) var<storage, read> turbulence: array<vec4<f32>>;
+@group(1) @binding(3) var<storage, read> wind_grid: array<vec4<f32>>;
 @group(1) @binding(4) var<storage, read> zone_factors: array<f32>;
 @group(1) @binding(5) var occlusion_map: texture_depth_2d;
 @group(1) @binding(6) var<storage, read_write> splashes: array<Splash>;
@@ -87,30 +87,35 @@ fn primitive_wind(p: WindPrimitive, x: vec3<f32>, t: f32) -> vec3<f32> {
     return p.axis.xyz * (speed * g);
 }
 
-fn turbulence_at(i: i32, j: i32, k: i32) -> vec3<f32> {
-    let n = i32(rain.counts.w);
-    let wrap = vec3<i32>(((i % n) + n) % n, ((j % n) + n) % n, ((k % n) + n) % n);
-    return turbulence[u32(wrap.x + n * (wrap.y + n * wrap.z))].xyz;
+fn wind_grid_at(i: i32, j: i32, k: i32) -> vec3<f32> {
+    let n = vec3<i32>(rain.wind_grid.xyz);
+    let wrap = ((vec3<i32>(i, j, k) % n) + n) % n;
+    return wind_grid[u32(wrap.x + n.x * (wrap.y + n.y * wrap.z))].xyz;
 }
 
-fn turbulence_sample(p: vec3<f32>) -> vec3<f32> {
+// Trilinear sample relative to the grid's point (0, 0, 0), wrapping around.
+fn wind_grid_sample(p: vec3<f32>) -> vec3<f32> {
     let g = p / rain.wind_mean.w;
     let base = floor(g);
     let f = g - base;
     let i = i32(base.x);
     let j = i32(base.y);
     let k = i32(base.z);
-    let x00 = mix(turbulence_at(i, j, k), turbulence_at(i + 1, j, k), f.x);
-    let x10 = mix(turbulence_at(i, j + 1, k), turbulence_at(i + 1, j + 1, k), f.x);
-    let x01 = mix(turbulence_at(i, j, k + 1), turbulence_at(i + 1, j, k + 1), f.x);
-    let x11 = mix(turbulence_at(i, j + 1, k + 1), turbulence_at(i + 1, j + 1, k + 1), f.x);
+    let x00 = mix(wind_grid_at(i, j, k), wind_grid_at(i + 1, j, k), f.x);
+    let x10 = mix(wind_grid_at(i, j + 1, k), wind_grid_at(i + 1, j + 1, k), f.x);
+    let x01 = mix(wind_grid_at(i, j, k + 1), wind_grid_at(i + 1, j, k + 1), f.x);
+    let x11 = mix(wind_grid_at(i, j + 1, k + 1), wind_grid_at(i + 1, j + 1, k + 1), f.x);
     return mix(mix(x00, x10, f.y), mix(x01, x11, f.y), f.z);
 }
 
 fn wind_at(p: vec3<f32>, t: f32) -> vec3<f32> {
     var w = rain.wind_mean.xyz;
     if (rain.counts.w > 0u) {
-        w += turbulence_sample(p - rain.wind_mean.xyz * t);
+        var q = p - rain.wind_grid_origin.xyz;
+        if (rain.wind_grid.w == 1u) {
+            q -= rain.wind_mean.xyz * t;
+        }
+        w += wind_grid_sample(q);
     }
     for (var i = 0u; i < min(rain.counts.z, 16u); i++) {
         w += primitive_wind(rain.primitives[i], p, t);

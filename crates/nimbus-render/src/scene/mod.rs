@@ -18,7 +18,7 @@ pub use objects::{
 };
 pub use rain::{
     MAX_RAIN_DROPS, RainAreaSettings, RainBoxKind, RainSettings, TurbulenceSettings,
-    WindPrimitiveKindSetting, WindPrimitiveSettings,
+    WindFieldSettings, WindPrimitiveKindSetting, WindPrimitiveSettings,
 };
 pub use validate::SceneError;
 
@@ -325,6 +325,8 @@ pub struct WindSettings {
     pub from_deg: f64,
     /// Frozen turbulence carried by the wind (gusts felt by the rain).
     pub turbulence: Option<TurbulenceSettings>,
+    /// A wind field read from a file, felt by the rain (instead of `turbulence`).
+    pub field: Option<WindFieldSettings>,
     /// Local flow primitives (uniform jets, sources and sinks, vortices, gust fronts).
     pub primitives: Vec<WindPrimitiveSettings>,
     /// The horizontal distance (x, z), m, the air has moved at the frame's
@@ -340,6 +342,7 @@ impl Default for WindSettings {
             speed_m_s: 5.0,
             from_deg: 270.0,
             turbulence: None,
+            field: None,
             primitives: Vec::new(),
             drift_m: None,
         }

@@ -124,6 +124,45 @@ impl Default for TurbulenceSettings {
     }
 }
 
+/// A wind field read from a file (`[wind.field]`): a periodic grid of
+/// velocities added to the mean wind.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct WindFieldSettings {
+    /// Path of a NumPy `.npy` file, relative to the scene file: float32 or
+    /// float64, shape (nz, ny, nx, 3), the velocity (x, y, z) in m/s at each
+    /// grid point, x fastest (see `WindGrid::from_npy`).
+    pub file: String,
+    /// Spacing of the grid points, m, in [0.1, 10000].
+    pub cell_m: f64,
+    /// World position of grid point (0, 0, 0), m; the grid repeats beyond
+    /// its extent.
+    #[serde(default)]
+    pub origin_m: [f64; 3],
+    /// Whether the field moves with the mean wind (frozen turbulence) or
+    /// stays fixed to the ground (flow around terrain and buildings).
+    #[serde(default)]
+    pub carried: bool,
+}
+
+impl WindFieldSettings {
+    /// Reads the grid (`base` resolves the file's path).
+    pub fn load(
+        &self,
+        path: &std::path::Path,
+    ) -> Result<nimbus_physics::rain::wind::WindGrid, String> {
+        let bytes = std::fs::read(path).map_err(|e| e.to_string())?;
+        let o = self.origin_m;
+        nimbus_physics::rain::wind::WindGrid::from_npy(
+            &bytes,
+            self.cell_m as f32,
+            glam::Vec3::new(o[0] as f32, o[1] as f32, o[2] as f32),
+            self.carried,
+        )
+        .map_err(|e| e.to_string())
+    }
+}
+
 /// Kind of a wind primitive.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
@@ -180,19 +219,41 @@ fn default_front_speed_m_s() -> f64 {
     10.0
 }
 
-impl WindSettings {
-    /// The wind field of the physics crate: the mean wind, turbulence and primitives.
-    pub fn field(&self) -> nimbus_physics::rain::wind::WindField {
-        use nimbus_physics::rain::wind::{
-            TurbulenceGrid, WindField, WindPrimitive, WindPrimitiveKind,
+impl Scene {
+    /// The wind field of the physics crate: the mean wind, the turbulence or
+    /// the field read from its file, and the primitives; none without
+    /// `[wind]`. An error names the file that no longer reads (the scene's
+    /// validation read it once).
+    pub fn wind_field(&self) -> Result<nimbus_physics::rain::wind::WindField, String> {
+        let Some(wind) = &self.wind else {
+            return Ok(Default::default());
         };
+        let mut field = wind.field_without_file();
+        if let Some(settings) = &wind.field {
+            let path = self.resolve_path(&settings.file);
+            field.grid = Some(
+                settings
+                    .load(&path)
+                    .map_err(|e| format!("wind.field.file {}: {e}", path.display()))?,
+            );
+        }
+        Ok(field)
+    }
+}
+
+impl WindSettings {
+    /// The wind field of the physics crate without a `[wind.field]` file:
+    /// the mean wind, turbulence and primitives (see [`Scene::wind_field`]).
+    pub fn field_without_file(&self) -> nimbus_physics::rain::wind::WindField {
+        use nimbus_physics::rain::wind::{WindField, WindGrid, WindPrimitive, WindPrimitiveKind};
         let [x, z] = self.velocity_xz_m_s();
         let vec3 = |v: [f64; 3]| glam::Vec3::new(v[0] as f32, v[1] as f32, v[2] as f32);
         WindField {
             mean_m_s: glam::Vec3::new(x as f32, 0.0, z as f32),
-            turbulence: self.turbulence.as_ref().map(|t| {
-                TurbulenceGrid::generate(32, t.tile_m as f32, t.rms_speed_m_s as f32, t.seed)
-            }),
+            grid: self
+                .turbulence
+                .as_ref()
+                .map(|t| WindGrid::turbulence(32, t.tile_m as f32, t.rms_speed_m_s as f32, t.seed)),
             primitives: self
                 .primitives
                 .iter()
@@ -292,6 +353,34 @@ impl Scene {
             if let Some(t) = &wind.turbulence {
                 c.closed("wind.turbulence.rms_speed_m_s", t.rms_speed_m_s, 0.0, 30.0)?;
                 c.closed("wind.turbulence.tile_m", t.tile_m, 4.0, 10_000.0)?;
+            }
+            if let Some(f) = &wind.field {
+                if wind.turbulence.is_some() {
+                    return Err(c.invalid(
+                        "wind.field",
+                        "a table",
+                        "cannot be used with [wind.turbulence]: the rain has one velocity grid",
+                    ));
+                }
+                c.closed("wind.field.cell_m", f.cell_m, 0.1, 10_000.0)?;
+                c.vector("wind.field.origin_m", &f.origin_m, -1e6, 1e6)?;
+                if !f.file.to_ascii_lowercase().ends_with(".npy") {
+                    return Err(c.invalid(
+                        "wind.field.file",
+                        format!("{:?}", f.file),
+                        "must be the path of a NumPy .npy file",
+                    ));
+                }
+                // Read it now, so that a bad file fails the scene's loading.
+                f.load(&self.resolve_path(&f.file)).map_err(|e| {
+                    c.invalid(
+                        "wind.field.file",
+                        format!("{:?}", f.file),
+                        format!(
+                            "must be a float32 or float64 .npy array of shape (nz, ny, nx, 3): {e}"
+                        ),
+                    )
+                })?;
             }
             if wind.primitives.len() > nimbus_physics::rain::wind::MAX_WIND_PRIMITIVES {
                 return Err(c.invalid(

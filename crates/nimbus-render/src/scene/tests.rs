@@ -302,10 +302,62 @@ fn rain_and_wind_sections_parse() {
             "[wind.turbulence]\ntile_m = 1",
             "wind.turbulence.tile_m = 1",
         ),
+        (
+            "[wind.field]\nfile = \"no-such-field.npy\"\ncell_m = 2",
+            "wind.field.file = \"no-such-field.npy\": must be a float32 or float64 .npy array",
+        ),
+        (
+            "[wind.field]\nfile = \"field.csv\"\ncell_m = 2",
+            "must be the path of a NumPy .npy file",
+        ),
+        (
+            "[wind.field]\nfile = \"field.npy\"\ncell_m = 0",
+            "wind.field.cell_m = 0",
+        ),
+        (
+            "[wind.turbulence]\n[wind.field]\nfile = \"field.npy\"\ncell_m = 2",
+            "cannot be used with [wind.turbulence]",
+        ),
     ] {
         let m = error_of(text);
         assert!(m.contains(key), "{text}: {m}");
     }
+}
+
+/// A wind field file is read relative to the scene file, and a file that
+/// is not a velocity array fails the scene with the reason.
+#[test]
+fn wind_field_files_are_read_next_to_the_scene() {
+    use nimbus_physics::rain::wind::WindGrid;
+    let dir = std::env::temp_dir().join(format!("nimbus-wind-field-{}", std::process::id()));
+    std::fs::create_dir_all(dir.join("fields")).expect("dir");
+    let grid = WindGrid {
+        cells: [2, 2, 3],
+        cell_m: 5.0,
+        origin_m: glam::Vec3::new(1.0, 2.0, 3.0),
+        carried: true,
+        velocities_m_s: (0..12).map(|i| [i as f32, 0.0, -1.0, 0.0]).collect(),
+    };
+    std::fs::write(dir.join("fields/gusts.npy"), grid.to_npy()).expect("field");
+    std::fs::write(dir.join("fields/text.npy"), "not an array").expect("text");
+    let scene_text = |file: &str| {
+        format!(
+            "[wind]\n[wind.field]\nfile = \"{file}\"\ncell_m = 5\norigin_m = [1, 2, 3]\ncarried = true\n"
+        )
+    };
+    std::fs::write(dir.join("good.toml"), scene_text("fields/gusts.npy")).expect("scene");
+    let scene = Scene::from_file(&dir.join("good.toml")).expect("scene");
+    assert_eq!(scene.wind_field().expect("field").grid, Some(grid));
+    std::fs::write(dir.join("bad.toml"), scene_text("fields/text.npy")).expect("scene");
+    let error = Scene::from_file(&dir.join("bad.toml"))
+        .expect_err("bad field")
+        .to_string();
+    assert!(
+        error.contains("wind.field.file = \"fields/text.npy\"") && error.contains("magic"),
+        "{error}"
+    );
+    assert_eq!(error.lines().count(), 1, "{error}");
+    let _ = std::fs::remove_dir_all(&dir);
 }
 
 #[test]

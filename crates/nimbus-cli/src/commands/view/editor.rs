@@ -59,6 +59,19 @@ pub const OPTIONAL_KEYS: &[OptionalKey] = &[
         },
     },
     OptionalKey {
+        table: "wind",
+        key: "field",
+        initial: || {
+            toml::Value::try_from(nimbus_render::scene::WindFieldSettings {
+                file: "wind.npy".to_owned(),
+                cell_m: 2.0,
+                origin_m: [0.0; 3],
+                carried: false,
+            })
+            .unwrap_or(toml::Value::Table(toml::Table::new()))
+        },
+    },
+    OptionalKey {
         table: "keyframes[]",
         key: "sun_time_utc",
         initial: || toml::Value::String("2026-06-21T12:00:00Z".to_owned()),
@@ -511,6 +524,7 @@ mod tests {
                 && !s.ends_with(".toml")
                 && !s.ends_with(".glb")
                 && !s.ends_with(".gltf")
+                && !s.ends_with(".npy")
         }) {
             // `[table]`, `[[array]]` and `.key` (a key of the table named before it).
             let key = documented.replace("[]", "");

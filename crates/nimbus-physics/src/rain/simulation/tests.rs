@@ -4,7 +4,7 @@
 use super::*;
 use crate::rain::drag::GUNN_KINZER_1949;
 use crate::rain::rain_box::RainBoxShape;
-use crate::rain::wind::{TurbulenceGrid, WindPrimitive, WindPrimitiveKind};
+use crate::rain::wind::{WindGrid, WindPrimitive, WindPrimitiveKind};
 
 const BASIS: [Vec3; 3] = [Vec3::X, Vec3::Y, Vec3::NEG_Z];
 
@@ -258,7 +258,7 @@ fn drops_stop_on_the_ground_and_splash() {
 fn ten_minutes_of_gusty_wind_stay_finite() {
     let wind = WindField {
         mean_m_s: Vec3::new(6.0, 0.0, 2.0),
-        turbulence: Some(TurbulenceGrid::generate(16, 64.0, 3.0, 4)),
+        grid: Some(WindGrid::turbulence(16, 64.0, 3.0, 4)),
         primitives: vec![
             WindPrimitive {
                 kind: WindPrimitiveKind::GustFront,
