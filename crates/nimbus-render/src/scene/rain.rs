@@ -146,7 +146,7 @@ pub struct WindFieldSettings {
 }
 
 impl WindFieldSettings {
-    /// Reads the grid (`base` resolves the file's path).
+    /// Reads the grid from `path` (the file, resolved against the scene).
     pub fn load(
         &self,
         path: &std::path::Path,
