@@ -24,11 +24,7 @@
 //! grid much finer than the pole spacing (π/m in x) brackets each zero once,
 //! however narrow the resonance.
 
-#[cfg(test)]
-use super::mie::MieCoefficients;
 use super::mie::series_length;
-#[cfg(test)]
-use num_complex::Complex64;
 use rayon::prelude::*;
 
 /// Which coefficient resonates.
@@ -321,7 +317,9 @@ const SCAN_CHUNK: usize = 64;
 
 #[cfg(test)]
 mod tests {
+    use super::super::mie::MieCoefficients;
     use super::*;
+    use num_complex::Complex64;
 
     const WATER: f64 = 1.3314;
 
