@@ -163,7 +163,9 @@ impl GpuContext {
             // renderer checks image and mesh sizes against these before allocating.
             required_limits: wgpu::Limits {
                 max_buffer_size: adapter.limits().max_buffer_size,
-                // Millions of rain drops live in one storage buffer.
+                // Millions of rain drops: as many per storage buffer as the
+                // adapter binds, so that they need few buffers (the rain
+                // splits them over several where one does not hold them).
                 max_storage_buffer_binding_size: adapter.limits().max_storage_buffer_binding_size,
                 ..wgpu::Limits::default().using_resolution(adapter.limits())
             },

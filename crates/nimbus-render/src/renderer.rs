@@ -748,6 +748,11 @@ impl Renderer {
         &self.rain
     }
 
+    /// The rain pass, to change how it lays out its buffers.
+    pub fn rain_mut(&mut self) -> &mut RainPass {
+        &mut self.rain
+    }
+
     /// The static objects' pass (their occluder geometry and bounds).
     pub fn objects(&self) -> &ObjectsPass {
         &self.objects

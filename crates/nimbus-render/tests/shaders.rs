@@ -207,6 +207,68 @@ fn pass_uniforms_match_wgsl_layout() {
 }
 
 #[test]
+fn rain_records_match_wgsl_layout() {
+    use nimbus_render::rain::{
+        DropGpu, RainSegmentUniform, RainStepUniform, RainUniform, SPLASH_BYTES,
+        WindPrimitiveUniform,
+    };
+    let module = module_named("rain simulation");
+    assert_layout!(
+        module,
+        "WindPrimitive",
+        WindPrimitiveUniform,
+        [center, axis, drift, gust]
+    );
+    assert_layout!(
+        module,
+        "Rain",
+        RainUniform,
+        [
+            box_right,
+            box_up,
+            box_forward,
+            box_size,
+            box_angular_velocity,
+            wind_mean,
+            drops,
+            zones,
+            counts,
+            flags,
+            occlusion_from_world,
+            camera_velocity,
+            mist,
+            wind_grid,
+            wind_grid_origin,
+            primitives,
+        ]
+    );
+    assert_layout!(module, "RainSegment", RainSegmentUniform, [range]);
+    assert_layout!(
+        module,
+        "Drop",
+        DropGpu,
+        [position_m, diameter_mm, velocity_m_s, state]
+    );
+    assert_eq!(wgsl_layout(&module, "Splash").0 as u64, SPLASH_BYTES);
+    // The step uniform is padded to the dynamic-offset stride: its members
+    // lead, at the WGSL offsets.
+    let (size, members) = wgsl_layout(&module, "RainStep");
+    assert!(size as usize <= size_of::<RainStepUniform>());
+    let rust = [
+        ("box_center", offset_of!(RainStepUniform, box_center)),
+        ("box_velocity", offset_of!(RainStepUniform, box_velocity)),
+        ("index", offset_of!(RainStepUniform, index)),
+    ];
+    assert_eq!(members.len(), rust.len());
+    for ((wgsl_name, wgsl_offset), (rust_name, rust_offset)) in members.iter().zip(rust) {
+        assert_eq!(
+            (wgsl_name.as_str(), *wgsl_offset as usize),
+            (rust_name, rust_offset)
+        );
+    }
+}
+
+#[test]
 fn wgsl_lut_sizes_match_the_physics_constants() {
     use nimbus_physics::atmosphere::*;
     let source = nimbus_render::atmosphere::ATMOSPHERE.source;

@@ -91,6 +91,11 @@ pub fn occluders_shader_source() -> String {
 pub const OCCLUSION_MAP_SIZE: u32 = 1024;
 /// Splashes kept in the ring (older ones are overwritten).
 pub const SPLASH_CAPACITY: u32 = 65_536;
+/// Bytes of one splash record (WGSL `Splash`: impact point and time, the
+/// drop's velocity and diameter; written and read on the GPU alone).
+pub const SPLASH_BYTES: u64 = 32;
+/// Bytes of one drop record (WGSL `Drop`, [`DropGpu`]).
+const DROP_BYTES: u64 = std::mem::size_of::<DropGpu>() as u64;
 /// Splash droplets per splash (`streaks.wgsl`'s `SPLASH_DROPLETS`).
 pub const SPLASH_DROPLETS: u32 = 4;
 /// Texels per side of the rain-zone map.
@@ -102,6 +107,11 @@ pub const TURBULENCE_CELLS: u32 = 32;
 const OCCLUSION_REACH_ABOVE_M: f32 = 300.0;
 /// Alignment of the per-step uniforms (WebGPU's minimum dynamic-offset alignment).
 const STEP_STRIDE: u64 = 256;
+/// Invocations per workgroup of the simulation and the cull (WGSL
+/// `@workgroup_size`).
+const WORKGROUP_SIZE: u32 = 256;
+/// Workgroups along one dimension of a dispatch (WebGPU's default limit).
+const MAX_WORKGROUPS_PER_DISPATCH: u32 = 65_535;
 
 /// GPU layout of a wind primitive (WGSL `WindPrimitive`).
 #[repr(C)]
@@ -183,23 +193,31 @@ pub struct DropGpu {
     pub state: u32,
 }
 
+/// GPU layout of one drops' buffer's place among all drops (WGSL `RainSegment`).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct RainSegmentUniform {
+    /// x: id of the buffer's first drop; y: drops the buffer holds.
+    pub range: [u32; 4],
+}
+
+/// The most drops one buffer holds on `device`: what one storage binding
+/// takes (drops of 32 bytes), at most what one dispatch's row of workgroups
+/// reaches (65 535 × 256), in whole workgroups; `cap` lowers it further.
+pub fn drops_per_buffer(limits: &wgpu::Limits, cap: Option<u32>) -> u32 {
+    let bindable = limits
+        .max_storage_buffer_binding_size
+        .min(limits.max_buffer_size)
+        / DROP_BYTES;
+    let most = bindable
+        .min(MAX_WORKGROUPS_PER_DISPATCH as u64 * WORKGROUP_SIZE as u64)
+        .min(cap.map_or(u64::MAX, u64::from));
+    ((most / WORKGROUP_SIZE as u64) * WORKGROUP_SIZE as u64).max(WORKGROUP_SIZE as u64) as u32
+}
+
 /// Why rain cannot be simulated on this device.
 #[derive(Debug, thiserror::Error)]
 pub enum RainError {
-    /// The drops' buffer exceeds what the device can bind.
-    #[error(
-        "rain.max_drops = {drops}: the drops need {bytes} bytes of storage; this device binds at most {max} (at most {max_drops} drops)"
-    )]
-    TooManyDrops {
-        /// Requested capacity.
-        drops: u64,
-        /// Bytes needed.
-        bytes: u64,
-        /// The device's limit.
-        max: u64,
-        /// Drops that fit.
-        max_drops: u64,
-    },
     /// The wind field's file no longer reads.
     #[error("{0}")]
     WindField(String),
@@ -224,12 +242,37 @@ struct OcclusionView {
     terrain: u64,
 }
 
+/// One buffer's share of the drops: devices bind a limited number of bytes
+/// per storage buffer (128 MiB on many), so millions of drops are split into
+/// buffers that each fit, simulated, listed and drawn one after another.
+struct DropSegment {
+    /// Id of the buffer's first drop.
+    first_drop: u32,
+    /// Drops the buffer holds.
+    capacity: u32,
+    drops: wgpu::Buffer,
+    /// Indices (into `drops`) of the drops in view.
+    visible: wgpu::Buffer,
+    simulation_group: wgpu::BindGroup,
+    visibility_group: wgpu::BindGroup,
+}
+
+impl DropSegment {
+    /// Drops of this buffer among the first `dispatched`.
+    fn dispatched(&self, dispatched: u32) -> u32 {
+        dispatched
+            .saturating_sub(self.first_drop)
+            .min(self.capacity)
+    }
+}
+
 struct RainState {
     key: RainKey,
     capacity: u32,
-    drops: wgpu::Buffer,
-    visible: wgpu::Buffer,
+    segments: Vec<DropSegment>,
+    /// Each segment's indirect draw arguments, `draw_args_stride` bytes apart.
     draw_args: wgpu::Buffer,
+    draw_args_stride: u64,
     splashes: wgpu::Buffer,
     splash_head: wgpu::Buffer,
     zones: wgpu::Buffer,
@@ -237,8 +280,6 @@ struct RainState {
     wind: WindField,
     occlusion_view: wgpu::TextureView,
     occlusion_drawn: Option<OcclusionView>,
-    simulation_group: wgpu::BindGroup,
-    visibility_group: wgpu::BindGroup,
     /// Drops dispatched: the largest count asked for since the start (drops
     /// above a lower count die as they leave, so they stay simulated).
     dispatched: u32,
@@ -256,6 +297,7 @@ impl std::fmt::Debug for RainState {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.debug_struct("RainState")
             .field("capacity", &self.capacity)
+            .field("buffers", &self.segments.len())
             .field("dispatched", &self.dispatched)
             .field("time_s", &self.time_s)
             .finish_non_exhaustive()
@@ -294,6 +336,9 @@ pub struct RainPass {
     state: Option<RainState>,
     plan: FramePlan,
     settings: Option<RainSettings>,
+    /// A cap on the drops per buffer below the device's (see
+    /// [`RainPass::set_drops_per_buffer_cap`]).
+    drops_per_buffer_cap: Option<u32>,
 }
 
 fn compute_pipeline(
@@ -407,6 +452,7 @@ impl RainPass {
         let draw = wgpu::ShaderStages::VERTEX_FRAGMENT;
         let uniform_size = std::mem::size_of::<RainUniform>() as u64;
         let step_size = std::mem::size_of::<RainStepUniform>() as u64;
+        let segment_size = std::mem::size_of::<RainSegmentUniform>() as u64;
         let read = Storage { read_only: true };
         let write = Storage { read_only: false };
         let depth_texture =
@@ -434,30 +480,32 @@ impl RainPass {
                     },
                     count: None,
                 },
-                buffer_entry(2, write, 32, compute),
+                buffer_entry(2, write, DROP_BYTES, compute),
                 buffer_entry(3, read, 16, compute),
                 buffer_entry(4, read, 4, compute),
                 depth_texture(5, compute),
-                buffer_entry(6, write, 32, compute),
+                buffer_entry(6, write, SPLASH_BYTES, compute),
                 buffer_entry(7, write, 4, compute),
+                uniform_layout_entry(8, compute, segment_size),
             ],
         });
         let visibility_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("rain visibility"),
             entries: &[
                 uniform_layout_entry(0, compute, uniform_size),
-                buffer_entry(1, read, 32, compute),
+                buffer_entry(1, read, DROP_BYTES, compute),
                 buffer_entry(2, write, 4, compute),
                 buffer_entry(3, write, 16, compute),
+                uniform_layout_entry(4, compute, segment_size),
             ],
         });
         let draw_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("rain draw"),
             entries: &[
                 uniform_layout_entry(0, draw, uniform_size),
-                buffer_entry(1, read, 32, wgpu::ShaderStages::VERTEX),
+                buffer_entry(1, read, DROP_BYTES, wgpu::ShaderStages::VERTEX),
                 buffer_entry(2, read, 4, wgpu::ShaderStages::VERTEX),
-                buffer_entry(3, read, 32, wgpu::ShaderStages::VERTEX),
+                buffer_entry(3, read, SPLASH_BYTES, wgpu::ShaderStages::VERTEX),
                 depth_texture(4, wgpu::ShaderStages::FRAGMENT),
             ],
         });
@@ -614,6 +662,7 @@ impl RainPass {
             state: None,
             plan: FramePlan::default(),
             settings: None,
+            drops_per_buffer_cap: None,
         }
     }
 
@@ -667,9 +716,23 @@ impl RainPass {
         &self.plan.steps
     }
 
-    /// The drops' buffer (for tests and tools that read the simulation back).
-    pub fn drops_buffer(&self) -> Option<&wgpu::Buffer> {
-        self.state.as_ref().map(|s| &s.drops)
+    /// The drops' buffers in order of their ids, each with the number of
+    /// drops it holds (for tests and tools that read the simulation back).
+    pub fn drops_buffers(&self) -> Vec<(&wgpu::Buffer, u32)> {
+        self.state.as_ref().map_or_else(Vec::new, |s| {
+            s.segments.iter().map(|g| (&g.drops, g.capacity)).collect()
+        })
+    }
+
+    /// Caps the drops per buffer below what the device binds in one
+    /// (`None`: the device's limit), so that a device's split of millions
+    /// of drops can be exercised with a few thousand. Takes effect when the
+    /// rain next starts anew.
+    pub fn set_drops_per_buffer_cap(&mut self, cap: Option<u32>) {
+        if self.drops_per_buffer_cap != cap {
+            self.drops_per_buffer_cap = cap;
+            self.state = None;
+        }
     }
 }
 
@@ -825,31 +888,26 @@ impl RainPass {
     ) -> RainState {
         use wgpu::util::DeviceExt;
         let storage = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST;
-        let drops = device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("rain drops"),
-            size: capacity.max(1) as u64 * std::mem::size_of::<DropGpu>() as u64,
-            usage: storage | wgpu::BufferUsages::COPY_SRC,
-            mapped_at_creation: false,
-        });
-        let visible = device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("rain visible drops"),
-            size: capacity.max(1) as u64 * 4,
-            usage: storage,
-            mapped_at_creation: false,
-        });
+        let per_buffer = drops_per_buffer(&device.limits(), self.drops_per_buffer_cap);
+        let buffers = capacity.max(1).div_ceil(per_buffer);
+        let draw_args_stride = (device.limits().min_storage_buffer_offset_alignment as u64).max(16);
         let draw_args = device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("rain draw arguments"),
-            size: 16,
+            size: draw_args_stride * buffers as u64,
             usage: storage | wgpu::BufferUsages::INDIRECT,
             mapped_at_creation: false,
         });
         let splashes = device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("rain splashes"),
-            size: SPLASH_CAPACITY as u64 * 32,
+            size: SPLASH_CAPACITY as u64 * SPLASH_BYTES,
             usage: storage,
             mapped_at_creation: false,
         });
-        queue.write_buffer(&splashes, 0, &vec![0u8; SPLASH_CAPACITY as usize * 32]);
+        queue.write_buffer(
+            &splashes,
+            0,
+            &vec![0u8; (SPLASH_CAPACITY as u64 * SPLASH_BYTES) as usize],
+        );
         let splash_head = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
             label: Some("rain splash head"),
             contents: bytemuck::bytes_of(&0u32),
@@ -871,65 +929,83 @@ impl RainPass {
             usage: storage,
         });
         let occlusion_view = self.occlusion_texture.create_view(&Default::default());
-        let simulation_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("rain simulation"),
-            layout: &self.simulation_layout,
-            entries: &[
-                wgpu::BindGroupEntry {
-                    binding: 0,
-                    resource: self.uniform.as_entire_binding(),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 1,
-                    resource: wgpu::BindingResource::Buffer(wgpu::BufferBinding {
-                        buffer: &self.steps,
-                        offset: 0,
-                        size: wgpu::BufferSize::new(std::mem::size_of::<RainStepUniform>() as u64),
+        let segments = (0..buffers)
+            .map(|index| {
+                let first_drop = index * per_buffer;
+                let held = per_buffer.min(capacity.max(1) - first_drop);
+                let drops = device.create_buffer(&wgpu::BufferDescriptor {
+                    label: Some("rain drops"),
+                    size: held as u64 * DROP_BYTES,
+                    usage: storage | wgpu::BufferUsages::COPY_SRC,
+                    mapped_at_creation: false,
+                });
+                let visible = device.create_buffer(&wgpu::BufferDescriptor {
+                    label: Some("rain visible drops"),
+                    size: held as u64 * 4,
+                    usage: storage,
+                    mapped_at_creation: false,
+                });
+                let segment = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                    label: Some("rain drops' range"),
+                    contents: bytemuck::bytes_of(&RainSegmentUniform {
+                        range: [first_drop, held, 0, 0],
                     }),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 2,
-                    resource: drops.as_entire_binding(),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 3,
-                    resource: wind_grid.as_entire_binding(),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 4,
-                    resource: zones.as_entire_binding(),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 5,
-                    resource: wgpu::BindingResource::TextureView(&occlusion_view),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 6,
-                    resource: splashes.as_entire_binding(),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 7,
-                    resource: splash_head.as_entire_binding(),
-                },
-            ],
-        });
-        let visibility_group = binding::sequential_bind_group(
-            device,
-            "rain visibility",
-            &self.visibility_layout,
-            vec![
-                self.uniform.as_entire_binding(),
-                drops.as_entire_binding(),
-                visible.as_entire_binding(),
-                draw_args.as_entire_binding(),
-            ],
-        );
+                    usage: wgpu::BufferUsages::UNIFORM,
+                });
+                let simulation_group = binding::sequential_bind_group(
+                    device,
+                    "rain simulation",
+                    &self.simulation_layout,
+                    vec![
+                        self.uniform.as_entire_binding(),
+                        wgpu::BindingResource::Buffer(wgpu::BufferBinding {
+                            buffer: &self.steps,
+                            offset: 0,
+                            size: wgpu::BufferSize::new(
+                                std::mem::size_of::<RainStepUniform>() as u64
+                            ),
+                        }),
+                        drops.as_entire_binding(),
+                        wind_grid.as_entire_binding(),
+                        zones.as_entire_binding(),
+                        wgpu::BindingResource::TextureView(&occlusion_view),
+                        splashes.as_entire_binding(),
+                        splash_head.as_entire_binding(),
+                        segment.as_entire_binding(),
+                    ],
+                );
+                let visibility_group = binding::sequential_bind_group(
+                    device,
+                    "rain visibility",
+                    &self.visibility_layout,
+                    vec![
+                        self.uniform.as_entire_binding(),
+                        drops.as_entire_binding(),
+                        visible.as_entire_binding(),
+                        wgpu::BindingResource::Buffer(wgpu::BufferBinding {
+                            buffer: &draw_args,
+                            offset: index as u64 * draw_args_stride,
+                            size: wgpu::BufferSize::new(16),
+                        }),
+                        segment.as_entire_binding(),
+                    ],
+                );
+                DropSegment {
+                    first_drop,
+                    capacity: held,
+                    drops,
+                    visible,
+                    simulation_group,
+                    visibility_group,
+                }
+            })
+            .collect();
         RainState {
             key,
             capacity,
-            drops,
-            visible,
+            segments,
             draw_args,
+            draw_args_stride,
             splashes,
             splash_head,
             zones,
@@ -937,8 +1013,6 @@ impl RainPass {
             wind,
             occlusion_view,
             occlusion_drawn: None,
-            simulation_group,
-            visibility_group,
             dispatched: 0,
             time_s: f32::NEG_INFINITY,
             step: 0,
@@ -997,21 +1071,6 @@ impl RainPass {
             .is_some_and(|s| target > s.capacity && s.capacity < max_drops);
         if outgrown || self.state.as_ref().map(|s| &s.key) != Some(&key) {
             let capacity = ((target as u64 * 5 / 4).max(4096) as u32).min(max_drops);
-            let bytes = capacity as u64 * std::mem::size_of::<DropGpu>() as u64;
-            let limits = device.limits();
-            let max = limits
-                .max_storage_buffer_binding_size
-                .min(limits.max_buffer_size);
-            if bytes > max {
-                return Err(RainError::TooManyDrops {
-                    drops: capacity as u64,
-                    bytes,
-                    max,
-                    max_drops: max / std::mem::size_of::<DropGpu>() as u64,
-                }
-                .into());
-            }
-            Renderer::check_buffer_size(device, "rain.max_drops", bytes)?;
             let wind = scene.wind_field().map_err(RainError::WindField)?;
             if let Some(grid) = &wind.grid {
                 let bytes = std::mem::size_of_val(grid.velocities_m_s.as_slice()) as u64;
@@ -1057,7 +1116,7 @@ impl RainPass {
             queue.write_buffer(
                 &state.splashes,
                 0,
-                &vec![0u8; SPLASH_CAPACITY as usize * 32],
+                &vec![0u8; (SPLASH_CAPACITY as u64 * SPLASH_BYTES) as usize],
             );
         } else {
             state.dispatched = state.dispatched.max(target);
@@ -1124,8 +1183,14 @@ impl RainPass {
         }
         let uniform = rain_uniform(&settings, &params, &rain_box, state, camera, occlusion);
         queue.write_buffer(&self.uniform, 0, bytemuck::bytes_of(&uniform));
-        // The indirect draw's arguments: 6 vertices, instances counted by the cull.
-        queue.write_buffer(&state.draw_args, 0, bytemuck::cast_slice(&[6u32, 0, 0, 0]));
+        // The indirect draws' arguments: 6 vertices, instances counted by the cull.
+        for index in 0..state.segments.len() as u64 {
+            queue.write_buffer(
+                &state.draw_args,
+                index * state.draw_args_stride,
+                bytemuck::cast_slice(&[6u32, 0, 0, 0]),
+            );
+        }
         self.plan = FramePlan {
             steps,
             redraw_occlusion,
@@ -1175,38 +1240,56 @@ impl RainPass {
             label: Some("rain simulation"),
             timestamp_writes: timestamps,
         });
-        let groups = state.dispatched.div_ceil(256).max(1);
+        // Workgroups per buffer (a buffer holds at most one dispatch row's).
+        let groups: Vec<(&DropSegment, u32)> = state
+            .segments
+            .iter()
+            .map(|segment| {
+                let drops = segment.dispatched(state.dispatched);
+                (segment, drops.div_ceil(WORKGROUP_SIZE))
+            })
+            .filter(|&(_, groups)| groups > 0)
+            .collect();
         pass.set_pipeline(&self.simulate);
         pass.set_bind_group(0, frame, &[]);
         for i in 0..self.plan.steps.len() {
-            pass.set_bind_group(
-                1,
-                &state.simulation_group,
-                &[(i as u64 * STEP_STRIDE) as u32],
-            );
-            pass.dispatch_workgroups(groups.min(65_535), groups.div_ceil(65_535), 1);
+            for &(segment, groups) in &groups {
+                pass.set_bind_group(
+                    1,
+                    &segment.simulation_group,
+                    &[(i as u64 * STEP_STRIDE) as u32],
+                );
+                pass.dispatch_workgroups(groups, 1, 1);
+            }
         }
         pass.set_pipeline(&self.cull);
         pass.set_bind_group(0, frame, &[]);
-        pass.set_bind_group(1, &state.visibility_group, &[]);
-        pass.dispatch_workgroups(groups.min(65_535), groups.div_ceil(65_535), 1);
+        for &(segment, groups) in &groups {
+            pass.set_bind_group(1, &segment.visibility_group, &[]);
+            pass.dispatch_workgroups(groups, 1, 1);
+        }
     }
 
-    /// The bind group of the draws, with the frame's depth (read-only).
-    fn draw_group(&self, depth: &wgpu::TextureView) -> Option<wgpu::BindGroup> {
-        let state = self.state.as_ref()?;
-        Some(binding::sequential_bind_group(
+    /// The bind group of the draws of one drops' buffer, with the frame's
+    /// depth (read-only).
+    fn draw_group(
+        &self,
+        state: &RainState,
+        segment: &DropSegment,
+        depth: &wgpu::TextureView,
+    ) -> wgpu::BindGroup {
+        binding::sequential_bind_group(
             &self.device,
             "rain draw",
             &self.draw_layout,
             vec![
                 self.uniform.as_entire_binding(),
-                state.drops.as_entire_binding(),
-                state.visible.as_entire_binding(),
+                segment.drops.as_entire_binding(),
+                segment.visible.as_entire_binding(),
                 state.splashes.as_entire_binding(),
                 wgpu::BindingResource::TextureView(depth),
             ],
-        ))
+        )
     }
 
     /// Draws the streaks and splashes into `pass` (whose depth attachment is
@@ -1217,16 +1300,23 @@ impl RainPass {
         depth: &wgpu::TextureView,
         [frame, atmosphere, stratus]: [&wgpu::BindGroup; 3],
     ) {
-        let (Some(state), Some(group)) = (&self.state, self.draw_group(depth)) else {
+        let Some(state) = &self.state else {
             return;
         };
         pass.set_bind_group(0, frame, &[]);
-        pass.set_bind_group(1, &group, &[]);
         pass.set_bind_group(2, atmosphere, &[]);
         pass.set_bind_group(3, stratus, &[]);
         pass.set_pipeline(&self.streaks);
-        pass.draw_indirect(&state.draw_args, 0);
+        for (index, segment) in state.segments.iter().enumerate() {
+            if index > 0 && segment.dispatched(state.dispatched) == 0 {
+                break;
+            }
+            pass.set_bind_group(1, &self.draw_group(state, segment, depth), &[]);
+            pass.draw_indirect(&state.draw_args, index as u64 * state.draw_args_stride);
+        }
         if self.settings.as_ref().is_some_and(|s| s.splashes) {
+            // The splashes read no drops: the last buffer's group, still
+            // bound, serves them.
             pass.set_pipeline(&self.splash);
             pass.draw(0..6, 0..SPLASH_CAPACITY * SPLASH_DROPLETS);
         }

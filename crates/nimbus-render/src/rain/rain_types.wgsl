@@ -48,6 +48,13 @@ struct Rain {
     primitives: array<WindPrimitive, 16>,
 }
 
+// One buffer's share of the drops (devices bind a limited number of bytes
+// per storage buffer, so millions of drops are split into several).
+struct RainSegment {
+    // x: id of the buffer's first drop; y: drops the buffer holds.
+    range: vec4<u32>,
+}
+
 // One step of the simulation (bound with a dynamic offset per step).
 struct RainStep {
     // xyz: box centre (the camera) at the end of the step, m; w: time at the end of the step, s.

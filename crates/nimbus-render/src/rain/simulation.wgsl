@@ -14,6 +14,9 @@
 @group(1) @binding(6) var<storage, read_write> splashes: array<Splash>;
 // x: splashes written so far (the ring's head).
 @group(1) @binding(7) var<storage, read_write> splash_head: atomic<u32>;
+// The drops' buffer's place among all drops (ids are global: they key the
+// random numbers and the count against Marshall–Palmer).
+@group(1) @binding(8) var<uniform> segment: RainSegment;
 
 // ---- Random numbers (nimbus_physics::rain::random).
 
@@ -526,13 +529,14 @@ fn step_drop(id: u32, drop: Drop) -> Drop {
 
 @compute @workgroup_size(256)
 fn simulate(@builtin(global_invocation_id) global: vec3<u32>) {
-    let id = global.x;
-    if (id >= rain.counts.x) {
+    let slot = global.x;
+    let id = segment.range.x + slot;
+    if (slot >= segment.range.y || id >= rain.counts.x) {
         return;
     }
     if (rain_step.index.y != 0u) {
-        drops[id] = initial_drop(id);
+        drops[slot] = initial_drop(id);
         return;
     }
-    drops[id] = step_drop(id, drops[id]);
+    drops[slot] = step_drop(id, drops[slot]);
 }

@@ -1,13 +1,15 @@
 // Which drops to draw: those in the rain (alive or leaving) whose streak
 // meets the view frustum, appended to a list whose length is the instance
 // count of the streaks' indirect draw. One atomic per workgroup keeps the
-// global counter cold.
+// global counter cold. Each buffer of drops has its own list and draw
+// (the list holds indices into that buffer).
 
 @group(1) @binding(0) var<uniform> rain: Rain;
 @group(1) @binding(1) var<storage, read> drops: array<Drop>;
 @group(1) @binding(2) var<storage, read_write> visible: array<u32>;
 // vertex_count, instance_count, first_vertex, first_instance.
 @group(1) @binding(3) var<storage, read_write> draw_args: array<atomic<u32>, 4>;
+@group(1) @binding(4) var<uniform> segment: RainSegment;
 
 var<workgroup> workgroup_count: atomic<u32>;
 var<workgroup> workgroup_base: u32;
@@ -38,10 +40,10 @@ fn cull(@builtin(global_invocation_id) global: vec3<u32>, @builtin(local_invocat
         atomicStore(&workgroup_count, 0u);
     }
     workgroupBarrier();
-    let id = global.x;
+    let index = global.x;
     var slot = 0xffffffffu;
-    if (id < rain.counts.x) {
-        let drop = drops[id];
+    if (index < segment.range.y && segment.range.x + index < rain.counts.x) {
+        let drop = drops[index];
         if (drop.state == DROP_ALIVE || drop.state == DROP_LEAVING) {
             let tail = streak_tail(drop);
             let centre = 0.5 * (drop.position_m + tail);
@@ -57,6 +59,6 @@ fn cull(@builtin(global_invocation_id) global: vec3<u32>, @builtin(local_invocat
     }
     let base = workgroupUniformLoad(&workgroup_base);
     if (slot != 0xffffffffu) {
-        visible[base + slot] = id;
+        visible[base + slot] = index;
     }
 }
