@@ -250,3 +250,47 @@ fn a_glb_deleted_after_loading_fails_the_frame_with_a_typed_error() {
         "{err}"
     );
 }
+
+#[test]
+fn a_gltf_rewritten_after_loading_is_read_again() {
+    // The viewer keeps its scene while the user re-exports a mesh: the
+    // objects pass notices the file's new stamp and rebuilds.
+    let dir = std::env::temp_dir().join(format!("nimbus-objects-reread-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("temp dir");
+    let shed = std::fs::read_to_string(
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenes/assets/shed.gltf"),
+    )
+    .expect("shed");
+    std::fs::write(dir.join("mesh.gltf"), &shed).expect("write");
+    let text = "[[objects]]\nkind = \"mesh\"\ngltf = \"mesh.gltf\"\nposition_m = [0.0, 0.0, 0.0]\n";
+    let scene =
+        Scene::from_toml_str_in(text, "s.toml", Some(&dir)).unwrap_or_else(|e| panic!("{e}"));
+    let mut gpu = headless();
+    gpu.render_frame(&scene, 16, 16, 0.0).expect("render");
+    let (generation, (_, high)) = {
+        let objects = gpu.renderer.objects();
+        (
+            objects.generation(),
+            objects.world_bounds_m().expect("bounds"),
+        )
+    };
+    gpu.render_frame(&scene, 16, 16, 0.0).expect("render");
+    assert_eq!(
+        gpu.renderer.objects().generation(),
+        generation,
+        "unchanged file"
+    );
+    // The same shed, its root node scaled twice (a longer file).
+    let doubled = shed.replacen("\"children\"", "\"scale\":[2.0,2.0,2.0],\"children\"", 1);
+    assert_ne!(doubled, shed);
+    std::fs::write(dir.join("mesh.gltf"), &doubled).expect("rewrite");
+    gpu.render_frame(&scene, 16, 16, 0.0).expect("render");
+    let objects = gpu.renderer.objects();
+    assert!(objects.generation() > generation);
+    let (_, doubled_high) = objects.world_bounds_m().expect("bounds");
+    assert!(
+        (doubled_high[1] - 2.0 * high[1]).abs() < 1e-4,
+        "{doubled_high:?} vs {high:?}"
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -136,8 +136,62 @@ fn drops_split_over_buffers_draw_the_same_picture() {
 /// over a few metres, so that the drops in the box feel every axis of it.
 #[test]
 fn gpu_steps_match_the_cpu_reference_in_a_wind_field_from_a_file() {
-    use nimbus_physics::rain::wind::WindGrid;
+    let dir = std::env::temp_dir().join(format!("nimbus-rain-field-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("temp dir");
+    let file = dir.join("field.npy");
     let cells = [6u32, 5, 4];
+    write_wind_field(&file, cells);
+    let scene = wind_field_scene(&file);
+    let field = scene.wind_field().expect("wind field");
+    assert_eq!(field.grid.as_ref().map(|g| g.cells), Some(cells));
+    gpu_steps_match_the_cpu_reference_in(&scene, None);
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// The viewer keeps its scene while the user rewrites the wind field's
+/// file: the rain notices the file's new stamp, reads it and starts anew.
+#[test]
+fn a_wind_field_file_rewritten_while_it_rains_is_read_again() {
+    let dir = std::env::temp_dir().join(format!("nimbus-rain-reread-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("temp dir");
+    let file = dir.join("field.npy");
+    write_wind_field(&file, [6, 5, 4]);
+    let scene = wind_field_scene(&file);
+    let mut h = headless();
+    let placed_anew = |h: &HeadlessRenderer| {
+        h.renderer
+            .rain()
+            .planned_steps()
+            .first()
+            .is_some_and(|step| step.index[1] == 1)
+    };
+    h.render_frame(&scene, 32, 18, 20.0).expect("first frame");
+    assert!(placed_anew(&h));
+    h.render_frame(&scene, 32, 18, 20.0 + 1.0 / 60.0)
+        .expect("second frame");
+    assert!(!placed_anew(&h), "the same file: the rain goes on");
+    write_wind_field(&file, [4, 4, 4]);
+    h.render_frame(&scene, 32, 18, 20.0 + 2.0 / 60.0)
+        .expect("third frame");
+    assert!(placed_anew(&h), "a rewritten file: the rain starts anew");
+    // A file that no longer reads fails the frame with one line naming it.
+    std::fs::write(&file, b"not a NumPy file").expect("spoil");
+    let error = h
+        .render_frame(&scene, 32, 18, 20.0 + 3.0 / 60.0)
+        .expect_err("spoilt file")
+        .to_string();
+    assert!(
+        error.contains("wind.field.file") && error.contains("field.npy"),
+        "{error}"
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// Writes a wind field of `cells` points that varies along every axis: a
+/// shear and an updraft that vary over a few metres, so that the drops in a
+/// 4 m box feel every axis of it.
+fn write_wind_field(file: &std::path::Path, cells: [u32; 3]) {
+    use nimbus_physics::rain::wind::WindGrid;
     let mut velocities_m_s = Vec::new();
     for z in 0..cells[2] {
         for y in 0..cells[1] {
@@ -159,10 +213,11 @@ fn gpu_steps_match_the_cpu_reference_in_a_wind_field_from_a_file() {
         carried: false,
         velocities_m_s,
     };
-    let dir = std::env::temp_dir().join(format!("nimbus-rain-field-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).expect("temp dir");
-    let file = dir.join("field.npy");
-    std::fs::write(&file, grid.to_npy()).expect("field file");
+    std::fs::write(file, grid.to_npy()).expect("field file");
+}
+
+/// Rain high above the terrain in the wind field of `file`, fixed to the ground.
+fn wind_field_scene(file: &std::path::Path) -> Scene {
     let text = format!(
         "[camera]\nposition_m = [0.0, 3000.0, 0.0]\nyaw_deg = 30.0\n\
          [rain]\nintensity_mm_h = 20.0\nbox_radius_m = 4.0\n\
@@ -170,11 +225,7 @@ fn gpu_steps_match_the_cpu_reference_in_a_wind_field_from_a_file() {
          [wind.field]\nfile = {:?}\ncell_m = 1.5\norigin_m = [0.5, 2998.0, -1.0]\n",
         file.display().to_string()
     );
-    let scene = Scene::from_toml_str(&text, "field.toml").expect("scene");
-    let field = scene.wind_field().expect("wind field");
-    assert_eq!(field.grid.as_ref().map(|g| g.cells), Some(cells));
-    gpu_steps_match_the_cpu_reference_in(&scene, None);
-    let _ = std::fs::remove_dir_all(&dir);
+    Scene::from_toml_str(&text, "field.toml").expect("scene")
 }
 
 fn gpu_steps_match_the_cpu_reference_in(scene: &Scene, drops_per_buffer: Option<u32>) {

@@ -29,6 +29,8 @@ pub struct ObjectGeometry {
     pub vertices: Vec<ObjectVertex>,
     /// Three indices per triangle.
     pub indices: Vec<u32>,
+    /// The files read (glTF files and their external buffers).
+    pub files_read: Vec<std::path::PathBuf>,
 }
 
 impl ObjectGeometry {
@@ -184,6 +186,7 @@ pub fn build(scene: &Scene) -> Result<ObjectGeometry, ObjectsError> {
                     DVec3::from_array(position_m),
                 );
                 geometry.push_mesh(&mesh, world_from_mesh, albedo);
+                geometry.files_read.extend(mesh.files_read);
             }
             None => return Err(ObjectsError::Incomplete { index }),
         }

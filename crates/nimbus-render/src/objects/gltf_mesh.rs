@@ -16,7 +16,7 @@
 
 use crate::scene::MAX_OBJECT_TRIANGLES;
 use glam::{DMat3, DMat4, DVec3};
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 /// Largest glTF file read (JSON or binary; external buffers are bounded by
 /// the triangle limit's accessor counts), bytes.
@@ -92,6 +92,8 @@ pub struct GltfMesh {
     pub base_colour: Vec<Option<[f32; 3]>>,
     /// Three indices per triangle into the vertex arrays.
     pub indices: Vec<u32>,
+    /// The files read: the glTF file and its external buffers.
+    pub files_read: Vec<PathBuf>,
 }
 
 impl GltfMesh {
@@ -196,7 +198,22 @@ pub fn load_gltf(path: &Path, max_triangles: u64) -> Result<GltfMesh, GltfError>
             gltf::Error::Io(e) => io(e),
             e => invalid(format!("cannot read its buffers: {e}")),
         })?;
-    let mut mesh = GltfMesh::default();
+    let base_dir = base.unwrap_or(Path::new("."));
+    let mut mesh = GltfMesh {
+        files_read: std::iter::once(path.to_path_buf())
+            .chain(
+                document
+                    .buffers()
+                    .filter_map(|buffer| match buffer.source() {
+                        gltf::buffer::Source::Uri(uri) if !uri.starts_with("data:") => {
+                            Some(base_dir.join(uri))
+                        }
+                        _ => None,
+                    }),
+            )
+            .collect(),
+        ..GltfMesh::default()
+    };
     for (primitive, matrix, what) in &instances {
         read_primitive(&mut mesh, primitive, *matrix, &buffers)
             .map_err(|m| invalid(format!("{what}: {m}")))?;

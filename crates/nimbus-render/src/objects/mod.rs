@@ -3,7 +3,8 @@
 //! the terrain and lit exactly as it is (`shaders/lambert.wgsl`).
 //!
 //! The geometry is rebuilt only when `scene.objects` (or the directory
-//! their paths resolve against) changes; [`ObjectsPass::generation`] counts
+//! their paths resolve against) changes, or a file read for it is
+//! rewritten (its [`crate::scene::FileStamp`]); [`ObjectsPass::generation`] counts
 //! the rebuilds so that consumers of [`ObjectsPass::occluder_geometry`]
 //! (the rain's occlusion map) know when to redraw. The cumulus shadow map
 //! is bound at group 1, bindings 8 and 9, as for the terrain.
@@ -17,7 +18,7 @@ pub use gltf_mesh::{GltfError, GltfMesh, load_gltf};
 use crate::cumulus::CloudShadowMap;
 use crate::occluders::OccluderGeometry;
 use crate::renderer::{RenderError, Renderer};
-use crate::scene::{Scene, SceneObject};
+use crate::scene::{FileStamp, Scene, SceneObject};
 use crate::shader::{self, WgslFile};
 use crate::targets::{DEPTH_FORMAT, HDR_FORMAT};
 use std::path::PathBuf;
@@ -56,6 +57,20 @@ struct GpuGeometry {
 struct BuiltFrom {
     objects: Vec<SceneObject>,
     base_dir: Option<PathBuf>,
+    /// The files read, as they were then.
+    files: Vec<(PathBuf, Option<FileStamp>)>,
+}
+
+impl BuiltFrom {
+    /// Whether `scene`'s objects are these, from the same files unchanged.
+    fn matches(&self, scene: &Scene) -> bool {
+        self.objects == scene.objects
+            && self.base_dir == scene.base_dir
+            && self
+                .files
+                .iter()
+                .all(|(path, stamp)| FileStamp::of(path) == *stamp)
+    }
 }
 
 /// The objects pass.
@@ -157,10 +172,7 @@ impl ObjectsPass {
                 entries: &cloud_shadow.bind_group_entries(),
             }));
         }
-        let unchanged = self
-            .built_from
-            .as_ref()
-            .is_some_and(|b| b.objects == scene.objects && b.base_dir == scene.base_dir);
+        let unchanged = self.built_from.as_ref().is_some_and(|b| b.matches(scene));
         if unchanged {
             return Ok(());
         }
@@ -207,6 +219,11 @@ impl ObjectsPass {
         self.built_from = Some(BuiltFrom {
             objects: scene.objects.clone(),
             base_dir: scene.base_dir.clone(),
+            files: geometry
+                .files_read
+                .iter()
+                .map(|f| (f.clone(), FileStamp::of(f)))
+                .collect(),
         });
         Ok(())
     }

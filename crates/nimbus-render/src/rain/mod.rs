@@ -16,7 +16,7 @@ use crate::binding::{self, buffer_entry, uniform_layout_entry};
 use crate::frame::Camera;
 use crate::occluders::OccluderGeometry;
 use crate::renderer::{RenderError, Renderer};
-use crate::scene::{RainBoxKind, RainSettings, Scene};
+use crate::scene::{FileStamp, RainBoxKind, RainSettings, Scene};
 use crate::shader::{self, WgslFile};
 use crate::targets::{DEPTH_FORMAT, HDR_FORMAT};
 use bytemuck::{Pod, Zeroable};
@@ -229,6 +229,8 @@ pub enum RainError {
 struct RainKey {
     settings: RainSettings,
     wind: Option<crate::scene::WindSettings>,
+    /// The wind field's file as last read (rewritten, it is read again).
+    wind_field_file: Option<FileStamp>,
     ceiling_m: f64,
     zones_source: (Option<crate::scene::StratusSettings>, u64),
 }
@@ -1049,9 +1051,15 @@ impl RainPass {
             return Ok(());
         };
         let ceiling_m = scene.rain_ceiling_m();
+        let wind_field_file = scene
+            .wind
+            .as_ref()
+            .and_then(|w| w.field.as_ref())
+            .and_then(|f| FileStamp::of(&scene.resolve_path(&f.file)));
         let key = RainKey {
             settings: settings.clone(),
             wind: scene.wind.clone(),
+            wind_field_file,
             ceiling_m,
             zones_source: (
                 scene.stratus.clone().filter(|_| settings.under_clouds),

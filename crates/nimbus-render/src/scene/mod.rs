@@ -403,5 +403,26 @@ impl Scene {
     }
 }
 
+/// What is known of a file the scene refers to without reading it: its
+/// modification time and length. Passes that read such a file (glTF meshes,
+/// wind fields) keep the stamps of what they read and read again when a
+/// stamp changes, so that a file rewritten while the viewer runs shows.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct FileStamp {
+    modified: Option<std::time::SystemTime>,
+    bytes: u64,
+}
+
+impl FileStamp {
+    /// The stamp of the file at `path`; `None` when it cannot be read.
+    pub fn of(path: &Path) -> Option<Self> {
+        let metadata = std::fs::metadata(path).ok()?;
+        Some(Self {
+            modified: metadata.modified().ok(),
+            bytes: metadata.len(),
+        })
+    }
+}
+
 #[cfg(test)]
 mod tests;
