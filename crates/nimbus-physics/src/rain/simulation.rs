@@ -234,16 +234,25 @@ pub fn initial_drop(id: u32, inputs: &StepInputs<'_>) -> Drop {
     let u = [0, 1, 2].map(|k| uniform(id, inputs.step, salt::INSIDE + k));
     let p = inputs.rain_box.sample_inside(u);
     let d = inputs.diameter_mm(id);
-    let alive = inputs.is_active(id, p) && !inputs.is_covered(p);
     Drop {
         position_m: p,
         diameter_mm: d,
         velocity_m_s: inputs.terminal_velocity_m_s(d, p),
-        state: if alive {
-            DropState::Alive
-        } else {
-            DropState::Dead
-        },
+        state: entry_state(id, p, inputs),
+    }
+}
+
+/// The state of a drop placed at `p`: dead above the count the local
+/// intensity asks for; else a ghost under cover (it follows its trajectory
+/// undrawn, so that the open part of the box keeps the Marshall–Palmer
+/// density), else alive.
+fn entry_state(id: u32, p: Vec3, inputs: &StepInputs<'_>) -> DropState {
+    if !inputs.is_active(id, p) {
+        DropState::Dead
+    } else if inputs.is_covered(p) {
+        DropState::Ghost
+    } else {
+        DropState::Alive
     }
 }
 
@@ -285,15 +294,13 @@ fn entering_drop(id: u32, inputs: &StepInputs<'_>) -> Drop {
     let Some(p) = inputs.rain_box.sample_inflow(mean_velocity, u, inputs.dt_s) else {
         return dead;
     };
-    let alive = inputs.rain_box.contains(p) && !inputs.is_covered(p) && inputs.is_active(id, p);
+    if !inputs.rain_box.contains(p) {
+        return dead;
+    }
     Drop {
         position_m: p,
         velocity_m_s: inputs.terminal_velocity_m_s(d, p),
-        state: if alive {
-            DropState::Alive
-        } else {
-            DropState::Dead
-        },
+        state: entry_state(id, p, inputs),
         ..dead
     }
 }

@@ -245,10 +245,12 @@ fn drops_stop_on_the_ground_and_splash() {
     let h = 8.0f64;
     let above = std::f64::consts::PI * h * h * (3.0 * 6.0 - h) / 3.0;
     let expected = expected_drop_count(10.0, 1.0, b.volume_m3()) * above / b.volume_m3() as f64;
-    // Found 3.1 % low since entering drops are drawn by flux (0.3 % before):
-    // not yet explained, see the closing note of issue 9.
+    println!("{} drops above the ground, {expected:.0} expected", s.drops);
+    // 0.25 % here. (This was 3.1 % low while drops entering under cover
+    // died instead of becoming ghosts, unlike the GPU's: dead drops come
+    // back only at the inflow rate, so the box held too few.)
     assert!(
-        (s.drops as f64 - expected).abs() < 0.05 * expected,
+        (s.drops as f64 - expected).abs() < 0.01 * expected,
         "{} vs {expected:.0}",
         s.drops
     );
