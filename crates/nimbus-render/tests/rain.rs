@@ -348,3 +348,128 @@ fn no_rain_falls_under_the_shelters_roof() {
     );
     assert!(open > 50, "{open} drops in the open");
 }
+
+/// Whether the last frame placed every drop anew.
+fn placed_anew(h: &HeadlessRenderer) -> bool {
+    h.renderer
+        .rain()
+        .planned_steps()
+        .first()
+        .is_some_and(|step| step.index[1] == 1)
+}
+
+/// Changing the intensity while it rains never makes drops pop in or out
+/// (§4.2.2): no restart, the drops of the last frame go on where they were
+/// (even when a higher count grows the buffers), and the count follows the
+/// intensity gradually, drops dying or reviving only at the box's boundary.
+#[test]
+fn changing_the_intensity_keeps_the_drops() {
+    let mut scene = Scene::from_toml_str(GUSTY_RAIN, "gusty.toml").expect("scene");
+    let set_intensity = |scene: &mut Scene, i: f64| {
+        scene.rain.as_mut().expect("rain").intensity_mm_h = i;
+    };
+    set_intensity(&mut scene, 1.0);
+    let mut h = headless();
+    let frame = |k: u32| 20.0 + k as f32 / 60.0;
+    for k in 0..3 {
+        h.render_frame(&scene, 32, 18, frame(k)).expect("frame");
+    }
+    let before = read_drops(&h);
+    let buffers_before: u32 = h.renderer.rain().drops_buffers().iter().map(|b| b.1).sum();
+    // Fifty times the intensity: several times the drops, larger buffers.
+    set_intensity(&mut scene, 50.0);
+    h.render_frame(&scene, 32, 18, frame(3)).expect("frame");
+    assert!(!placed_anew(&h), "a new intensity restarted the rain");
+    let buffers_after: u32 = h.renderer.rain().drops_buffers().iter().map(|b| b.1).sum();
+    assert!(
+        buffers_after > buffers_before,
+        "{buffers_after} vs {buffers_before}"
+    );
+    let after = read_drops(&h);
+    let alive = |drops: &[DropGpu]| drops.iter().filter(|d| d.state == 1).count();
+    // The drops of the last frame moved by one frame's fall, no more.
+    let (mut kept, mut was_alive) = (0usize, 0usize);
+    for (a, b) in before.iter().zip(&after) {
+        if a.state == 1 {
+            was_alive += 1;
+            let moved = (0..3)
+                .map(|k| (a.position_m[k] - b.position_m[k]).powi(2))
+                .sum::<f32>()
+                .sqrt();
+            kept += usize::from(b.state == 1 && moved < 0.5);
+        }
+    }
+    println!(
+        "alive {} → {}; {kept} of {was_alive} kept their place",
+        alive(&before),
+        alive(&after)
+    );
+    assert!(
+        kept as f64 >= 0.95 * was_alive as f64,
+        "{kept} of {was_alive}"
+    );
+    // The count rises at the rain's pace, not at once.
+    assert!(
+        (alive(&after) as f64) < 1.2 * alive(&before) as f64,
+        "{} → {}",
+        alive(&before),
+        alive(&after)
+    );
+    // Falling back: no restart, and the drops die only as they leave.
+    set_intensity(&mut scene, 1.0);
+    let before = after;
+    h.render_frame(&scene, 32, 18, frame(4)).expect("frame");
+    assert!(!placed_anew(&h));
+    let after = read_drops(&h);
+    assert!(
+        alive(&after) as f64 > 0.9 * alive(&before) as f64,
+        "{} → {}",
+        alive(&before),
+        alive(&after)
+    );
+}
+
+/// Keyframed wind changes the wind at every frame: the rain goes on.
+#[test]
+fn keyframed_wind_does_not_restart_the_rain() {
+    let text = format!(
+        "{GUSTY_RAIN}\n[[keyframes]]\ntime_s = 0.0\nwind_speed_m_s = 2.0\n\
+         [[keyframes]]\ntime_s = 60.0\nwind_speed_m_s = 12.0\n"
+    );
+    let scene = Scene::from_toml_str(&text, "keyed.toml").expect("scene");
+    let mut h = headless();
+    let mut means = Vec::new();
+    for k in 0..4 {
+        let t = 20.0 + k as f64 / 30.0;
+        h.render_frame(&scene.at_time(t), 32, 18, t as f32)
+            .expect("frame");
+        assert_eq!(placed_anew(&h), k == 0, "frame {k}");
+        means.push(scene.at_time(t).wind_field().expect("wind").mean_m_s);
+    }
+    assert!(means[3].length() > means[0].length());
+}
+
+/// Rain under drifting stratus: the zone map follows the layer.
+#[test]
+fn rain_zones_follow_the_drifting_clouds() {
+    let text = "[camera]\nposition_m = [0.0, 300.0, 0.0]\n\
+                [stratus]\nbase_m = 900.0\nthickness_m = 400.0\ncoverage = 0.5\n\
+                [rain]\nintensity_mm_h = 5.0\nbox_radius_m = 3.0\nunder_clouds = true\n\
+                [wind]\nspeed_m_s = 15.0\nfrom_deg = 270.0\n";
+    let scene = Scene::from_toml_str(text, "zones.toml").expect("scene");
+    let settings = scene.rain.clone().expect("rain");
+    let mut h = headless();
+    h.render_frame(&scene, 32, 18, 10.0).expect("frame");
+    let first = h.renderer.rain().zones().expect("zones").clone();
+    assert_eq!(first, rain_zones(&scene, &settings, 10.0, &[]));
+    // A minute later the layer has moved 900 m: the map with it, the rain
+    // not restarted (the camera stayed, time went on).
+    h.render_frame(&scene, 32, 18, 70.0).expect("frame");
+    assert!(!placed_anew(&h));
+    let later = h.renderer.rain().zones().expect("zones").clone();
+    assert_ne!(later, first);
+    assert_eq!(later, rain_zones(&scene, &settings, 70.0, &[]));
+    let raining =
+        |z: &nimbus_physics::rain::zones::RainZones| z.factors.iter().filter(|&&f| f > 0.5).count();
+    assert!(raining(&first) > 100 && raining(&first) < first.factors.len() - 100);
+}

@@ -59,24 +59,29 @@ impl RainZones {
     }
 
     /// A map of `size`² texels over the square of side `side_m` centred on
-    /// `center_m`, each texel the value of `factor(x, z)` at its centre.
+    /// `center_m`, each texel the value of `factor(x, z)` at its centre
+    /// (rows in parallel: the renderer rebuilds the map as clouds drift).
     pub fn from_fn(
         center_m: [f32; 2],
         side_m: f32,
         size: u32,
-        factor: impl Fn(f32, f32) -> f32,
+        factor: impl Fn(f32, f32) -> f32 + Sync,
     ) -> Self {
+        use rayon::prelude::*;
         let size = size.max(1);
         let texel_m = side_m / size as f32;
         let origin_m = [center_m[0] - 0.5 * side_m, center_m[1] - 0.5 * side_m];
-        let mut factors = Vec::with_capacity((size * size) as usize);
-        for j in 0..size {
-            for i in 0..size {
-                let x = origin_m[0] + (i as f32 + 0.5) * texel_m;
+        let mut factors = vec![0.0; (size * size) as usize];
+        factors
+            .par_chunks_mut(size as usize)
+            .enumerate()
+            .for_each(|(j, row)| {
                 let z = origin_m[1] + (j as f32 + 0.5) * texel_m;
-                factors.push(factor(x, z).clamp(0.0, 1.0));
-            }
-        }
+                for (i, texel) in row.iter_mut().enumerate() {
+                    let x = origin_m[0] + (i as f32 + 0.5) * texel_m;
+                    *texel = factor(x, z).clamp(0.0, 1.0);
+                }
+            });
         Self {
             origin_m,
             texel_m,

@@ -223,16 +223,92 @@ pub enum RainError {
     WindField(String),
 }
 
-/// Settings that decide the GPU buffers and the drops' placement: when they
-/// change, the rain starts anew.
+/// What the drops' buffers and placement depend on: when it changes, the
+/// rain starts anew. Everything else (the intensity, the mean wind and its
+/// primitives, the ceiling, the zones, the streaks' look) changes from one
+/// frame to the next without disturbing the drops: a rising intensity
+/// revives drops at the box's upstream side, a falling one lets them die as
+/// they leave (§4.2.2), and a larger count grows the buffers keeping the
+/// drops in them.
 #[derive(Clone, Debug, PartialEq)]
 struct RainKey {
-    settings: RainSettings,
-    wind: Option<crate::scene::WindSettings>,
+    box_shape: RainBoxKind,
+    box_radius_m: f64,
+    diameters_mm: [f64; 2],
+    max_drops: u64,
+    /// The wind grid's source: the turbulence's or the file's settings.
+    turbulence: Option<crate::scene::TurbulenceSettings>,
+    wind_field: Option<crate::scene::WindFieldSettings>,
     /// The wind field's file as last read (rewritten, it is read again).
     wind_field_file: Option<FileStamp>,
-    ceiling_m: f64,
-    zones_source: (Option<crate::scene::StratusSettings>, u64),
+}
+
+impl RainKey {
+    fn new(scene: &Scene, settings: &RainSettings) -> Self {
+        let wind = scene.wind.as_ref();
+        let wind_field = wind.and_then(|w| w.field.clone());
+        Self {
+            box_shape: settings.box_shape,
+            box_radius_m: settings.box_radius_m,
+            diameters_mm: [settings.min_diameter_mm, settings.max_diameter_mm],
+            max_drops: settings.max_drops,
+            turbulence: wind.and_then(|w| w.turbulence.clone()),
+            wind_field_file: wind_field
+                .as_ref()
+                .and_then(|f| FileStamp::of(&scene.resolve_path(&f.file))),
+            wind_field,
+        }
+    }
+}
+
+/// What the map of rain zones depends on: rebuilt (on the CPU, uploaded)
+/// when it changes, the drops untouched. Moving clouds count in steps of a
+/// quarter of the map's texel, the stratus layer's evolution in 1/256 of
+/// its evolution time, so that drifting clouds carry their rain along.
+#[derive(Clone, Debug, PartialEq)]
+struct ZonesKey {
+    areas: Vec<crate::scene::RainAreaSettings>,
+    under_clouds: bool,
+    cloud_threshold_m: f64,
+    stratus: Option<crate::scene::StratusSettings>,
+    terrain_extent_m: f64,
+    /// The stratus layer's drift and evolution, and the cumulus footprints,
+    /// in the steps above.
+    cloud_motion: Vec<i64>,
+}
+
+impl ZonesKey {
+    fn new(
+        scene: &Scene,
+        settings: &RainSettings,
+        time_s: f64,
+        cumulus_footprints_m: &[[f32; 3]],
+    ) -> Self {
+        let stratus = scene.stratus.clone().filter(|_| settings.under_clouds);
+        let step_m = scene.terrain.extent_m / ZONE_MAP_SIZE as f64 / 4.0;
+        let steps = |x: f64| (x / step_m).round() as i64;
+        let mut cloud_motion = Vec::new();
+        if let Some(layer) = &stratus {
+            let [x, z] = scene.cloud_drift_m(time_s);
+            let evolution = (time_s / layer.evolution_time_s * 256.0).round() as i64;
+            cloud_motion.extend([steps(x), steps(z), evolution]);
+        }
+        if settings.under_clouds {
+            cloud_motion.extend(
+                cumulus_footprints_m
+                    .iter()
+                    .flat_map(|c| c.map(|v| steps(v as f64))),
+            );
+        }
+        Self {
+            areas: settings.areas.clone(),
+            under_clouds: settings.under_clouds,
+            cloud_threshold_m: settings.cloud_threshold_m,
+            stratus,
+            terrain_extent_m: scene.terrain.extent_m,
+            cloud_motion,
+        }
+    }
 }
 
 /// The rain shadow map's view, for deciding when to redraw it.
@@ -270,6 +346,7 @@ impl DropSegment {
 
 struct RainState {
     key: RainKey,
+    zones_key: ZonesKey,
     capacity: u32,
     segments: Vec<DropSegment>,
     /// Each segment's indirect draw arguments, `draw_args_stride` bytes apart.
@@ -713,6 +790,11 @@ impl RainPass {
         self.state.as_ref().map_or(0, |s| s.dispatched)
     }
 
+    /// The map of rain zones in use (for tests and tools).
+    pub fn zones(&self) -> Option<&RainZones> {
+        self.state.as_ref().map(|s| &s.zone_map)
+    }
+
     /// The steps the last [`Self::prepare`] planned (for tests replaying them on the CPU).
     pub fn planned_steps(&self) -> &[RainStepUniform] {
         &self.plan.steps
@@ -886,7 +968,7 @@ impl RainPass {
         key: RainKey,
         capacity: u32,
         wind: WindField,
-        zone_map: RainZones,
+        (zones_key, zone_map): (ZonesKey, RainZones),
     ) -> RainState {
         use wgpu::util::DeviceExt;
         let storage = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST;
@@ -902,7 +984,8 @@ impl RainPass {
         let splashes = device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("rain splashes"),
             size: SPLASH_CAPACITY as u64 * SPLASH_BYTES,
-            usage: storage,
+            // Copied over when the drops' buffers grow.
+            usage: storage | wgpu::BufferUsages::COPY_SRC,
             mapped_at_creation: false,
         });
         queue.write_buffer(
@@ -913,7 +996,7 @@ impl RainPass {
         let splash_head = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
             label: Some("rain splash head"),
             contents: bytemuck::bytes_of(&0u32),
-            usage: storage,
+            usage: storage | wgpu::BufferUsages::COPY_SRC,
         });
         let grid_data: Vec<[f32; 4]> = wind
             .grid
@@ -925,11 +1008,14 @@ impl RainPass {
             contents: bytemuck::cast_slice(&grid_data),
             usage: storage,
         });
-        let zones = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+        // Room for the largest map, so that a new map needs no new bindings.
+        let zones = device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("rain zones"),
-            contents: bytemuck::cast_slice(&zone_map.factors),
+            size: ZONE_MAP_SIZE as u64 * ZONE_MAP_SIZE as u64 * 4,
             usage: storage,
+            mapped_at_creation: false,
         });
+        queue.write_buffer(&zones, 0, bytemuck::cast_slice(&zone_map.factors));
         let occlusion_view = self.occlusion_texture.create_view(&Default::default());
         let segments = (0..buffers)
             .map(|index| {
@@ -1004,6 +1090,7 @@ impl RainPass {
             .collect();
         RainState {
             key,
+            zones_key,
             capacity,
             segments,
             draw_args,
@@ -1022,6 +1109,39 @@ impl RainPass {
             forward: Vec3::NEG_Z,
             warned_cap: false,
         }
+    }
+
+    /// Replaces the drops' buffers by ones for `capacity` drops, copying
+    /// the drops (and splashes) over: the rain goes on where it was, the
+    /// new drops dead until they enter at the box's upstream side.
+    fn grow_state(&mut self, device: &wgpu::Device, queue: &wgpu::Queue, capacity: u32) {
+        let Some(old) = self.state.take() else { return };
+        let mut grown = self.create_state(
+            device,
+            queue,
+            old.key.clone(),
+            capacity,
+            old.wind.clone(),
+            (old.zones_key.clone(), old.zone_map.clone()),
+        );
+        let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
+            label: Some("rain buffers grown"),
+        });
+        // Buffers hold the same drops per buffer whatever the capacity:
+        // buffer i of the old drops goes to the start of buffer i.
+        for (from, to) in old.segments.iter().zip(&grown.segments) {
+            encoder.copy_buffer_to_buffer(&from.drops, 0, &to.drops, 0, from.drops.size());
+        }
+        encoder.copy_buffer_to_buffer(&old.splashes, 0, &grown.splashes, 0, old.splashes.size());
+        encoder.copy_buffer_to_buffer(&old.splash_head, 0, &grown.splash_head, 0, 4);
+        queue.submit([encoder.finish()]);
+        grown.dispatched = old.dispatched;
+        grown.time_s = old.time_s;
+        grown.step = old.step;
+        grown.camera_m = old.camera_m;
+        grown.forward = old.forward;
+        grown.warned_cap = old.warned_cap;
+        self.state = Some(grown);
     }
 
     /// Updates the simulation's inputs for a frame at `time_s`: the steps
@@ -1050,47 +1170,55 @@ impl RainPass {
             self.state = None;
             return Ok(());
         };
-        let ceiling_m = scene.rain_ceiling_m();
-        let wind_field_file = scene
-            .wind
-            .as_ref()
-            .and_then(|w| w.field.as_ref())
-            .and_then(|f| FileStamp::of(&scene.resolve_path(&f.file)));
-        let key = RainKey {
-            settings: settings.clone(),
-            wind: scene.wind.clone(),
-            wind_field_file,
-            ceiling_m,
-            zones_source: (
-                scene.stratus.clone().filter(|_| settings.under_clouds),
-                cumulus_footprints_m.len() as u64,
-            ),
-        };
+        let key = RainKey::new(scene, &settings);
         let params = rain_params(scene, &settings);
         let mut rain_box = rain_box(&settings, camera);
         let volume = rain_box.volume_m3();
         let max_drops = settings.max_drops.min(u32::MAX as u64) as u32;
         let target = target_drop_count(&params, params.intensity_mm_h, volume);
         // Buffers for the drops this intensity asks for with a margin, up to
-        // the cap; a larger count later starts the rain anew in larger ones.
-        let outgrown = self
-            .state
-            .as_ref()
-            .is_some_and(|s| target > s.capacity && s.capacity < max_drops);
-        if outgrown || self.state.as_ref().map(|s| &s.key) != Some(&key) {
-            let capacity = ((target as u64 * 5 / 4).max(4096) as u32).min(max_drops);
+        // the cap; a larger count later grows them, keeping the drops.
+        let capacity = ((target as u64 * 5 / 4).max(4096) as u32).min(max_drops);
+        let zones_key = ZonesKey::new(scene, &settings, time_s as f64, cumulus_footprints_m);
+        let zones = |key: &ZonesKey| {
+            let map = rain_zones(scene, &settings, time_s as f64, cumulus_footprints_m);
+            (key.clone(), map)
+        };
+        if self.state.as_ref().map(|s| &s.key) != Some(&key) {
+            self.state = None;
             let wind = scene.wind_field().map_err(RainError::WindField)?;
             if let Some(grid) = &wind.grid {
                 let bytes = std::mem::size_of_val(grid.velocities_m_s.as_slice()) as u64;
                 Renderer::check_buffer_size(device, "wind.field.file", bytes)?;
             }
-            let zones = rain_zones(scene, &settings, time_s as f64, cumulus_footprints_m);
-            self.state = Some(self.create_state(device, queue, key, capacity, wind, zones));
+            let state = self.create_state(device, queue, key, capacity, wind, zones(&zones_key));
+            self.state = Some(state);
+        } else if self
+            .state
+            .as_ref()
+            .is_some_and(|s| target > s.capacity && s.capacity < max_drops)
+        {
+            self.grow_state(device, queue, capacity);
         }
         self.settings = Some(settings.clone());
         let Some(state) = self.state.as_mut() else {
             return Ok(());
         };
+        // The wind's mean and primitives follow the scene (keyframed wind);
+        // its grid is the key's.
+        let wind = scene
+            .wind
+            .as_ref()
+            .map(crate::scene::WindSettings::field_without_grid)
+            .unwrap_or_default();
+        state.wind.mean_m_s = wind.mean_m_s;
+        state.wind.primitives = wind.primitives;
+        if state.zones_key != zones_key {
+            let (key, map) = zones(&zones_key);
+            queue.write_buffer(&state.zones, 0, bytemuck::cast_slice(&map.factors));
+            state.zones_key = key;
+            state.zone_map = map;
+        }
         let wanted = nimbus_physics::rain::simulation::expected_drop_count(
             params.intensity_mm_h,
             params.min_diameter_mm,

@@ -245,15 +245,25 @@ impl WindSettings {
     /// The wind field of the physics crate without a `[wind.field]` file:
     /// the mean wind, turbulence and primitives (see [`Scene::wind_field`]).
     pub fn field_without_file(&self) -> nimbus_physics::rain::wind::WindField {
-        use nimbus_physics::rain::wind::{WindField, WindGrid, WindPrimitive, WindPrimitiveKind};
-        let [x, z] = self.velocity_xz_m_s();
-        let vec3 = |v: [f64; 3]| glam::Vec3::new(v[0] as f32, v[1] as f32, v[2] as f32);
+        use nimbus_physics::rain::wind::{WindField, WindGrid};
         WindField {
-            mean_m_s: glam::Vec3::new(x as f32, 0.0, z as f32),
             grid: self
                 .turbulence
                 .as_ref()
                 .map(|t| WindGrid::turbulence(32, t.tile_m as f32, t.rms_speed_m_s as f32, t.seed)),
+            ..self.field_without_grid()
+        }
+    }
+
+    /// The mean wind and the primitives, without a grid (cheap: what
+    /// changes from frame to frame when the wind is keyframed).
+    pub fn field_without_grid(&self) -> nimbus_physics::rain::wind::WindField {
+        use nimbus_physics::rain::wind::{WindField, WindPrimitive, WindPrimitiveKind};
+        let [x, z] = self.velocity_xz_m_s();
+        let vec3 = |v: [f64; 3]| glam::Vec3::new(v[0] as f32, v[1] as f32, v[2] as f32);
+        WindField {
+            mean_m_s: glam::Vec3::new(x as f32, 0.0, z as f32),
+            grid: None,
             primitives: self
                 .primitives
                 .iter()
