@@ -60,6 +60,8 @@ pub struct Camera {
     pub fov_y_rad: f64,
     /// Width over height.
     pub aspect: f64,
+    /// Image height, pixels.
+    pub height_px: u32,
 }
 
 /// Unit vector for a heading (clockwise from north = −Z) and an elevation, degrees.
@@ -84,6 +86,7 @@ impl Camera {
             forward,
             fov_y_rad: settings.fov_deg.to_radians(),
             aspect: width as f64 / height.max(1) as f64,
+            height_px: height.max(1),
         }
     }
 

@@ -239,6 +239,8 @@ fn rain_records_match_wgsl_layout() {
             mist,
             wind_grid,
             wind_grid_origin,
+            drop_sh_weights,
+            drop_kernel,
             primitives,
         ]
     );

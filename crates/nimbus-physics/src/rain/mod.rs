@@ -3,13 +3,15 @@
 //! to the rain intensity ([`dsd`]), drag and terminal fall speed ([`drag`]),
 //! the wind field the drops are carried by ([`wind`]), the "rain box" of
 //! drops around the camera and its recycling ([`rain_box`]), the rain zones
-//! under the clouds ([`zones`]), and the CPU reference of the drop dynamics
+//! under the clouds ([`zones`]), what a drop refracts and reflects
+//! ([`drop_optics`]), and the CPU reference of the drop dynamics
 //! that the GPU simulation runs step for step ([`simulation`]).
 //!
 //! Units: metres, seconds, m/s; drop diameters in millimetres where a name
 //! says `_mm` (the meteorologists' unit), metres otherwise.
 
 pub mod drag;
+pub mod drop_optics;
 pub mod dsd;
 pub mod rain_box;
 pub mod random;

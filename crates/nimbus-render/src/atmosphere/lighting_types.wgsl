@@ -12,16 +12,19 @@ struct Lighting {
     exposure: vec4<f32>,
 }
 
-// Irradiance on a surface of unit normal n from the SH environment
-// (Ramamoorthi & Hanrahan 2001, eq. 8: Â₀ = π, Â₁ = 2π/3, Â₂ = π/4).
-fn sh_irradiance(l: Lighting, n: vec3<f32>) -> vec3<f32> {
-    let a0 = 3.14159265;
-    let a1 = 2.0943951;
-    let a2 = 0.78539816;
-    var e = a0 * 0.282095 * l.sh[0].xyz;
-    e += a1 * 0.488603 * (l.sh[1].xyz * n.y + l.sh[2].xyz * n.z + l.sh[3].xyz * n.x);
-    e += a2 * (1.092548 * (l.sh[4].xyz * n.x * n.y + l.sh[5].xyz * n.y * n.z + l.sh[7].xyz * n.x * n.z)
+// The SH environment's radiance convolved with a kernel symmetric about n,
+// band l scaled by `band[l]` (Funk–Hecke), clamped at zero.
+fn sh_convolved(l: Lighting, n: vec3<f32>, band: vec3<f32>) -> vec3<f32> {
+    var e = band.x * 0.282095 * l.sh[0].xyz;
+    e += band.y * 0.488603 * (l.sh[1].xyz * n.y + l.sh[2].xyz * n.z + l.sh[3].xyz * n.x);
+    e += band.z * (1.092548 * (l.sh[4].xyz * n.x * n.y + l.sh[5].xyz * n.y * n.z + l.sh[7].xyz * n.x * n.z)
         + 0.315392 * l.sh[6].xyz * (3.0 * n.z * n.z - 1.0)
         + 0.546274 * l.sh[8].xyz * (n.x * n.x - n.y * n.y));
     return max(e, vec3<f32>(0.0));
+}
+
+// Irradiance on a surface of unit normal n from the SH environment
+// (Ramamoorthi & Hanrahan 2001, eq. 8: Â₀ = π, Â₁ = 2π/3, Â₂ = π/4).
+fn sh_irradiance(l: Lighting, n: vec3<f32>) -> vec3<f32> {
+    return sh_convolved(l, n, vec3<f32>(3.14159265, 2.0943951, 0.78539816));
 }

@@ -1309,6 +1309,7 @@ mod tests {
             forward: DVec3::NEG_Z,
             fov_y_rad: 1.0,
             aspect: 1.5,
+            height_px: 720,
         };
         let m = camera.clip_from_world().as_mat4();
         assert!(sphere_in_frustum(&m, Vec3::new(0.0, 0.0, -5000.0), 100.0));

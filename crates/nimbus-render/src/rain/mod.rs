@@ -22,6 +22,7 @@ use crate::targets::{DEPTH_FORMAT, HDR_FORMAT};
 use bytemuck::{Pod, Zeroable};
 use glam::{Mat4, Vec3};
 use nimbus_physics::rain::drag::terminal_speed_m_s_f32;
+use nimbus_physics::rain::drop_optics::{DropTransfer, KERNEL_BINS};
 use nimbus_physics::rain::dsd::mean_sampled_diameter_mm;
 use nimbus_physics::rain::rain_box::{RainBox, RainBoxShape, orthonormal_basis};
 use nimbus_physics::rain::simulation::{MAX_STEPS_PER_FRAME, RainParams, target_drop_count};
@@ -161,6 +162,10 @@ pub struct RainUniform {
     pub wind_grid: [u32; 4],
     /// World position of the wind grid's point (0, 0, 0) at time 0, m.
     pub wind_grid_origin: [f32; 4],
+    /// A drop's scale of the environment's SH bands 0, 1, 2 (and 0).
+    pub drop_sh_weights: [f32; 4],
+    /// A drop's kernel K(cos γ), sr⁻¹, in [`KERNEL_BINS`] bins.
+    pub drop_kernel: [[f32; 4]; KERNEL_BINS / 4],
     /// Wind primitives.
     pub primitives: [WindPrimitiveUniform; MAX_WIND_PRIMITIVES],
 }
@@ -418,6 +423,8 @@ pub struct RainPass {
     /// A cap on the drops per buffer below the device's (see
     /// [`RainPass::set_drops_per_buffer_cap`]).
     drops_per_buffer_cap: Option<u32>,
+    /// What a water drop refracts and reflects, for the streaks' shading.
+    drop: DropTransfer,
 }
 
 fn compute_pipeline(
@@ -742,6 +749,7 @@ impl RainPass {
             plan: FramePlan::default(),
             settings: None,
             drops_per_buffer_cap: None,
+            drop: DropTransfer::water(),
         }
     }
 
@@ -1317,7 +1325,9 @@ impl RainPass {
             );
             state.occlusion_drawn = Some(view);
         }
-        let uniform = rain_uniform(&settings, &params, &rain_box, state, camera, occlusion);
+        let uniform = rain_uniform(
+            &settings, &params, &rain_box, state, camera, occlusion, &self.drop,
+        );
         queue.write_buffer(&self.uniform, 0, bytemuck::bytes_of(&uniform));
         // The indirect draws' arguments: 6 vertices, instances counted by the cull.
         for index in 0..state.segments.len() as u64 {
@@ -1502,6 +1512,7 @@ fn rain_uniform(
     state: &RainState,
     camera: &Camera,
     occlusion: Mat4,
+    drop: &DropTransfer,
 ) -> RainUniform {
     let [right, up, forward] = rain_box.basis;
     let (shape, near, far, size) = match rain_box.shape {
@@ -1528,7 +1539,7 @@ fn rain_uniform(
     let grid = wind.grid.as_ref();
     let zones = &state.zone_map;
     // The first mist layer ends where the largest drops' streaks shrink below a pixel.
-    let pixel_angle = (2.0 * (0.5 * camera.fov_y_rad).tan() / 1080.0) as f32;
+    let pixel_angle = (2.0 * (0.5 * camera.fov_y_rad).tan() / camera.height_px as f64) as f32;
     let longest_streak_m =
         terminal_speed_m_s_f32(params.max_diameter_mm) * settings.exposure_s as f32;
     let layer_end = (longest_streak_m / pixel_angle).max(rain_box.bounding_radius_m());
@@ -1579,6 +1590,15 @@ fn rain_uniform(
             [g.cells[0], g.cells[1], g.cells[2], u32::from(g.carried)]
         }),
         wind_grid_origin: grid.map_or([0.0; 4], |g| g.origin_m.extend(0.0).to_array()),
+        drop_sh_weights: [
+            drop.band_weights[0] as f32,
+            drop.band_weights[1] as f32,
+            drop.band_weights[2] as f32,
+            0.0,
+        ],
+        drop_kernel: std::array::from_fn(|i| {
+            std::array::from_fn(|k| drop.kernel_per_sr[4 * i + k] as f32)
+        }),
         primitives,
     }
 }

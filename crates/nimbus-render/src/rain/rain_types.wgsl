@@ -45,6 +45,11 @@ struct Rain {
     wind_grid: vec4<u32>,
     // xyz: world position of the wind grid's point (0, 0, 0) at time 0, m.
     wind_grid_origin: vec4<f32>,
+    // xyz: a drop's scale of the environment's SH bands 0, 1, 2 about the
+    // view direction (nimbus_physics::rain::drop_optics::DropTransfer).
+    drop_sh_weights: vec4<f32>,
+    // The drop's kernel K(cos γ), sr⁻¹, in 64 bins of cos γ from −1 to 1.
+    drop_kernel: array<vec4<f32>, 16>,
     primitives: array<WindPrimitive, 16>,
 }
 

@@ -12,15 +12,17 @@
 // w·(L + w) pixels (Garg & Nayar: a streak pixel sees the drop only for the
 // fraction of the exposure it takes to cross it, D/(v·T)).
 //
-// A drop's radiance is what it refracts (Rousseau et al. 2006: the drop
-// shows the environment behind it within about 165°, turned over) plus
-// what it reflects, about 6.6 % of the light from all around for water's
-// Fresnel reflectance averaged over the sphere (n = 1.333). We take the
-// refracted part as the cosine-weighted mean radiance of the hemisphere
-// behind the drop, E(v)/π from the environment's SH irradiance (the sky, or
-// the overcast's radiosity under a stratus layer) and the sun, which is
-// the 180° version of Rousseau's 165° field: against dark ground the drops
-// gather the bright sky and show; against the bright sky they barely do.
+// A drop's radiance is what it refracts and reflects, averaged over its
+// disc (nimbus_physics::rain::drop_optics): light refracted straight
+// through, deviated by up to 82.8° and so showing the environment behind
+// it within Rousseau et al.'s (2006) 165°, turned over, weighted by
+// (1 − R)²; and light reflected with the Fresnel reflectance R of each
+// point's incidence, weak at the centre and total at the grazing rim. The
+// paths turn the view direction about its own axis, so the average is a
+// zonal convolution: the environment's SH bands scaled by k₀, k₁, k₂, and
+// the sun, a direction, weighted by the tabulated kernel K(cos γ). Against
+// dark ground the drops gather the bright sky and show; against the bright
+// sky they barely do.
 
 @group(1) @binding(0) var<uniform> rain: Rain;
 @group(1) @binding(1) var<storage, read> drops: array<Drop>;
@@ -31,8 +33,6 @@
 // Splash droplets drawn per impact, and how long they fly, s.
 const SPLASH_DROPLETS: u32 = 4u;
 const SPLASH_LIFETIME_S: f32 = 0.2;
-// Mean Fresnel reflectance of a water sphere over its visible disc.
-const DROP_REFLECTANCE: f32 = 0.066;
 
 struct StreakVarying {
     @builtin(position) clip_position: vec4<f32>,
@@ -131,17 +131,24 @@ fn splash_vertex_main(@builtin(vertex_index) vertex: u32, @builtin(instance_inde
     return streak_vertex(head, tail, splash.velocity_diameter.w * 0.2e-3, vertex);
 }
 
-// Radiance of a drop at `p`, pre-exposed.
+// The drop's kernel K(cos γ), sr⁻¹, linear between the bins' centres
+// (DropTransfer::kernel_at).
+fn drop_kernel(cos_gamma: f32) -> f32 {
+    let x = (clamp(cos_gamma, -1.0, 1.0) + 1.0) * 32.0 - 0.5;
+    let i = u32(clamp(floor(x), 0.0, 62.0));
+    let f = clamp(x - f32(i), 0.0, 1.0);
+    let a = rain.drop_kernel[i / 4u][i % 4u];
+    let b = rain.drop_kernel[(i + 1u) / 4u][(i + 1u) % 4u];
+    return mix(a, b, f);
+}
+
+// Radiance of a drop at `p`, pre-exposed: the sky (or the overcast's
+// radiosity under a stratus layer) and the sun through and off the drop.
 fn drop_radiance(p: vec3<f32>) -> vec3<f32> {
     let v = normalize(p - frame.camera_position_m);
-    let behind = stratus_ground_irradiance(p, v, sh_irradiance(lighting, v));
-    let sun = lighting.sun_irradiance.xyz * stratus_sun_transmittance(p) * max(dot(v, frame.sun_direction), 0.0);
-    let up = vec3<f32>(0.0, 1.0, 0.0);
-    let all_around = stratus_ground_irradiance(p, up, sh_irradiance(lighting, up))
-        + stratus_ground_irradiance(p, -up, sh_irradiance(lighting, -up));
-    let refracted = (behind + sun) / PI;
-    let reflected = all_around / (2.0 * PI);
-    return ((1.0 - DROP_REFLECTANCE) * refracted + DROP_REFLECTANCE * reflected) * pre_exposure();
+    let sky = stratus_ground_irradiance(p, v, sh_convolved(lighting, v, rain.drop_sh_weights.xyz));
+    let sun = lighting.sun_irradiance.xyz * stratus_sun_transmittance(p) * drop_kernel(dot(v, frame.sun_direction));
+    return (sky + sun) * pre_exposure();
 }
 
 // Distance along the view axis of a reverse-Z depth (infinite far plane).
