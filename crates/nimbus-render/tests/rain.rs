@@ -158,13 +158,6 @@ fn a_wind_field_file_rewritten_while_it_rains_is_read_again() {
     write_wind_field(&file, [6, 5, 4]);
     let scene = wind_field_scene(&file);
     let mut h = headless();
-    let placed_anew = |h: &HeadlessRenderer| {
-        h.renderer
-            .rain()
-            .planned_steps()
-            .first()
-            .is_some_and(|step| step.index[1] == 1)
-    };
     h.render_frame(&scene, 32, 18, 20.0).expect("first frame");
     assert!(placed_anew(&h));
     h.render_frame(&scene, 32, 18, 20.0 + 1.0 / 60.0)

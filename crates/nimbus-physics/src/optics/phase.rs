@@ -221,7 +221,7 @@ fn linear_cone_integral(a: f64, b: f64, pa: f64, pb: f64) -> f64 {
 }
 
 /// P_0(x) … P_{n−1}(x) by the three-term recurrence.
-fn legendre_values(x: f64, out: &mut [f64]) {
+pub(crate) fn legendre_values(x: f64, out: &mut [f64]) {
     if out.is_empty() {
         return;
     }

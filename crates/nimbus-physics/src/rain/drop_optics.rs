@@ -21,6 +21,8 @@
 //! (Funk–Hecke); for the sun, a direction, K itself is needed, tabulated
 //! over cos γ. The renderer applies both to the sky's SH and the sun.
 
+use crate::optics::phase::legendre_values;
+
 /// Refractive index of water for visible light (at 20 °C, 589 nm: 1.333;
 /// Hale & Querry, Applied Optics 12(3), 1973).
 pub const WATER_REFRACTIVE_INDEX: f64 = 1.333;
@@ -80,8 +82,11 @@ impl DropTransfer {
             let t = (1.0 - r) * (1.0 - r);
             let mu_reflected = -(2.0 * theta_i).cos();
             let mu_transmitted = (2.0 * (theta_i - theta_t)).cos();
+            let (mut p_reflected, mut p_transmitted) = ([0.0; 3], [0.0; 3]);
+            legendre_values(mu_reflected, &mut p_reflected);
+            legendre_values(mu_transmitted, &mut p_transmitted);
             for (l, k) in band_weights.iter_mut().enumerate() {
-                *k += weight * (r * legendre(l, mu_reflected) + t * legendre(l, mu_transmitted));
+                *k += weight * (r * p_reflected[l] + t * p_transmitted[l]);
             }
             kernel_mass[bin(mu_reflected)] += weight * r;
             kernel_mass[bin(mu_transmitted)] += weight * t;
@@ -113,19 +118,17 @@ impl DropTransfer {
     }
 }
 
-/// Legendre polynomial P_l(x) for l ≤ 2.
-fn legendre(l: usize, x: f64) -> f64 {
-    match l {
-        0 => 1.0,
-        1 => x,
-        _ => 0.5 * (3.0 * x * x - 1.0),
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
     use std::f64::consts::PI;
+
+    /// P_l(x), l ≤ 2.
+    fn legendre(l: usize, x: f64) -> f64 {
+        let mut p = [0.0; 3];
+        legendre_values(x, &mut p);
+        p[l]
+    }
 
     #[test]
     fn fresnel_matches_normal_incidence_and_grazing_limits() {

@@ -349,20 +349,32 @@ impl DropSegment {
     }
 }
 
-struct RainState {
-    key: RainKey,
-    zones_key: ZonesKey,
+/// The drops' buffers for a capacity, with their bind groups over the
+/// rain's other buffers: what a larger count replaces.
+struct DropBuffers {
     capacity: u32,
     segments: Vec<DropSegment>,
     /// Each segment's indirect draw arguments, `draw_args_stride` bytes apart.
     draw_args: wgpu::Buffer,
     draw_args_stride: u64,
+}
+
+/// The rain's buffers besides the drops', which the drops' bind groups bind.
+struct SharedBuffers {
     splashes: wgpu::Buffer,
     splash_head: wgpu::Buffer,
+    wind_grid: wgpu::Buffer,
     zones: wgpu::Buffer,
+    occlusion_view: wgpu::TextureView,
+}
+
+struct RainState {
+    key: RainKey,
+    zones_key: ZonesKey,
+    drops: DropBuffers,
+    shared: SharedBuffers,
     zone_map: RainZones,
     wind: WindField,
-    occlusion_view: wgpu::TextureView,
     occlusion_drawn: Option<OcclusionView>,
     /// Drops dispatched: the largest count asked for since the start (drops
     /// above a lower count die as they leave, so they stay simulated).
@@ -380,8 +392,8 @@ struct RainState {
 impl std::fmt::Debug for RainState {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.debug_struct("RainState")
-            .field("capacity", &self.capacity)
-            .field("buffers", &self.segments.len())
+            .field("capacity", &self.drops.capacity)
+            .field("buffers", &self.drops.segments.len())
             .field("dispatched", &self.dispatched)
             .field("time_s", &self.time_s)
             .finish_non_exhaustive()
@@ -812,7 +824,11 @@ impl RainPass {
     /// drops it holds (for tests and tools that read the simulation back).
     pub fn drops_buffers(&self) -> Vec<(&wgpu::Buffer, u32)> {
         self.state.as_ref().map_or_else(Vec::new, |s| {
-            s.segments.iter().map(|g| (&g.drops, g.capacity)).collect()
+            s.drops
+                .segments
+                .iter()
+                .map(|g| (&g.drops, g.capacity))
+                .collect()
         })
     }
 
@@ -968,7 +984,6 @@ pub fn occlusion_from_world(
 }
 
 impl RainPass {
-    #[allow(clippy::too_many_arguments)]
     fn create_state(
         &self,
         device: &wgpu::Device,
@@ -980,20 +995,10 @@ impl RainPass {
     ) -> RainState {
         use wgpu::util::DeviceExt;
         let storage = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST;
-        let per_buffer = drops_per_buffer(&device.limits(), self.drops_per_buffer_cap);
-        let buffers = capacity.max(1).div_ceil(per_buffer);
-        let draw_args_stride = (device.limits().min_storage_buffer_offset_alignment as u64).max(16);
-        let draw_args = device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("rain draw arguments"),
-            size: draw_args_stride * buffers as u64,
-            usage: storage | wgpu::BufferUsages::INDIRECT,
-            mapped_at_creation: false,
-        });
         let splashes = device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("rain splashes"),
             size: SPLASH_CAPACITY as u64 * SPLASH_BYTES,
-            // Copied over when the drops' buffers grow.
-            usage: storage | wgpu::BufferUsages::COPY_SRC,
+            usage: storage,
             mapped_at_creation: false,
         });
         queue.write_buffer(
@@ -1004,7 +1009,7 @@ impl RainPass {
         let splash_head = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
             label: Some("rain splash head"),
             contents: bytemuck::bytes_of(&0u32),
-            usage: storage | wgpu::BufferUsages::COPY_SRC,
+            usage: storage,
         });
         let grid_data: Vec<[f32; 4]> = wind
             .grid
@@ -1024,7 +1029,49 @@ impl RainPass {
             mapped_at_creation: false,
         });
         queue.write_buffer(&zones, 0, bytemuck::cast_slice(&zone_map.factors));
-        let occlusion_view = self.occlusion_texture.create_view(&Default::default());
+        let shared = SharedBuffers {
+            splashes,
+            splash_head,
+            wind_grid,
+            zones,
+            occlusion_view: self.occlusion_texture.create_view(&Default::default()),
+        };
+        RainState {
+            key,
+            zones_key,
+            drops: self.create_drop_buffers(device, &shared, capacity),
+            shared,
+            zone_map,
+            wind,
+            occlusion_drawn: None,
+            dispatched: 0,
+            time_s: f32::NEG_INFINITY,
+            step: 0,
+            camera_m: Vec3::ZERO,
+            forward: Vec3::NEG_Z,
+            warned_cap: false,
+        }
+    }
+
+    /// Buffers for `capacity` drops, split by [`drops_per_buffer`], bound
+    /// with the rain's other buffers.
+    fn create_drop_buffers(
+        &self,
+        device: &wgpu::Device,
+        shared: &SharedBuffers,
+        capacity: u32,
+    ) -> DropBuffers {
+        use wgpu::util::DeviceExt;
+        let storage = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST;
+        let per_buffer = drops_per_buffer(&device.limits(), self.drops_per_buffer_cap);
+        let buffers = capacity.max(1).div_ceil(per_buffer);
+        let draw_args_stride = (device.limits().min_storage_buffer_offset_alignment as u64).max(16);
+        let draw_args = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("rain draw arguments"),
+            size: draw_args_stride * buffers as u64,
+            usage: storage | wgpu::BufferUsages::INDIRECT,
+            mapped_at_creation: false,
+        });
         let segments = (0..buffers)
             .map(|index| {
                 let first_drop = index * per_buffer;
@@ -1062,11 +1109,11 @@ impl RainPass {
                             ),
                         }),
                         drops.as_entire_binding(),
-                        wind_grid.as_entire_binding(),
-                        zones.as_entire_binding(),
-                        wgpu::BindingResource::TextureView(&occlusion_view),
-                        splashes.as_entire_binding(),
-                        splash_head.as_entire_binding(),
+                        shared.wind_grid.as_entire_binding(),
+                        shared.zones.as_entire_binding(),
+                        wgpu::BindingResource::TextureView(&shared.occlusion_view),
+                        shared.splashes.as_entire_binding(),
+                        shared.splash_head.as_entire_binding(),
                         segment.as_entire_binding(),
                     ],
                 );
@@ -1096,60 +1143,32 @@ impl RainPass {
                 }
             })
             .collect();
-        RainState {
-            key,
-            zones_key,
+        DropBuffers {
             capacity,
             segments,
             draw_args,
             draw_args_stride,
-            splashes,
-            splash_head,
-            zones,
-            zone_map,
-            wind,
-            occlusion_view,
-            occlusion_drawn: None,
-            dispatched: 0,
-            time_s: f32::NEG_INFINITY,
-            step: 0,
-            camera_m: Vec3::ZERO,
-            forward: Vec3::NEG_Z,
-            warned_cap: false,
         }
     }
 
     /// Replaces the drops' buffers by ones for `capacity` drops, copying
-    /// the drops (and splashes) over: the rain goes on where it was, the
-    /// new drops dead until they enter at the box's upstream side.
-    fn grow_state(&mut self, device: &wgpu::Device, queue: &wgpu::Queue, capacity: u32) {
-        let Some(old) = self.state.take() else { return };
-        let mut grown = self.create_state(
-            device,
-            queue,
-            old.key.clone(),
-            capacity,
-            old.wind.clone(),
-            (old.zones_key.clone(), old.zone_map.clone()),
-        );
+    /// the drops over: the rain goes on where it was, the new drops dead
+    /// until they enter at the box's upstream side.
+    fn grow_drop_buffers(&mut self, device: &wgpu::Device, queue: &wgpu::Queue, capacity: u32) {
+        let Some(state) = &self.state else { return };
+        let grown = self.create_drop_buffers(device, &state.shared, capacity);
         let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
             label: Some("rain buffers grown"),
         });
         // Buffers hold the same drops per buffer whatever the capacity:
         // buffer i of the old drops goes to the start of buffer i.
-        for (from, to) in old.segments.iter().zip(&grown.segments) {
+        for (from, to) in state.drops.segments.iter().zip(&grown.segments) {
             encoder.copy_buffer_to_buffer(&from.drops, 0, &to.drops, 0, from.drops.size());
         }
-        encoder.copy_buffer_to_buffer(&old.splashes, 0, &grown.splashes, 0, old.splashes.size());
-        encoder.copy_buffer_to_buffer(&old.splash_head, 0, &grown.splash_head, 0, 4);
         queue.submit([encoder.finish()]);
-        grown.dispatched = old.dispatched;
-        grown.time_s = old.time_s;
-        grown.step = old.step;
-        grown.camera_m = old.camera_m;
-        grown.forward = old.forward;
-        grown.warned_cap = old.warned_cap;
-        self.state = Some(grown);
+        if let Some(state) = &mut self.state {
+            state.drops = grown;
+        }
     }
 
     /// Updates the simulation's inputs for a frame at `time_s`: the steps
@@ -1188,10 +1207,7 @@ impl RainPass {
         // the cap; a larger count later grows them, keeping the drops.
         let capacity = ((target as u64 * 5 / 4).max(4096) as u32).min(max_drops);
         let zones_key = ZonesKey::new(scene, &settings, time_s as f64, cumulus_footprints_m);
-        let zones = |key: &ZonesKey| {
-            let map = rain_zones(scene, &settings, time_s as f64, cumulus_footprints_m);
-            (key.clone(), map)
-        };
+        let zone_map = || rain_zones(scene, &settings, time_s as f64, cumulus_footprints_m);
         if self.state.as_ref().map(|s| &s.key) != Some(&key) {
             self.state = None;
             let wind = scene.wind_field().map_err(RainError::WindField)?;
@@ -1199,14 +1215,14 @@ impl RainPass {
                 let bytes = std::mem::size_of_val(grid.velocities_m_s.as_slice()) as u64;
                 Renderer::check_buffer_size(device, "wind.field.file", bytes)?;
             }
-            let state = self.create_state(device, queue, key, capacity, wind, zones(&zones_key));
-            self.state = Some(state);
+            let zones = (zones_key.clone(), zone_map());
+            self.state = Some(self.create_state(device, queue, key, capacity, wind, zones));
         } else if self
             .state
             .as_ref()
-            .is_some_and(|s| target > s.capacity && s.capacity < max_drops)
+            .is_some_and(|s| target > s.drops.capacity && s.drops.capacity < max_drops)
         {
-            self.grow_state(device, queue, capacity);
+            self.grow_drop_buffers(device, queue, capacity);
         }
         self.settings = Some(settings.clone());
         let Some(state) = self.state.as_mut() else {
@@ -1222,10 +1238,10 @@ impl RainPass {
         state.wind.mean_m_s = wind.mean_m_s;
         state.wind.primitives = wind.primitives;
         if state.zones_key != zones_key {
-            let (key, map) = zones(&zones_key);
-            queue.write_buffer(&state.zones, 0, bytemuck::cast_slice(&map.factors));
-            state.zones_key = key;
-            state.zone_map = map;
+            state.zone_map = zone_map();
+            let factors = bytemuck::cast_slice(&state.zone_map.factors);
+            queue.write_buffer(&state.shared.zones, 0, factors);
+            state.zones_key = zones_key;
         }
         let wanted = nimbus_physics::rain::simulation::expected_drop_count(
             params.intensity_mm_h,
@@ -1256,9 +1272,9 @@ impl RainPass {
             state.forward = rain_box.basis[2];
             state.step += 1;
             steps.push(step_uniform(&rain_box, state.time_s, state.step, true));
-            queue.write_buffer(&state.splash_head, 0, bytemuck::bytes_of(&0u32));
+            queue.write_buffer(&state.shared.splash_head, 0, bytemuck::bytes_of(&0u32));
             queue.write_buffer(
-                &state.splashes,
+                &state.shared.splashes,
                 0,
                 &vec![0u8; (SPLASH_CAPACITY as u64 * SPLASH_BYTES) as usize],
             );
@@ -1330,10 +1346,10 @@ impl RainPass {
         );
         queue.write_buffer(&self.uniform, 0, bytemuck::bytes_of(&uniform));
         // The indirect draws' arguments: 6 vertices, instances counted by the cull.
-        for index in 0..state.segments.len() as u64 {
+        for index in 0..state.drops.segments.len() as u64 {
             queue.write_buffer(
-                &state.draw_args,
-                index * state.draw_args_stride,
+                &state.drops.draw_args,
+                index * state.drops.draw_args_stride,
                 bytemuck::cast_slice(&[6u32, 0, 0, 0]),
             );
         }
@@ -1359,7 +1375,7 @@ impl RainPass {
                 label: Some("rain shadow map"),
                 color_attachments: &[],
                 depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
-                    view: &state.occlusion_view,
+                    view: &state.shared.occlusion_view,
                     depth_ops: Some(wgpu::Operations {
                         load: wgpu::LoadOp::Clear(1.0),
                         store: wgpu::StoreOp::Store,
@@ -1388,6 +1404,7 @@ impl RainPass {
         });
         // Workgroups per buffer (a buffer holds at most one dispatch row's).
         let groups: Vec<(&DropSegment, u32)> = state
+            .drops
             .segments
             .iter()
             .map(|segment| {
@@ -1432,7 +1449,7 @@ impl RainPass {
                 self.uniform.as_entire_binding(),
                 segment.drops.as_entire_binding(),
                 segment.visible.as_entire_binding(),
-                state.splashes.as_entire_binding(),
+                state.shared.splashes.as_entire_binding(),
                 wgpu::BindingResource::TextureView(depth),
             ],
         )
@@ -1453,12 +1470,15 @@ impl RainPass {
         pass.set_bind_group(2, atmosphere, &[]);
         pass.set_bind_group(3, stratus, &[]);
         pass.set_pipeline(&self.streaks);
-        for (index, segment) in state.segments.iter().enumerate() {
+        for (index, segment) in state.drops.segments.iter().enumerate() {
             if index > 0 && segment.dispatched(state.dispatched) == 0 {
                 break;
             }
             pass.set_bind_group(1, &self.draw_group(state, segment, depth), &[]);
-            pass.draw_indirect(&state.draw_args, index as u64 * state.draw_args_stride);
+            pass.draw_indirect(
+                &state.drops.draw_args,
+                index as u64 * state.drops.draw_args_stride,
+            );
         }
         if self.settings.as_ref().is_some_and(|s| s.splashes) {
             // The splashes read no drops: the last buffer's group, still
@@ -1483,7 +1503,7 @@ impl RainPass {
             &self.mist_layout,
             vec![
                 self.uniform.as_entire_binding(),
-                state.zones.as_entire_binding(),
+                state.shared.zones.as_entire_binding(),
                 wgpu::BindingResource::TextureView(depth),
             ],
         );
@@ -1570,7 +1590,7 @@ fn rain_uniform(
         ],
         counts: [
             state.dispatched,
-            state.capacity,
+            state.drops.capacity,
             wind.primitives.len().min(MAX_WIND_PRIMITIVES) as u32,
             u32::from(grid.is_some()),
         ],
