@@ -192,13 +192,14 @@ pub fn load_gltf(path: &Path, max_triangles: u64) -> Result<GltfMesh, GltfError>
         return Err(invalid("has no triangles in its scene".to_owned()));
     }
 
-    let base = path.parent().filter(|p| !p.as_os_str().is_empty());
-    let buffers = gltf::import_buffers(&document, Some(base.unwrap_or(Path::new("."))), blob)
-        .map_err(|e| match e {
-            gltf::Error::Io(e) => io(e),
-            e => invalid(format!("cannot read its buffers: {e}")),
-        })?;
-    let base_dir = base.unwrap_or(Path::new("."));
+    let base_dir = path
+        .parent()
+        .filter(|p| !p.as_os_str().is_empty())
+        .unwrap_or(Path::new("."));
+    let buffers = gltf::import_buffers(&document, Some(base_dir), blob).map_err(|e| match e {
+        gltf::Error::Io(e) => io(e),
+        e => invalid(format!("cannot read its buffers: {e}")),
+    })?;
     let mut mesh = GltfMesh {
         files_read: std::iter::once(path.to_path_buf())
             .chain(

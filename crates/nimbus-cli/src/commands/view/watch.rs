@@ -1,18 +1,14 @@
-//! Change detection for hot reload: the modification times of a set of
-//! files, polled (a few stat calls twice a second cost nothing and need no
-//! platform file-notification service).
+//! Change detection for hot reload: the stamps (modification time and
+//! length, [`FileStamp`]) of a set of files, polled (a few stat calls twice
+//! a second cost nothing and need no platform file-notification service).
 
+use nimbus_render::scene::FileStamp;
 use std::path::{Path, PathBuf};
-use std::time::SystemTime;
 
-/// Files and their last seen modification times.
+/// Files and their last seen stamps.
 #[derive(Debug, Default)]
 pub struct FileWatch {
-    files: Vec<(PathBuf, Option<SystemTime>)>,
-}
-
-fn modified(path: &Path) -> Option<SystemTime> {
-    std::fs::metadata(path).and_then(|m| m.modified()).ok()
+    files: Vec<(PathBuf, Option<FileStamp>)>,
 }
 
 impl FileWatch {
@@ -22,8 +18,8 @@ impl FileWatch {
             files: files
                 .into_iter()
                 .map(|f| {
-                    let time = modified(&f);
-                    (f, time)
+                    let stamp = FileStamp::of(&f);
+                    (f, stamp)
                 })
                 .collect(),
         }
@@ -60,7 +56,7 @@ impl FileWatch {
     pub fn changed(&mut self) -> bool {
         let mut changed = false;
         for (path, seen) in &mut self.files {
-            let now = modified(path);
+            let now = FileStamp::of(path);
             if now != *seen {
                 *seen = now;
                 changed = true;
@@ -85,7 +81,7 @@ mod tests {
         assert_eq!(watch.len(), 1);
         assert!(!watch.changed());
         // Some file systems keep whole seconds: step the time explicitly.
-        let later = SystemTime::now() + std::time::Duration::from_secs(5);
+        let later = std::time::SystemTime::now() + std::time::Duration::from_secs(5);
         std::fs::File::options()
             .write(true)
             .open(&file)
