@@ -19,7 +19,7 @@ struct Cli {
 
 #[derive(Debug, Subcommand)]
 enum Command {
-    /// Render a scene to a PNG (tone-mapped sRGB) or EXR (linear radiance) image.
+    /// Render a scene to a PNG (tone-mapped sRGB) or EXR (linear radiance and layers) image.
     Render(commands::render::RenderArgs),
     /// Render a scene's keyframed weather as a PNG sequence or an .mp4 video.
     Animate(commands::animate::AnimateArgs),
@@ -44,6 +44,13 @@ enum Command {
     Cumulus(commands::cumulus::CumulusArgs),
     /// Rain: drop sizes and fall speeds, and the CPU rain simulation's statistics.
     Rain(commands::rain::RainArgs),
+    /// Compare a real-time EXR with a path-traced reference: HDR-FLIP,
+    /// luminance RMSE and PSNR, mean luminance and colour, over the cloud
+    /// pixels or the whole image.
+    Compare(commands::compare::CompareArgs),
+    /// Export a scene as nimbus draws it to the Mitsuba 3 path tracer
+    /// (scene.xml and assets), for path-traced references.
+    Export(commands::export::ExportArgs),
 }
 
 fn main() -> ExitCode {
@@ -88,6 +95,8 @@ fn main() -> ExitCode {
         Command::Slab(args) => commands::slab::run(&args),
         Command::Cumulus(args) => commands::cumulus::run(&args),
         Command::Rain(args) => commands::rain::run(&args),
+        Command::Compare(args) => commands::compare::run(&args),
+        Command::Export(args) => commands::export::run(&args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -3,7 +3,7 @@
 //! leaves a partial image.
 
 use anyhow::Context;
-use nimbus_render::headless::{HdrImage, Rgba8Image};
+use nimbus_render::headless::{ImageLayers, Rgba8Image};
 use std::io::{IsTerminal, Write};
 use std::path::{Path, PathBuf};
 
@@ -97,15 +97,43 @@ pub fn write_png(path: &Path, image: &Rgba8Image) -> anyhow::Result<()> {
     })
 }
 
-/// Writes an HDR image as a linear OpenEXR file.
-pub fn write_exr(path: &Path, image: &HdrImage) -> anyhow::Result<()> {
-    let width = image.width as usize;
+/// Writes an image and its layers as one OpenEXR file (ZIP-compressed,
+/// 32-bit float): channels `R`, `G`, `B` (linear radiance), `Z` (distance
+/// along the view ray, m), `cloud.A` (the clouds' opacity) and `sky.R`,
+/// `sky.G`, `sky.B` (radiance without clouds and rain) — the layer.channel
+/// names that Blender, Nuke and OpenEXR's tools read as layers.
+pub fn write_exr_layers(path: &Path, image: &ImageLayers) -> anyhow::Result<()> {
+    use exr::prelude::*;
+    let plane = |values: Vec<f32>| FlatSamples::F32(values);
+    let channel = |pixels: &[[f32; 3]], k: usize| plane(pixels.iter().map(|p| p[k]).collect());
+    let mut channels = vec![
+        AnyChannel::new("R", channel(&image.radiance, 0)),
+        AnyChannel::new("G", channel(&image.radiance, 1)),
+        AnyChannel::new("B", channel(&image.radiance, 2)),
+    ];
+    let pixels = image.width as usize * image.height as usize;
+    if image.distance_m.len() == pixels {
+        channels.push(AnyChannel::new("Z", plane(image.distance_m.clone())));
+    }
+    if image.cloud_opacity.len() == pixels {
+        channels.push(AnyChannel::new("cloud.A", plane(image.cloud_opacity.clone())));
+    }
+    if image.sky_radiance.len() == pixels {
+        for (k, name) in ["sky.R", "sky.G", "sky.B"].into_iter().enumerate() {
+            channels.push(AnyChannel::new(name, channel(&image.sky_radiance, k)));
+        }
+    }
+    let layer = Layer::new(
+        (image.width as usize, image.height as usize),
+        LayerAttributes::default(),
+        Encoding::SMALL_LOSSLESS,
+        AnyChannels::sort(channels.into()),
+    );
     write_atomically(path, |temporary| {
-        exr::prelude::write_rgb_file(temporary, width, image.height as usize, |x, y| {
-            let [r, g, b] = image.pixels[y * width + x];
-            (r, g, b)
-        })
-        .with_context(|| format!("output {}: EXR write failed", path.display()))
+        Image::from_layer(layer)
+            .write()
+            .to_file(temporary)
+            .with_context(|| format!("output {}: EXR write failed", path.display()))
     })
 }
 

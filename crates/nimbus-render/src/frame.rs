@@ -56,6 +56,8 @@ pub struct Camera {
     pub position_m: DVec3,
     /// Unit view direction.
     pub forward: DVec3,
+    /// Unit vector that points up in the image (orthogonal to `forward`).
+    pub up: DVec3,
     /// Vertical field of view, rad.
     pub fov_y_rad: f64,
     /// Width over height.
@@ -84,15 +86,34 @@ impl Camera {
         Self {
             position_m,
             forward,
+            up: up_for(forward),
             fov_y_rad: settings.fov_deg.to_radians(),
             aspect: width as f64 / height.max(1) as f64,
             height_px: height.max(1),
         }
     }
 
+    /// The camera that sees one face of a cube map around `position_m`: a
+    /// square image whose central `face_px` pixels span exactly the face
+    /// (90°), with `overscan_px` more on every side so that resampling
+    /// never reads past an edge. The image is `face_px + 2·overscan_px` square.
+    pub fn cube_face(position_m: DVec3, face: CubeFace, face_px: u32, overscan_px: u32) -> Self {
+        let (forward, up) = face.forward_up();
+        let side_px = face_px + 2 * overscan_px;
+        let half_extent = f64::from(side_px) / f64::from(face_px.max(1));
+        Self {
+            position_m,
+            forward,
+            up,
+            fov_y_rad: 2.0 * half_extent.atan(),
+            aspect: 1.0,
+            height_px: side_px.max(1),
+        }
+    }
+
     /// View space (right-handed, looking down −Z) from world space.
     pub fn view_from_world(&self) -> DMat4 {
-        DMat4::look_to_rh(self.position_m, self.forward, DVec3::Y)
+        DMat4::look_to_rh(self.position_m, self.forward, self.up)
     }
 
     /// Clip space from view space: reverse-Z with the far plane at infinity.
@@ -106,11 +127,115 @@ impl Camera {
     }
 }
 
+/// The image's up vector for a view direction: world up projected onto the
+/// image plane, or north (−Z) when looking straight up or down.
+fn up_for(forward: DVec3) -> DVec3 {
+    let up = DVec3::Y - forward * forward.dot(DVec3::Y);
+    if up.length_squared() > 1e-12 {
+        up.normalize()
+    } else {
+        // Straight up: north at the top of the image; straight down: south.
+        DVec3::NEG_Z * forward.y.signum()
+    }
+}
+
+/// The six faces of a cube map, in the order +X, −X, +Y, −Y, +Z, −Z.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum CubeFace {
+    /// East.
+    PositiveX,
+    /// West.
+    NegativeX,
+    /// Zenith.
+    PositiveY,
+    /// Nadir.
+    NegativeY,
+    /// South.
+    PositiveZ,
+    /// North.
+    NegativeZ,
+}
+
+impl CubeFace {
+    /// All faces.
+    pub const ALL: [CubeFace; 6] = [
+        CubeFace::PositiveX,
+        CubeFace::NegativeX,
+        CubeFace::PositiveY,
+        CubeFace::NegativeY,
+        CubeFace::PositiveZ,
+        CubeFace::NegativeZ,
+    ];
+
+    /// The face's view direction and its image's up vector.
+    pub fn forward_up(self) -> (DVec3, DVec3) {
+        match self {
+            CubeFace::PositiveX => (DVec3::X, DVec3::Y),
+            CubeFace::NegativeX => (DVec3::NEG_X, DVec3::Y),
+            CubeFace::PositiveY => (DVec3::Y, DVec3::Z),
+            CubeFace::NegativeY => (DVec3::NEG_Y, DVec3::NEG_Z),
+            CubeFace::PositiveZ => (DVec3::Z, DVec3::Y),
+            CubeFace::NegativeZ => (DVec3::NEG_Z, DVec3::Y),
+        }
+    }
+
+    /// The face a direction falls on (its largest component) and the
+    /// direction's coordinates on that face's image plane at unit distance:
+    /// `(right, up)`, each in [−1, 1], right and up as in the face's image.
+    pub fn project(direction: DVec3) -> (CubeFace, f64, f64) {
+        let a = direction.abs();
+        let face = if a.x >= a.y && a.x >= a.z {
+            if direction.x >= 0.0 { CubeFace::PositiveX } else { CubeFace::NegativeX }
+        } else if a.y >= a.z {
+            if direction.y >= 0.0 { CubeFace::PositiveY } else { CubeFace::NegativeY }
+        } else if direction.z >= 0.0 {
+            CubeFace::PositiveZ
+        } else {
+            CubeFace::NegativeZ
+        };
+        let (forward, up) = face.forward_up();
+        let right = forward.cross(up);
+        let depth = direction.dot(forward);
+        (face, direction.dot(right) / depth, direction.dot(up) / depth)
+    }
+}
+
+/// The direction seen at a point of an equirectangular (latitude–longitude)
+/// image, from its normalised coordinates `u`, `v` in [0, 1] (0 at the left
+/// and top edges): longitude `(u − ½)·360°` clockwise from north, so north is
+/// at the image's centre, east to its right and south at both edges;
+/// latitude `90° − v·180°`, the zenith along the top edge.
+pub fn equirectangular_direction(u: f64, v: f64) -> DVec3 {
+    direction_from_yaw_pitch((u - 0.5) * 360.0, 90.0 - v * 180.0)
+}
+
+/// The inverse of [`equirectangular_direction`]: `(u, v)` of a direction,
+/// `u` in [0, 1).
+pub fn equirectangular_uv(direction: DVec3) -> (f64, f64) {
+    let d = direction.normalize();
+    let longitude = d.x.atan2(-d.z);
+    let latitude = d.y.clamp(-1.0, 1.0).asin();
+    let u = (longitude / std::f64::consts::TAU + 0.5).rem_euclid(1.0);
+    (u, 0.5 - latitude / std::f64::consts::PI)
+}
+
 impl FrameUniform {
     /// The uniform for a scene's camera, sun and exposure, for an image of
     /// the given size at time `time_s`.
     pub fn new(scene: &Scene, width: u32, height: u32, time_s: f32) -> Self {
         let camera = Camera::from_settings(&scene.camera, width, height);
+        Self::with_camera(scene, &camera, width, height, time_s)
+    }
+
+    /// The uniform for a given camera (its pose and field of view) with the
+    /// scene's sun and exposure.
+    pub fn with_camera(
+        scene: &Scene,
+        camera: &Camera,
+        width: u32,
+        height: u32,
+        time_s: f32,
+    ) -> Self {
         let clip_from_world = camera.clip_from_world();
         let sun = scene.sun.direction();
         Self {
@@ -167,6 +292,52 @@ mod tests {
         );
         let near = m * (cam.position_m + cam.forward * NEAR_PLANE_M).extend(1.0);
         assert!((near.z / near.w - 1.0).abs() < 1e-9);
+    }
+
+    #[test]
+    fn cube_faces_tile_the_sphere_and_project_back() {
+        let mut rng = 12345u64;
+        let mut next = || {
+            rng = rng.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            (rng >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
+        };
+        for _ in 0..1000 {
+            let d = DVec3::new(next(), next(), next());
+            if d.length() < 1e-3 {
+                continue;
+            }
+            let d = d.normalize();
+            let (face, s, t) = CubeFace::project(d);
+            assert!(s.abs() <= 1.0 + 1e-12 && t.abs() <= 1.0 + 1e-12);
+            // The face's camera puts the direction at the same image point.
+            let cam = Camera::cube_face(DVec3::ZERO, face, 64, 0);
+            let clip = cam.clip_from_world() * (d * 100.0).extend(1.0);
+            assert!((clip.x / clip.w - s).abs() < 1e-9, "{face:?} {d}");
+            assert!((clip.y / clip.w - t).abs() < 1e-9, "{face:?} {d}");
+        }
+    }
+
+    #[test]
+    fn equirectangular_puts_north_at_the_centre_and_east_to_its_right() {
+        assert!((equirectangular_direction(0.5, 0.5) - DVec3::NEG_Z).length() < 1e-12);
+        assert!((equirectangular_direction(0.75, 0.5) - DVec3::X).length() < 1e-12);
+        assert!((equirectangular_direction(0.0, 0.5) - DVec3::Z).length() < 1e-12);
+        assert!((equirectangular_direction(0.3, 0.0) - DVec3::Y).length() < 1e-12);
+        for (u, v) in [(0.1, 0.2), (0.5, 0.5), (0.9, 0.7), (0.6, 0.99)] {
+            let (u2, v2) = equirectangular_uv(equirectangular_direction(u, v));
+            assert!((u - u2).abs() < 1e-12 && (v - v2).abs() < 1e-12);
+        }
+    }
+
+    #[test]
+    fn straight_down_views_have_an_up_vector() {
+        let settings = CameraSettings {
+            position_m: [0.0, 100.0, 0.0],
+            look_at_m: Some([0.0, 0.0, 0.0]),
+            ..CameraSettings::default()
+        };
+        let cam = Camera::from_settings(&settings, 100, 100);
+        assert!(cam.view_from_world().is_finite());
     }
 
     #[test]

@@ -156,6 +156,9 @@ pub struct Renderer {
     tonemap: TonemapPass,
     hdr: Option<Target>,
     timer: Option<GpuTimer>,
+    /// Pre-exposed value the background (sky, terrain, objects) is replaced
+    /// with before the clouds are drawn, if any ([`Self::set_background_override`]).
+    background_override: Option<f32>,
     /// Which passes the last [`Renderer::encode`] recorded, in [`PASS_NAMES`] order.
     passes_run: std::sync::Mutex<[bool; PASS_NAMES.len()]>,
 }
@@ -229,8 +232,19 @@ impl Renderer {
             tonemap,
             hdr: None,
             timer,
+            background_override: None,
             passes_run: std::sync::Mutex::new([false; PASS_NAMES.len()]),
         }
+    }
+
+    /// Replaces, from the next [`Self::encode`] on, what the sky, terrain
+    /// and objects drew by a constant grey of this pre-exposed value (the
+    /// depth they wrote is kept) before the clouds are drawn over it; `None`
+    /// draws the frame normally. Two frames with different values give the
+    /// clouds' transmittance of each pixel (the cloud passes blend linearly
+    /// over what is behind them); used for the `cloud.A` layer of EXR output.
+    pub fn set_background_override(&mut self, pre_exposed: Option<f32>) {
+        self.background_override = pre_exposed;
     }
 
     /// Like [`Self::new`], but catches validation errors of the shaders and
@@ -307,6 +321,21 @@ impl Renderer {
         height: u32,
         time_s: f32,
     ) -> Result<(), RenderError> {
+        let camera = crate::frame::Camera::from_settings(&scene.camera, width, height);
+        self.prepare_with_camera(scene, &camera, width, height, time_s)
+    }
+
+    /// [`Self::prepare`] with a camera of the caller's instead of the
+    /// scene's (its pose and field of view; the exposure stays the scene's):
+    /// e.g. the six faces of a panorama.
+    pub fn prepare_with_camera(
+        &mut self,
+        scene: &Scene,
+        camera: &crate::frame::Camera,
+        width: u32,
+        height: u32,
+        time_s: f32,
+    ) -> Result<(), RenderError> {
         Self::check_size(&self.device, width, height)?;
         if self.hdr.as_ref().map(Target::size) != Some((width, height)) {
             let hdr = Target::new(
@@ -323,7 +352,7 @@ impl Renderer {
                 .set_input(&self.device, &hdr.view, self.exposure.state_buffer());
             self.hdr = Some(hdr);
         }
-        let frame = FrameUniform::new(scene, width, height, time_s);
+        let frame = FrameUniform::with_camera(scene, camera, width, height, time_s);
         self.frame.write(&self.queue, &frame);
         self.atmosphere
             .prepare(&self.queue, &scene.atmosphere, &frame);
@@ -356,7 +385,6 @@ impl Renderer {
             width,
             height,
         )?;
-        let camera = crate::frame::Camera::from_settings(&scene.camera, width, height);
         let occluders = self.occluders();
         let strides: Vec<u64> = occluders.iter().map(|g| g.vertex_stride).collect();
         let generation = (self.objects.generation(), self.terrain.generation());
@@ -365,7 +393,7 @@ impl Renderer {
             &self.device,
             &self.queue,
             scene,
-            &camera,
+            camera,
             time_s,
             &footprints,
             generation,
@@ -507,6 +535,32 @@ impl Renderer {
                 wgpu::LoadOp::Load,
             );
             self.objects.draw(&mut pass, frame, atmosphere, stratus);
+        }
+        // 5c. For the cloud-opacity layer: the background replaced by a
+        // known constant (the depth kept), so that the clouds' transmittance
+        // can be read from two frames (see `headless::HeadlessRenderer::render_layers`).
+        if let Some(value) = self.background_override {
+            encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+                label: Some("background override"),
+                color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+                    view: &hdr.view,
+                    depth_slice: None,
+                    resolve_target: None,
+                    ops: wgpu::Operations {
+                        load: wgpu::LoadOp::Clear(wgpu::Color {
+                            r: f64::from(value),
+                            g: f64::from(value),
+                            b: f64::from(value),
+                            a: 0.0,
+                        }),
+                        store: wgpu::StoreOp::Store,
+                    },
+                })],
+                depth_stencil_attachment: None,
+                timestamp_writes: None,
+                occlusion_query_set: None,
+                multiview_mask: None,
+            });
         }
         // 6. Cumulus: opaque bodies (depth written), then the fringes'
         // order-independent accumulation against that depth.

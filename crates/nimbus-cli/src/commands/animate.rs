@@ -1,7 +1,7 @@
 //! `nimbus animate`: a scene's keyframed weather rendered as a PNG sequence
 //! or, through ffmpeg, a video.
 
-use crate::output::{Progress, write_png};
+use crate::output::{Progress, write_exr_layers, write_png};
 use anyhow::Context;
 use clap::Args;
 use nimbus_render::headless::HeadlessRenderer;
@@ -41,11 +41,17 @@ pub struct AnimateArgs {
     /// the PATH).
     #[arg(short, long, value_name = "DIR|FILE.mp4")]
     output: PathBuf,
+    /// Write the frames as OpenEXR files with their layers (linear
+    /// radiance, Z, cloud.A, sky.RGB, as `render -o x.exr`) instead of PNG:
+    /// DIR/frame_00000.exr, … (not with a .mp4 output).
+    #[arg(long)]
+    exr: bool,
 }
 
 /// Where the frames go.
 enum Sink {
     Pngs(PathBuf),
+    Exrs(PathBuf),
     Video(VideoWriter),
 }
 
@@ -75,6 +81,11 @@ pub fn run(args: &AnimateArgs) -> anyhow::Result<()> {
         .output
         .extension()
         .is_some_and(|e| e.eq_ignore_ascii_case("mp4"));
+    anyhow::ensure!(
+        !(video && args.exr),
+        "--exr: writes a frame directory, not a video ({})",
+        args.output.display()
+    );
     let (scene, width, height) = args.frame.scene_and_size()?;
     if video {
         super::check_output_dir(&args.output)?;
@@ -100,22 +111,37 @@ pub fn run(args: &AnimateArgs) -> anyhow::Result<()> {
     );
     let mut sink = if video {
         Sink::Video(VideoWriter::start(&args.output, width, height, args.fps)?)
+    } else if args.exr {
+        Sink::Exrs(args.output.clone())
     } else {
         Sink::Pngs(args.output.clone())
     };
     let progress = Progress::new("animate: frames", frames);
     for index in 0..frames {
         let time_s = args.start_s + index as f64 / args.fps;
-        let image = headless.render_rgba8(&scene.at_time(time_s), width, height, time_s as f32)?;
+        let frame_scene = scene.at_time(time_s);
         match &mut sink {
-            Sink::Pngs(dir) => write_png(&dir.join(format!("frame_{index:05}.png")), &image)?,
-            Sink::Video(writer) => writer.push(&image.pixels)?,
+            Sink::Exrs(dir) => write_exr_layers(
+                &dir.join(format!("frame_{index:05}.exr")),
+                &headless.render_layers(&frame_scene, width, height, time_s as f32)?,
+            )?,
+            Sink::Pngs(dir) => write_png(
+                &dir.join(format!("frame_{index:05}.png")),
+                &headless.render_rgba8(&frame_scene, width, height, time_s as f32)?,
+            )?,
+            Sink::Video(writer) => writer.push(
+                &headless
+                    .render_rgba8(&frame_scene, width, height, time_s as f32)?
+                    .pixels,
+            )?,
         }
         progress.update(index + 1);
     }
     progress.finish();
     match sink {
-        Sink::Pngs(dir) => eprintln!("nimbus: wrote {frames} frames to {}", dir.display()),
+        Sink::Pngs(dir) | Sink::Exrs(dir) => {
+            eprintln!("nimbus: wrote {frames} frames to {}", dir.display())
+        }
         Sink::Video(writer) => {
             writer.finish()?;
             eprintln!("nimbus: wrote {}", args.output.display());

@@ -2,6 +2,8 @@
 
 pub mod animate;
 pub mod bench;
+pub mod compare;
+pub mod export;
 pub mod cumulus;
 pub mod optics;
 pub mod rain;

@@ -1,6 +1,6 @@
 //! `nimbus render`: one still image.
 
-use crate::output::{ImageFormat, write_exr, write_png};
+use crate::output::{ImageFormat, write_exr_layers, write_png};
 use clap::Args;
 use nimbus_render::headless::HeadlessRenderer;
 use std::path::PathBuf;
@@ -10,7 +10,9 @@ use std::path::PathBuf;
 pub struct RenderArgs {
     #[command(flatten)]
     frame: super::FrameArgs,
-    /// Output image: .png (tone-mapped sRGB) or .exr (linear radiance, W·sr⁻¹·m⁻²).
+    /// Output image: .png (tone-mapped sRGB) or .exr (linear radiance,
+    /// W·sr⁻¹·m⁻², with the layers Z (distance along the view ray, m),
+    /// cloud.A (the clouds' opacity) and sky.RGB (without clouds and rain)).
     #[arg(short, long, default_value = "nimbus.png")]
     output: PathBuf,
     /// Animation time, s: the scene's keyframed weather at that time, the
@@ -41,9 +43,9 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
             &args.output,
             &headless.render_rgba8(&scene, width, height, args.time_s)?,
         )?,
-        ImageFormat::Exr => write_exr(
+        ImageFormat::Exr => write_exr_layers(
             &args.output,
-            &headless.render_hdr(&scene, width, height, args.time_s)?,
+            &headless.render_layers(&scene, width, height, args.time_s)?,
         )?,
     }
     eprintln!("nimbus: wrote {}", args.output.display());

@@ -10,6 +10,7 @@
 //! - [`gltf`]: binary glTF export.
 //! - [`shading`]: the phenomenological shader (Bouthors 2004, ch. 5), CPU reference.
 //! - [`cloud_field`]: placement of many clouds from a coverage.
+//! - [`volume`]: the extinction the shader assumes on a grid, for a path tracer.
 
 pub mod cloud_field;
 pub mod dual;
@@ -21,3 +22,4 @@ pub mod mesh;
 pub mod sampler;
 pub mod shading;
 pub mod surface;
+pub mod volume;

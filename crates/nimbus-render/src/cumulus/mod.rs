@@ -202,6 +202,22 @@ pub struct CloudShadowUniform {
     pub flags: [u32; 4],
 }
 
+/// A cloud as placed in the world: a variant's shape (object space: origin
+/// at the centre of its base) scaled, turned about the vertical and moved:
+/// world = base_centre + scale · R(yaw) · object, where
+/// R(yaw)·(x, y, z) = (x cos yaw + z sin yaw, y, −x sin yaw + z cos yaw).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct CloudPlacement {
+    /// Index of the variant (see [`variants::VariantParams::hierarchy`]).
+    pub variant: usize,
+    /// World position of the variant's origin, m.
+    pub base_centre_m: DVec3,
+    /// Turn about the vertical, rad.
+    pub yaw_rad: f64,
+    /// Scale of the variant.
+    pub scale: f64,
+}
+
 /// One drawn cloud (WGSL `CumulusInstance`).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
@@ -856,6 +872,29 @@ impl CumulusPass {
     /// Whether the shadow map is drawn this frame.
     pub fn shadow_enabled(&self) -> bool {
         self.shadow_enabled
+    }
+
+    /// The clouds of the last prepared frame, where the wind has carried
+    /// them (see [`CloudPlacement`]).
+    pub fn placed_clouds(&self) -> Vec<CloudPlacement> {
+        self.moved
+            .iter()
+            .map(|cloud| {
+                let [x, y, z, scale] = cloud.instance.offset_scale;
+                let [cos_yaw, sin_yaw, ..] = cloud.instance.rotation_noise;
+                CloudPlacement {
+                    variant: cloud.variant,
+                    base_centre_m: DVec3::new(f64::from(x), f64::from(y), f64::from(z)),
+                    yaw_rad: f64::from(sin_yaw).atan2(f64::from(cos_yaw)),
+                    scale: f64::from(scale),
+                }
+            })
+            .collect()
+    }
+
+    /// The variants' generation parameters (`None` without cumulus).
+    pub fn variant_params(&self) -> Option<&VariantParams> {
+        self.variants.as_ref().map(|v| &v.0)
     }
 
     /// The placed clouds' footprints as (x, z, radius), m: their bounding

@@ -847,7 +847,7 @@ impl RainPass {
 /// The rain box of the scene's settings at the camera.
 pub fn rain_box(settings: &RainSettings, camera: &Camera) -> RainBox {
     let forward = camera.forward.as_vec3();
-    let right = forward.cross(Vec3::Y).normalize_or(Vec3::X);
+    let right = forward.cross(camera.up.as_vec3()).normalize_or(Vec3::X);
     let up = right.cross(forward);
     let r = settings.box_radius_m as f32;
     let shape = match settings.box_shape {

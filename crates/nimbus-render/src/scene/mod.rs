@@ -123,6 +123,23 @@ pub struct CameraSettings {
     pub exposure_compensation_ev: f64,
     /// Time constant of the adaptation of automatic exposure in animations, s, in [0, 60].
     pub adaptation_time_s: f64,
+    /// How the view is projected onto the image.
+    pub projection: Projection,
+}
+
+/// Projection of the camera (`camera.projection`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Projection {
+    /// A pinhole: `fov_deg` vertically, aimed by `look_at_m` or `yaw_deg`/`pitch_deg`.
+    #[default]
+    Perspective,
+    /// The full sphere around `position_m` as a latitude–longitude image
+    /// (an HDRI): y up, longitude 0 (north, −Z) at the image's centre, east
+    /// to its right, the zenith along the top edge (see
+    /// [`crate::frame::equirectangular_direction`]). The view direction and
+    /// `fov_deg` are ignored. Drawn as six cube faces resampled.
+    Equirectangular,
 }
 
 impl Default for CameraSettings {
@@ -137,6 +154,7 @@ impl Default for CameraSettings {
             auto_exposure: false,
             exposure_compensation_ev: 0.0,
             adaptation_time_s: 1.0,
+            projection: Projection::Perspective,
         }
     }
 }

@@ -134,7 +134,8 @@ pub const OPTIONAL_KEYS: &[OptionalKey] = &[
 ];
 
 /// The allowed values of the parameters that take one of a few words.
-pub const CHOICES: [(&str, &[&str]); 4] = [
+pub const CHOICES: [(&str, &[&str]); 5] = [
+    ("camera.projection", &["perspective", "equirectangular"]),
     ("cumulus.shading.trap_model", &["furrows", "arctan"]),
     ("rain.box_shape", &["sphere", "box", "frustum"]),
     (

@@ -2,9 +2,15 @@
 //! of the tone-mapped (RGBA8, sRGB) or HDR (linear radiance) image. Used by
 //! the CLI, the tests and the benchmarks.
 
+mod layers;
+pub mod panorama;
+
+pub use layers::{ImageLayers, SKY_DISTANCE_M};
+
+use crate::frame::Camera;
 use crate::gpu::{AdapterPreference, GpuContext, GpuError};
 use crate::renderer::{FrameTargets, RenderError, Renderer, RendererDescriptor, TargetLoad};
-use crate::scene::Scene;
+use crate::scene::{Projection, Scene};
 use crate::targets::{DEPTH_FORMAT, Target};
 
 /// Format of the tone-mapped output.
@@ -84,7 +90,21 @@ impl HeadlessRenderer {
         height: u32,
         time_s: f32,
     ) -> Result<f64, HeadlessError> {
-        self.renderer.prepare(scene, width, height, time_s)?;
+        let camera = Camera::from_settings(&scene.camera, width, height);
+        self.render_frame_with_camera(scene, &camera, width, height, time_s)
+    }
+
+    /// [`Self::render_frame`] seen by a given camera.
+    pub fn render_frame_with_camera(
+        &mut self,
+        scene: &Scene,
+        camera: &Camera,
+        width: u32,
+        height: u32,
+        time_s: f32,
+    ) -> Result<f64, HeadlessError> {
+        self.renderer
+            .prepare_with_camera(scene, camera, width, height, time_s)?;
         if self.targets.as_ref().map(|(o, _)| o.size()) != Some((width, height)) {
             let output = Target::new(
                 &self.gpu.device,
@@ -100,8 +120,9 @@ impl HeadlessRenderer {
                 DEPTH_FORMAT,
                 width,
                 height,
-                // The rain's streaks and mist read the depth.
-                wgpu::TextureUsages::TEXTURE_BINDING,
+                // The rain's streaks and mist read the depth; the EXR's
+                // distance layer copies it.
+                wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_SRC,
             );
             self.targets = Some((output, depth));
         }
@@ -134,6 +155,9 @@ impl HeadlessRenderer {
         height: u32,
         time_s: f32,
     ) -> Result<Rgba8Image, HeadlessError> {
+        if scene.camera.projection == Projection::Equirectangular {
+            return self.render_equirectangular_rgba8(scene, width, height, time_s);
+        }
         check_readback(&self.gpu, width, height, 4)?;
         self.render_frame(scene, width, height, time_s)?;
         let Some((output, _)) = &self.targets else {
@@ -147,7 +171,8 @@ impl HeadlessRenderer {
         })
     }
 
-    /// Renders a scene and returns the linear HDR radiance (exposure undone).
+    /// Renders a scene and returns the linear HDR radiance (exposure undone),
+    /// in the scene camera's projection.
     pub fn render_hdr(
         &mut self,
         scene: &Scene,
@@ -155,8 +180,45 @@ impl HeadlessRenderer {
         height: u32,
         time_s: f32,
     ) -> Result<HdrImage, HeadlessError> {
+        if scene.camera.projection == Projection::Equirectangular {
+            let layers = self.render_layers_selected(scene, width, height, time_s, false)?;
+            return Ok(HdrImage {
+                width,
+                height,
+                pixels: layers.radiance,
+            });
+        }
+        let camera = Camera::from_settings(&scene.camera, width, height);
+        let (pixels, _) = self.render_view_hdr(scene, &camera, width, height, time_s, false)?;
+        Ok(HdrImage {
+            width,
+            height,
+            pixels,
+        })
+    }
+
+    /// Renders one view and reads back its radiance (exposure undone) and,
+    /// when asked, its depth buffer (reverse-Z values, 0 at the far plane).
+    fn render_view_hdr(
+        &mut self,
+        scene: &Scene,
+        camera: &Camera,
+        width: u32,
+        height: u32,
+        time_s: f32,
+        with_depth: bool,
+    ) -> Result<(Vec<[f32; 3]>, Option<Vec<f32>>), HeadlessError> {
         check_readback(&self.gpu, width, height, 8)?;
-        self.render_frame(scene, width, height, time_s)?;
+        self.render_frame_with_camera(scene, camera, width, height, time_s)?;
+        let depth = if with_depth {
+            let Some((_, depth)) = &self.targets else {
+                unreachable!("render_frame creates the targets")
+            };
+            let bytes = read_texture(&self.gpu, &depth.texture, 4)?;
+            Some(bytemuck::pod_collect_to_vec(&bytes))
+        } else {
+            None
+        };
         let Some(hdr) = self.renderer.hdr_target() else {
             unreachable!("prepare creates the HDR target")
         };
@@ -176,11 +238,7 @@ impl HeadlessRenderer {
                 ]
             })
             .collect();
-        Ok(HdrImage {
-            width,
-            height,
-            pixels,
-        })
+        Ok((pixels, depth))
     }
 }
 

@@ -1,0 +1,213 @@
+//! `nimbus compare`: how far a real-time image is from a path-traced
+//! reference of the same scene (see `docs/REALISM.md`).
+
+pub mod metrics;
+
+use anyhow::Context;
+use clap::{Args, ValueEnum};
+use metrics::{Metrics, PIXELS_PER_DEGREE, RgbImage};
+use std::path::{Path, PathBuf};
+
+/// Opacity above which a pixel counts as cloud for `--mask cloud`.
+pub const CLOUD_MASK_THRESHOLD: f32 = 0.05;
+
+/// Which pixels the metrics cover.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum Mask {
+    /// Pixels whose clouds' opacity (the real-time image's `cloud.A` layer)
+    /// is at least 0.05.
+    Cloud,
+    /// Every pixel.
+    All,
+}
+
+/// Arguments of `nimbus compare`.
+#[derive(Debug, Args)]
+pub struct CompareArgs {
+    /// The real-time image: an EXR written by `nimbus render -o x.exr` (its
+    /// `cloud.A` layer gives the cloud mask).
+    realtime: PathBuf,
+    /// The reference: an EXR of linear radiance of the same size (e.g.
+    /// path-traced by tools/reference/render.py).
+    reference: PathBuf,
+    /// Pixels compared.
+    #[arg(long, value_enum, default_value_t = Mask::Cloud)]
+    mask: Mask,
+    /// Print one JSON document on standard output.
+    #[arg(long)]
+    json: bool,
+    /// Write real-time | reference | HDR-FLIP error map side by side (PNG).
+    #[arg(long, value_name = "FILE.png")]
+    out: Option<PathBuf>,
+}
+
+/// Runs the subcommand.
+pub fn run(args: &CompareArgs) -> anyhow::Result<()> {
+    let realtime = read_exr(&args.realtime)?;
+    let reference = read_exr(&args.reference)?;
+    anyhow::ensure!(
+        (realtime.image.width, realtime.image.height)
+            == (reference.image.width, reference.image.height),
+        "{}: {}×{} pixels, but {} is {}×{}",
+        args.reference.display(),
+        reference.image.width,
+        reference.image.height,
+        args.realtime.display(),
+        realtime.image.width,
+        realtime.image.height
+    );
+    if let Some(out) = &args.out {
+        super::check_output_dir(out)?;
+    }
+    let report = compare(&realtime, &reference.image, args.mask).with_context(|| {
+        format!(
+            "{} vs {}",
+            args.realtime.display(),
+            args.reference.display()
+        )
+    })?;
+    if let Some(out) = &args.out {
+        write_report(out, &realtime.image, &reference.image, &report.flip)?;
+    }
+    if args.json {
+        println!("{}", serde_json::to_string_pretty(&report.metrics)?);
+    } else {
+        let m = &report.metrics;
+        println!("pixels compared          {}", m.pixels);
+        println!("HDR-FLIP (mean)          {:.4}", m.hdr_flip_mean);
+        println!("luminance RMSE / mean    {:.4}", m.luminance_relative_rmse);
+        println!("luminance PSNR           {:.2} dB", m.luminance_psnr_db);
+        println!("mean luminance ratio     {:.4}", m.mean_luminance_ratio);
+        println!(
+            "red/blue of the means    {:.4} (reference {:.4})",
+            m.red_over_blue_test, m.red_over_blue_reference
+        );
+        println!("chromaticity Δxy         {:.4}", m.mean_chromaticity_difference_xy);
+    }
+    if let Some(out) = &args.out {
+        eprintln!("nimbus: wrote {}", out.display());
+    }
+    Ok(())
+}
+
+/// An EXR read for comparison: its radiance and, when present, its clouds' opacity.
+pub struct ExrImage {
+    /// Linear RGB.
+    pub image: RgbImage,
+    /// The `cloud.A` layer, if the file has one.
+    pub cloud_opacity: Option<Vec<f32>>,
+}
+
+/// The metrics and the HDR-FLIP map of a comparison.
+pub struct Report {
+    /// Metrics over the mask.
+    pub metrics: Metrics,
+    /// HDR-FLIP error per pixel.
+    pub flip: Vec<f32>,
+}
+
+/// Compares a real-time image with a reference over a mask.
+pub fn compare(realtime: &ExrImage, reference: &RgbImage, mask: Mask) -> anyhow::Result<Report> {
+    let mask: Vec<bool> = match mask {
+        Mask::All => vec![true; reference.pixels.len()],
+        Mask::Cloud => {
+            let opacity = realtime.cloud_opacity.as_ref().context(
+                "--mask cloud needs the real-time EXR's cloud.A layer (written by `nimbus render -o x.exr`); use --mask all",
+            )?;
+            opacity.iter().map(|a| *a >= CLOUD_MASK_THRESHOLD).collect()
+        }
+    };
+    anyhow::ensure!(
+        mask.iter().any(|m| *m),
+        "no pixel is cloud (cloud.A ≥ {CLOUD_MASK_THRESHOLD}); use --mask all"
+    );
+    let flip = metrics::hdr_flip(reference, &realtime.image, PIXELS_PER_DEGREE);
+    Ok(Report {
+        metrics: metrics::metrics(&realtime.image, reference, &flip, &mask),
+        flip,
+    })
+}
+
+/// Reads the RGB channels (and `cloud.A`) of an EXR's first layer; rejects
+/// non-finite or negative radiance.
+pub fn read_exr(path: &Path) -> anyhow::Result<ExrImage> {
+    use exr::prelude::*;
+    let image = read_all_flat_layers_from_file(path)
+        .map_err(|e| anyhow::anyhow!("{}: not a readable OpenEXR file: {e}", path.display()))?;
+    let layer = image
+        .layer_data
+        .first()
+        .with_context(|| format!("{}: the EXR has no layer", path.display()))?;
+    let (width, height) = (layer.size.width(), layer.size.height());
+    let channel = |name: &str| -> Option<Vec<f32>> {
+        layer
+            .channel_data
+            .list
+            .iter()
+            .find(|c| c.name.to_string() == name)
+            .map(|c| c.sample_data.values_as_f32().collect())
+    };
+    let rgb: Vec<Vec<f32>> = ["R", "G", "B"]
+        .iter()
+        .map(|name| {
+            channel(name).with_context(|| {
+                format!("{}: the EXR has no channel {name} (R, G, B needed)", path.display())
+            })
+        })
+        .collect::<anyhow::Result<_>>()?;
+    let pixels: Vec<[f32; 3]> = (0..width * height)
+        .map(|i| [rgb[0][i], rgb[1][i], rgb[2][i]])
+        .collect();
+    if let Some(i) = pixels
+        .iter()
+        .position(|p| p.iter().any(|c| !c.is_finite() || *c < 0.0))
+    {
+        anyhow::bail!(
+            "{}: pixel ({}, {}) = {:?}: radiance must be finite and non-negative",
+            path.display(),
+            i % width,
+            i / width,
+            pixels[i]
+        );
+    }
+    Ok(ExrImage {
+        image: RgbImage {
+            width: width as u32,
+            height: height as u32,
+            pixels,
+        },
+        cloud_opacity: channel("cloud.A"),
+    })
+}
+
+/// Writes real-time | reference | error map (magma) side by side.
+fn write_report(path: &Path, test: &RgbImage, reference: &RgbImage, flip: &[f32]) -> anyhow::Result<()> {
+    let (w, h) = (test.width as usize, test.height as usize);
+    let stops = metrics::key_exposure(reference);
+    let left = metrics::display_rgb8(test, stops);
+    let middle = metrics::display_rgb8(reference, stops);
+    let error = nv_flip::FlipImageFloat::with_data(test.width, test.height, flip)
+        .apply_color_lut(&nv_flip::magma_lut())
+        .to_vec();
+    let gap = 4;
+    let width = 3 * w + 2 * gap;
+    let mut pixels = vec![255u8; width * h * 4];
+    for (panel, source) in [&left, &middle, &error].into_iter().enumerate() {
+        for y in 0..h {
+            for x in 0..w {
+                let s = (y * w + x) * 3;
+                let d = (y * width + panel * (w + gap) + x) * 4;
+                pixels[d..d + 3].copy_from_slice(&source[s..s + 3]);
+                pixels[d + 3] = 255;
+            }
+        }
+    }
+    crate::output::write_png(
+        path,
+        &nimbus_render::headless::Rgba8Image {
+            width: width as u32,
+            height: h as u32,
+            pixels,
+        },
+    )
+}

@@ -1,0 +1,523 @@
+//! The Mitsuba 3 scene: XML and assets (see the parent module for what is
+//! exported). Formats: Mitsuba 3's `gridvolume` `.vol` (written by
+//! `nimbus_physics::cumulus::volume::ExtinctionGrid::to_mitsuba_vol`), PLY
+//! meshes, OpenEXR and PNG images; the XML follows Mitsuba 3's scene format
+//! (version 3.0.0).
+
+use crate::output::write_bytes_atomically;
+use anyhow::Context;
+use glam::{DMat4, DVec3};
+use nimbus_physics::cumulus::volume::{ExtinctionGrid, VolumeParams, extinction_grid};
+use nimbus_physics::optics::dsd::{SizeDistribution, bulk_optics};
+use nimbus_physics::optics::tables::CHANNEL_WAVELENGTHS_NM;
+use nimbus_physics::optics::water::water_refractive_index;
+use nimbus_render::frame::{Camera, equirectangular_uv};
+use nimbus_render::headless::HeadlessRenderer;
+use nimbus_render::scene::{Projection, Scene, StratusSettings};
+use std::fmt::Write as _;
+use std::path::Path;
+
+/// Samples of the tabulated phase function, uniform in cos θ over [−1, 1].
+pub const PHASE_SAMPLES: usize = 16_001;
+
+/// Wavelength of the phase function and extinction of the volumes, nm
+/// (Mitsuba's grid volumes and tabulated phase functions are not spectral).
+pub const PHASE_WAVELENGTH_NM: f64 = 550.0;
+
+/// Size of the sky's environment map, pixels.
+const SKY_WIDTH_PX: u32 = 1024;
+
+/// Largest terrain mesh exported, vertices per side.
+const MAX_TERRAIN_VERTICES_PER_SIDE: usize = 513;
+
+/// Half-size of the sea plane, m.
+const SEA_HALF_SIZE_M: f64 = 200_000.0;
+
+/// Index of refraction of water for the sea's coat.
+const WATER_IOR: f64 = 1.333;
+
+/// Cells of the stratus grid along each horizontal side, at most.
+const STRATUS_HORIZONTAL_CELLS: usize = 512;
+
+/// Cells of the stratus grid across its thickest cells.
+const STRATUS_VERTICAL_CELLS: usize = 16;
+
+/// What the export wrote.
+pub struct Summary {
+    /// Cumulus clouds written.
+    pub cumulus_count: usize,
+    /// Whether a stratus layer was written.
+    pub stratus: bool,
+    /// What the export leaves out or approximates, one line each.
+    pub approximations: Vec<String>,
+}
+
+/// Droplet optics for Mitsuba: the phase function at 550 nm sampled
+/// uniformly in cos θ, the extinction at 550 nm and the albedo per channel.
+struct DropletOptics {
+    phase_values: Vec<f64>,
+    extinction_per_m: f64,
+    albedo_rgb: [f64; 3],
+}
+
+fn droplet_optics(settings: &StratusSettings) -> DropletOptics {
+    let dsd = SizeDistribution::ModifiedGamma {
+        number_density_per_m3: settings.droplet_concentration_cm3 * 1e6,
+        gamma: 2.0,
+        effective_radius_m: settings.effective_radius_um * 1e-6,
+    };
+    let angles = nimbus_physics::optics::tables::computation_angles(5.0);
+    let mut albedo_rgb = [1.0; 3];
+    for (c, wavelength) in CHANNEL_WAVELENGTHS_NM.iter().enumerate() {
+        let optics = bulk_optics(&dsd, *wavelength, water_refractive_index(*wavelength), &[0.0, 180.0], 1e-3);
+        albedo_rgb[c] = optics.single_scattering_albedo();
+    }
+    let optics = bulk_optics(
+        &dsd,
+        PHASE_WAVELENGTH_NM,
+        water_refractive_index(PHASE_WAVELENGTH_NM),
+        &angles,
+        1e-3,
+    );
+    let table = nimbus_physics::optics::phase::PhaseTable::new(optics.angles_deg.clone(), optics.phase.clone());
+    // Mitsuba's `tabphase` takes the values over cos θ from −1 (back
+    // scattering) to +1 (forward), θ the scattering angle, and normalises them.
+    let phase_values = (0..PHASE_SAMPLES)
+        .map(|i| {
+            let mu = -1.0 + 2.0 * i as f64 / (PHASE_SAMPLES - 1) as f64;
+            table.at(mu.clamp(-1.0, 1.0).acos().to_degrees())
+        })
+        .collect();
+    DropletOptics {
+        phase_values,
+        extinction_per_m: optics.extinction_per_m,
+        albedo_rgb,
+    }
+}
+
+fn vector(v: DVec3) -> String {
+    format!("{:.6}, {:.6}, {:.6}", v.x, v.y, v.z)
+}
+
+fn matrix(m: &DMat4) -> String {
+    // Mitsuba reads the 16 values row by row.
+    let rows = m.transpose().to_cols_array();
+    rows.iter().map(|v| format!("{v:.9}")).collect::<Vec<_>>().join(" ")
+}
+
+/// A heterogeneous droplet medium inside a box: the unit cube of the grid
+/// mapped to the world by `world_from_grid`.
+fn medium_shape(
+    xml: &mut String,
+    volume_file: &str,
+    world_from_grid: &DMat4,
+    optics: &DropletOptics,
+    phase_id: &str,
+) {
+    // Mitsuba's `cube` spans [−1, 1]³; the grid volume [0, 1]³.
+    let world_from_cube = *world_from_grid
+        * DMat4::from_translation(DVec3::splat(0.5))
+        * DMat4::from_scale(DVec3::splat(0.5));
+    let [r, g, b] = optics.albedo_rgb;
+    let _ = write!(
+        xml,
+        r#"    <shape type="cube">
+        <transform name="to_world"><matrix value="{cube}"/></transform>
+        <bsdf type="null"/>
+        <medium type="heterogeneous" name="interior">
+            <ref id="{phase_id}"/>
+            <volume type="gridvolume" name="sigma_t">
+                <string name="filename" value="{volume_file}"/>
+                <transform name="to_world"><matrix value="{grid}"/></transform>
+            </volume>
+            <rgb name="albedo" value="{r:.7}, {g:.7}, {b:.7}"/>
+            <float name="scale" value="1"/>
+        </medium>
+    </shape>
+"#,
+        cube = matrix(&world_from_cube),
+        grid = matrix(world_from_grid),
+    );
+}
+
+/// The grid's box in its own frame: translate to its minimum corner, scale to its size.
+fn box_from_unit(grid: &ExtinctionGrid) -> DMat4 {
+    DMat4::from_translation(grid.origin_m)
+        * DMat4::from_scale(grid.max_corner_m() - grid.origin_m)
+}
+
+/// Writes the scene.
+pub fn export(
+    headless: &mut HeadlessRenderer,
+    scene: &Scene,
+    width: u32,
+    height: u32,
+    time_s: f64,
+    dir: &Path,
+) -> anyhow::Result<Summary> {
+    let mut approximations = vec![
+        "no atmosphere between the camera and the clouds or terrain (nimbus's aerial perspective is left out); the sky is an environment map at infinity, seen from the camera".to_string(),
+        format!("volumes: extinction and phase function at {PHASE_WAVELENGTH_NM} nm for every channel (droplet extinction varies < 2 % over the visible), albedo per channel; phase function tabulated at {PHASE_SAMPLES} values uniform in cos θ (the diffraction peak is averaged over the first ~0.9°)"),
+        "the sun is a directional emitter (no disc seen by the camera); the water has no waves or glint microfacets (a smooth dielectric coat over its diffuse body)".to_string(),
+        "the environment map's lower half is the terrain and sea as seen from the camera (for rays that leave the exported terrain)".to_string(),
+    ];
+    // 1. Render once so that the cumulus pass places this frame's clouds.
+    headless.render_frame(scene, 16, 16, time_s as f32)?;
+    let placed = headless.renderer.cumulus().placed_clouds();
+    let variant_params = headless.renderer.cumulus().variant_params().cloned();
+
+    // 2. The sky: nimbus's clear-sky panorama at the camera, sun disc removed.
+    let mut clear = scene.clone();
+    clear.stratus = None;
+    clear.cumulus = None;
+    clear.rain = None;
+    clear.camera.projection = Projection::Equirectangular;
+    let sky_height = SKY_WIDTH_PX / 2;
+    let mut sky = headless.render_hdr(&clear, SKY_WIDTH_PX, sky_height, time_s as f32)?;
+    let to_sun = DVec3::from_array(scene.sun.direction());
+    remove_sun_disc(&mut sky.pixels, SKY_WIDTH_PX, sky_height, to_sun);
+    let sky_file = dir.join("sky.exr");
+    crate::output::write_atomically(&sky_file, |temporary| {
+        exr::prelude::write_rgb_file(temporary, SKY_WIDTH_PX as usize, sky_height as usize, |x, y| {
+            let [r, g, b] = sky.pixels[y * SKY_WIDTH_PX as usize + x];
+            (r, g, b)
+        })
+        .with_context(|| format!("{}: EXR write failed", sky_file.display()))
+    })?;
+
+    // 3. The sun at the clouds' altitude.
+    let cloud_altitude_m = if let Some(s) = &scene.stratus {
+        s.base_m + 0.5 * s.thickness_m
+    } else if let Some(c) = &scene.cumulus {
+        c.base_m + 500.0
+    } else {
+        scene.camera.position_m[1]
+    };
+    let top = nimbus_render::atmosphere::solar_irradiance_top();
+    let atmosphere = &scene.atmosphere;
+    let t = atmosphere.transmittance_to_top(atmosphere.bottom_radius_m + cloud_altitude_m.max(0.0), to_sun.y);
+    let sun_irradiance: [f64; 3] = std::array::from_fn(|c| f64::from(top[c]) * t[c]);
+
+    // 4. Camera.
+    let camera = Camera::from_settings(&scene.camera, width, height);
+    let mut xml = String::new();
+    let _ = write!(
+        xml,
+        r#"<?xml version="1.0" encoding="utf-8"?>
+<!-- Written by `nimbus export` at time {time_s} s: see docs/REALISM.md. -->
+<scene version="3.0.0">
+    <default name="spp" value="64"/>
+    <default name="seed" value="0"/>
+    <default name="max_depth" value="-1"/>
+    <integrator type="volpath">
+        <integer name="max_depth" value="$max_depth"/>
+        <integer name="rr_depth" value="100000"/>
+    </integrator>
+    <sensor type="perspective">
+        <string name="fov_axis" value="y"/>
+        <float name="fov" value="{fov:.6}"/>
+        <float name="near_clip" value="0.5"/>
+        <float name="far_clip" value="10000000"/>
+        <transform name="to_world">
+            <lookat origin="{origin}" target="{target}" up="{up}"/>
+        </transform>
+        <sampler type="independent">
+            <integer name="sample_count" value="$spp"/>
+            <integer name="seed" value="$seed"/>
+        </sampler>
+        <film type="hdrfilm">
+            <integer name="width" value="{width}"/>
+            <integer name="height" value="{height}"/>
+            <rfilter type="box"/>
+            <string name="pixel_format" value="rgb"/>
+        </film>
+    </sensor>
+    <emitter type="directional">
+        <vector name="direction" value="{sun_direction}"/>
+        <rgb name="irradiance" value="{e0:.6}, {e1:.6}, {e2:.6}"/>
+    </emitter>
+    <!-- nimbus's panoramas put north (−Z) at the centre; Mitsuba's envmap puts −Z at u = 0. -->
+    <emitter type="envmap">
+        <string name="filename" value="sky.exr"/>
+        <transform name="to_world"><rotate y="1" angle="180"/></transform>
+    </emitter>
+"#,
+        fov = scene.camera.fov_deg,
+        origin = vector(camera.position_m),
+        target = vector(camera.position_m + camera.forward * 1000.0),
+        up = vector(camera.up),
+        sun_direction = vector(-to_sun),
+        e0 = sun_irradiance[0],
+        e1 = sun_irradiance[1],
+        e2 = sun_irradiance[2],
+    );
+
+    // 5. Terrain and sea.
+    write_terrain(scene, dir, &mut xml)?;
+
+    // 6. Droplets' optics (the stratus layer's size distribution; the
+    // cumulus shader has none of its own, so the same droplets).
+    let droplet_settings = scene.stratus.clone().unwrap_or_default();
+    let optics = droplet_optics(&droplet_settings);
+    let values: Vec<String> = optics.phase_values.iter().map(|v| format!("{v:.6e}")).collect();
+    let _ = write!(
+        xml,
+        "    <phase type=\"tabphase\" id=\"droplets\">\n        <string name=\"values\" value=\"{}\"/>\n    </phase>\n",
+        values.join(", ")
+    );
+
+    // 7. Cumulus.
+    let mut cumulus_count = 0;
+    if let (Some(settings), Some(params)) = (&scene.cumulus, &variant_params) {
+        let mut variants: Vec<Option<(ExtinctionGrid, DVec3, nimbus_physics::cumulus::hierarchy::Cumulus)>> =
+            (0..params.count).map(|_| None).collect();
+        for (index, cloud) in placed.iter().enumerate() {
+            let slot = variants
+                .get_mut(cloud.variant)
+                .context("a placed cloud refers to a variant that does not exist")?;
+            if slot.is_none() {
+                let cumulus = nimbus_physics::cumulus::hierarchy::build(
+                    &params.hierarchy(cloud.variant as u32),
+                    |_| {},
+                )
+                .map_err(|e| anyhow::anyhow!("cumulus variant {}: {e}", cloud.variant))?;
+                let volume = VolumeParams::from_shading(&settings.shading);
+                let grid = extinction_grid(&cumulus.field, &volume)
+                    .map_err(|e| anyhow::anyhow!("cumulus variant {}: {e}", cloud.variant))?;
+                let origin = variant_origin_m(&grid);
+                *slot = Some((grid, origin, cumulus));
+            }
+            let Some((grid, origin_m, _)) = slot.as_ref() else {
+                continue;
+            };
+            // The shape scales; α_ρ and the corona do not (the shader's are
+            // world metres): resample the grid's box, keep its values.
+            let world_from_field = DMat4::from_translation(cloud.base_centre_m)
+                * DMat4::from_rotation_y(cloud.yaw_rad)
+                * DMat4::from_scale(DVec3::splat(cloud.scale))
+                * DMat4::from_translation(-*origin_m);
+            let file = format!("cumulus_{}.vol", cloud.variant);
+            if !dir.join(&file).exists() || index == 0 {
+                write_bytes_atomically(&dir.join(&file), "--mitsuba", &grid.to_mitsuba_vol())?;
+            }
+            medium_shape(&mut xml, &file, &(world_from_field * box_from_unit(grid)), &optics, "droplets");
+            cumulus_count += 1;
+        }
+        if placed.iter().any(|c| (c.scale - 1.0).abs() > 1e-6) {
+            approximations.push("cumulus scaled by their instance scale keep the variant's corona thickness scaled too (the shader keeps it in world metres)".into());
+        }
+        approximations.push("cumulus boxes that overlap one another or the stratus grid are not merged (Mitsuba takes one medium at a time)".into());
+    }
+
+    // 8. Stratus.
+    let stratus = if let Some(settings) = &scene.stratus {
+        let (grid, box_m) = stratus_grid(scene, settings, time_s, camera.position_m, optics.extinction_per_m);
+        write_bytes_atomically(&dir.join("stratus.vol"), "--mitsuba", &grid.to_mitsuba_vol())?;
+        medium_shape(&mut xml, "stratus.vol", &box_m, &optics, "droplets");
+        approximations.push(format!(
+            "stratus: a grid of {:.0} m cells ({}×{}×{}) around the camera; beyond it, no layer",
+            grid.cell_m, grid.dims[0], grid.dims[1], grid.dims[2]
+        ));
+        true
+    } else {
+        false
+    };
+    if scene.rain.is_some() {
+        approximations.push("rain: not exported (no streaks, splashes or mist in the reference)".into());
+    }
+    xml.push_str("</scene>\n");
+    write_bytes_atomically(&dir.join("scene.xml"), "--mitsuba", xml.as_bytes())?;
+    let notes: String = approximations.iter().map(|l| format!("- {l}\n")).collect();
+    write_bytes_atomically(&dir.join("APPROXIMATIONS.md"), "--mitsuba", notes.as_bytes())?;
+    Ok(Summary {
+        cumulus_count,
+        stratus,
+        approximations,
+    })
+}
+
+/// The variant's origin in the field's frame (the renderer puts it under
+/// the centre of the finest mesh's footprint, at its base): the centre of
+/// the grid's non-zero cells in x and z and their lowest level in y. The
+/// mesh and the grid bound the same surface S_L, to a cell.
+fn variant_origin_m(grid: &ExtinctionGrid) -> DVec3 {
+    let (mut lo, mut hi) = (DVec3::INFINITY, DVec3::NEG_INFINITY);
+    let [nx, ny, nz] = grid.dims;
+    for k in 0..nz {
+        for j in 0..ny {
+            for i in 0..nx {
+                if grid.values_per_m[(k * ny + j) * nx + i] > 0.0 {
+                    let p = grid.origin_m + DVec3::new(i as f64, j as f64, k as f64) * grid.cell_m;
+                    lo = lo.min(p);
+                    hi = hi.max(p + DVec3::splat(grid.cell_m));
+                }
+            }
+        }
+    }
+    DVec3::new(0.5 * (lo.x + hi.x), lo.y, 0.5 * (lo.z + hi.z))
+}
+
+/// The stratus layer's extinction on a grid around the camera: the cells
+/// with |y − y_mid| < h(x, z)/2 (the renderer's slab of thickness h about
+/// the mid-plane), h at the frame's time and drift.
+fn stratus_grid(
+    scene: &Scene,
+    settings: &StratusSettings,
+    time_s: f64,
+    camera_m: DVec3,
+    extinction_per_m: f64,
+) -> (ExtinctionGrid, DMat4) {
+    let field = nimbus_render::stratus::cloud_layer_field(scene, settings);
+    let drift = scene.cloud_drift_m(time_s);
+    let side_m = settings.extent_m.min(scene.terrain.extent_m.max(20_000.0));
+    let cell_m = (side_m / STRATUS_HORIZONTAL_CELLS as f64).max(10.0);
+    let n = (side_m / cell_m).ceil() as usize;
+    let dy = (settings.thickness_m / STRATUS_VERTICAL_CELLS as f64).max(1.0);
+    let ny = (settings.thickness_m / dy).ceil() as usize + 2;
+    let mid = settings.base_m + 0.5 * settings.thickness_m;
+    let origin = DVec3::new(camera_m.x - 0.5 * side_m, mid - 0.5 * ny as f64 * dy, camera_m.z - 0.5 * side_m);
+    let mut values = vec![0.0f32; n * ny * n];
+    for k in 0..n {
+        for i in 0..n {
+            let x = origin.x + (i as f64 + 0.5) * cell_m;
+            let z = origin.z + (k as f64 + 0.5) * cell_m;
+            let h = field.thickness_with_drift_m(x, z, drift, time_s);
+            for j in 0..ny {
+                let y = origin.y + (j as f64 + 0.5) * dy;
+                if (y - mid).abs() < 0.5 * h {
+                    values[(k * ny + j) * n + i] = extinction_per_m as f32;
+                }
+            }
+        }
+    }
+    // Flat cells: Mitsuba maps the grid to its box whatever its cells'
+    // shape, so the box below carries the vertical cell `dy`.
+    let box_m = DMat4::from_translation(origin)
+        * DMat4::from_scale(DVec3::new(n as f64 * cell_m, ny as f64 * dy, n as f64 * cell_m));
+    (
+        ExtinctionGrid {
+            origin_m: origin,
+            cell_m,
+            dims: [n, ny, n],
+            values_per_m: values,
+            coarsened: false,
+        },
+        box_m,
+    )
+}
+
+/// Terrain mesh (PLY) with its albedo (PNG) and the sea plane.
+fn write_terrain(scene: &Scene, dir: &Path, xml: &mut String) -> anyhow::Result<()> {
+    let terrain = nimbus_physics::terrain::generate(&scene.terrain);
+    let n = terrain.vertices_per_side();
+    let stride = n.div_ceil(MAX_TERRAIN_VERTICES_PER_SIDE).max(1);
+    let indices: Vec<usize> = (0..n).step_by(stride).chain(((n - 1) % stride != 0).then_some(n - 1)).collect();
+    let m = indices.len();
+    let mut ply = format!(
+        "ply\nformat binary_little_endian 1.0\nelement vertex {}\nproperty float x\nproperty float y\nproperty float z\nproperty float u\nproperty float v\nelement face {}\nproperty list uchar int vertex_indices\nend_header\n",
+        m * m,
+        2 * (m - 1) * (m - 1)
+    )
+    .into_bytes();
+    for (b, &j) in indices.iter().enumerate() {
+        for (a, &i) in indices.iter().enumerate() {
+            let (x, z) = terrain.vertex_xz_m(i, j);
+            let y = terrain.ground_height_m[j * n + i];
+            for v in [x as f32, y, z as f32, a as f32 / (m - 1) as f32, b as f32 / (m - 1) as f32] {
+                ply.extend_from_slice(&v.to_le_bytes());
+            }
+        }
+    }
+    for b in 0..m - 1 {
+        for a in 0..m - 1 {
+            let v = |a: usize, b: usize| (b * m + a) as i32;
+            // Counter-clockwise seen from above (+y): normals up.
+            for tri in [[v(a, b), v(a, b + 1), v(a + 1, b)], [v(a + 1, b), v(a, b + 1), v(a + 1, b + 1)]] {
+                ply.push(3);
+                for i in tri {
+                    ply.extend_from_slice(&i.to_le_bytes());
+                }
+            }
+        }
+    }
+    write_bytes_atomically(&dir.join("terrain.ply"), "--mitsuba", &ply)?;
+    // The albedo, sRGB-encoded (Mitsuba decodes 8-bit textures as sRGB);
+    // row b is v = b/(m − 1).
+    let texels = terrain.albedo_rgba8();
+    let mut rgb = Vec::with_capacity(m * m * 3);
+    for &j in &indices {
+        for &i in &indices {
+            rgb.extend_from_slice(&texels[j * n + i][..3]);
+        }
+    }
+    let mut png = Vec::new();
+    image::ImageEncoder::write_image(
+        image::codecs::png::PngEncoder::new(&mut png),
+        &rgb,
+        m as u32,
+        m as u32,
+        image::ExtendedColorType::Rgb8,
+    )
+    .context("terrain albedo: PNG encoding failed")?;
+    write_bytes_atomically(&dir.join("terrain_albedo.png"), "--mitsuba", &png)?;
+    let water = scene.terrain.albedo.water;
+    let sea = DMat4::from_translation(DVec3::new(0.0, scene.terrain.water_level_m, 0.0))
+        * DMat4::from_rotation_x(-std::f64::consts::FRAC_PI_2)
+        * DMat4::from_scale(DVec3::splat(SEA_HALF_SIZE_M));
+    let _ = write!(
+        xml,
+        r#"    <shape type="ply">
+        <string name="filename" value="terrain.ply"/>
+        <boolean name="face_normals" value="false"/>
+        <bsdf type="diffuse">
+            <texture type="bitmap" name="reflectance">
+                <string name="filename" value="terrain_albedo.png"/>
+            </texture>
+        </bsdf>
+    </shape>
+    <shape type="rectangle">
+        <transform name="to_world"><matrix value="{sea}"/></transform>
+        <bsdf type="plastic">
+            <rgb name="diffuse_reflectance" value="{w0:.5}, {w1:.5}, {w2:.5}"/>
+            <float name="int_ior" value="{WATER_IOR}"/>
+            <float name="ext_ior" value="1.0"/>
+        </bsdf>
+    </shape>
+"#,
+        sea = matrix(&sea),
+        w0 = water[0],
+        w1 = water[1],
+        w2 = water[2],
+    );
+    Ok(())
+}
+
+/// Replaces the pixels of the sun's disc (and its filtered edge, 1.5°)
+/// by the mean of a ring around it: the sun is exported as a directional
+/// emitter and must not be counted twice.
+fn remove_sun_disc(pixels: &mut [[f32; 3]], width: u32, height: u32, to_sun: DVec3) {
+    let inner = 1.5f64.to_radians().cos();
+    let outer = 2.5f64.to_radians().cos();
+    let direction = |i: usize| {
+        let u = ((i % width as usize) as f64 + 0.5) / f64::from(width);
+        let v = ((i / width as usize) as f64 + 0.5) / f64::from(height);
+        nimbus_render::frame::equirectangular_direction(u, v)
+    };
+    let _ = equirectangular_uv;
+    let (mut sum, mut count) = ([0.0f64; 3], 0usize);
+    for (i, p) in pixels.iter().enumerate() {
+        let c = direction(i).dot(to_sun);
+        if c < inner && c >= outer {
+            for k in 0..3 {
+                sum[k] += f64::from(p[k]);
+            }
+            count += 1;
+        }
+    }
+    let ring = if count > 0 { sum.map(|s| (s / count as f64) as f32) } else { [0.0; 3] };
+    for (i, p) in pixels.iter_mut().enumerate() {
+        if direction(i).dot(to_sun) >= inner {
+            *p = ring;
+        }
+    }
+}

@@ -1,0 +1,94 @@
+//! `nimbus export SCENE --mitsuba DIR`: the scene as nimbus draws it, for
+//! the Mitsuba 3 path tracer (tools/reference/render.py renders it): the
+//! ground truth that `nimbus compare` measures the real-time image against.
+//!
+//! What is written (see `docs/REALISM.md` for what is left out):
+//! - the camera (position, orientation, vertical field of view, size);
+//! - the sun: a directional emitter with nimbus's solar irradiance times
+//!   the atmosphere's transmittance at the clouds' altitude, per channel;
+//! - the sky: nimbus's own clear-sky panorama at the camera (the
+//!   equirectangular projection, clouds and rain removed, the sun's disc
+//!   replaced by its surroundings) as an environment map;
+//! - the terrain as a triangle mesh with its albedo texture (Lambertian),
+//!   the sea as a plane of water (a diffuse body under a smooth dielectric
+//!   coat of n = 1.333: nimbus's Fresnel-weighted sky reflection and body);
+//! - each placed cumulus as a grid of droplet extinction (the shader's
+//!   core α_ρ and corona, `nimbus_physics::cumulus::volume`);
+//! - the stratus layer as a grid of its thickness field at that time, with
+//!   the extinction of its droplet size distribution;
+//! - the droplets' phase function (Mie, integrated over the layer's size
+//!   distribution at 550 nm) as a tabulated phase function, and their
+//!   single-scattering albedo.
+
+mod mitsuba;
+
+use anyhow::Context;
+use clap::Args;
+use std::path::PathBuf;
+
+/// Arguments of `nimbus export`.
+#[derive(Debug, Args)]
+pub struct ExportArgs {
+    #[command(flatten)]
+    frame: super::FrameArgs,
+    /// Write a Mitsuba 3 scene (scene.xml and its assets) into this
+    /// directory (created if missing; its parent must exist).
+    #[arg(long, value_name = "DIR")]
+    mitsuba: PathBuf,
+    /// Animation time, s (as `render --time-s`).
+    #[arg(long, default_value_t = 0.0, value_name = "S")]
+    time_s: f64,
+}
+
+/// Runs the subcommand.
+pub fn run(args: &ExportArgs) -> anyhow::Result<()> {
+    anyhow::ensure!(
+        args.time_s.is_finite() && (0.0..=1.0e7).contains(&args.time_s),
+        "--time-s {}: must be a number in [0, 10000000]",
+        args.time_s
+    );
+    let (scene, width, height) = args.frame.scene_and_size()?;
+    let scene = scene.at_time(args.time_s);
+    anyhow::ensure!(
+        scene.camera.projection == nimbus_render::scene::Projection::Perspective,
+        "camera.projection = equirectangular: export needs a perspective camera"
+    );
+    let parent = args
+        .mitsuba
+        .parent()
+        .filter(|p| !p.as_os_str().is_empty())
+        .unwrap_or(std::path::Path::new("."));
+    anyhow::ensure!(
+        parent.is_dir(),
+        "--mitsuba {}: the parent directory {} does not exist",
+        args.mitsuba.display(),
+        parent.display()
+    );
+    std::fs::create_dir_all(&args.mitsuba).with_context(|| {
+        format!("--mitsuba {}: cannot create the directory", args.mitsuba.display())
+    })?;
+    let mut headless = nimbus_render::headless::HeadlessRenderer::new(args.frame.adapter)?;
+    eprintln!(
+        "nimbus: exporting {width}×{height} to {} on {}",
+        args.mitsuba.display(),
+        headless.gpu.adapter_summary()
+    );
+    let summary = mitsuba::export(
+        &mut headless,
+        &scene,
+        width,
+        height,
+        args.time_s,
+        &args.mitsuba,
+    )?;
+    for line in &summary.approximations {
+        eprintln!("nimbus: export: {line}");
+    }
+    eprintln!(
+        "nimbus: wrote {} ({} cumulus, stratus {})",
+        args.mitsuba.join("scene.xml").display(),
+        summary.cumulus_count,
+        if summary.stratus { "yes" } else { "no" }
+    );
+    Ok(())
+}

@@ -1,0 +1,329 @@
+//! The layers of an EXR render beside the radiance: distance along the view
+//! ray, the clouds' opacity and the clear sky, for compositing (Blender,
+//! Nuke) and for comparing with path-traced references over the cloud
+//! pixels (`nimbus compare --mask cloud`).
+//!
+//! - Distance: from the depth buffer (reverse-Z, infinite far plane: depth =
+//!   near / view-space z), times the ray's length per unit of view-space z.
+//!   Opaque surfaces only (terrain, objects, cumulus bodies); the stratus
+//!   layer, the cumulus fringes and the rain write no depth.
+//! - Cloud opacity: the clouds' passes blend linearly over what is behind
+//!   them (premultiplied alpha, opaque bodies), so with the background (sky,
+//!   terrain, objects) replaced by a grey K and by 0 in two frames without
+//!   rain, the difference is K times the clouds' transmittance T. The layer
+//!   is 1 − T (luminance-weighted over the channels).
+//! - Sky: the same frame with the stratus layer, the cumulus and the rain
+//!   removed (the terrain then lies in full sun).
+
+use super::panorama::{self, Filter};
+use super::{HeadlessError, HeadlessRenderer};
+use crate::frame::{Camera, CubeFace, NEAR_PLANE_M};
+use crate::scene::{Projection, Scene};
+use glam::DVec3;
+
+/// Distance written where a pixel sees no opaque surface (the sky), m: the
+/// value Blender writes for its background.
+pub const SKY_DISTANCE_M: f32 = 1e10;
+
+/// Pre-exposed grey that replaces the background in the cloud-opacity
+/// frames: well inside half-float range and precision.
+const BACKGROUND_PRE_EXPOSED: f32 = 1.0;
+
+/// Rec. 709 luminance weights.
+const LUMINANCE_WEIGHTS: [f32; 3] = [0.2126, 0.7152, 0.0722];
+
+/// An image and the layers an EXR render carries with it; rows top to bottom.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ImageLayers {
+    /// Width, pixels.
+    pub width: u32,
+    /// Height, pixels.
+    pub height: u32,
+    /// Linear radiance, W·sr⁻¹·m⁻² per channel (EXR `R`, `G`, `B`).
+    pub radiance: Vec<[f32; 3]>,
+    /// Distance from the eye to the first opaque surface along the pixel's
+    /// ray, m; [`SKY_DISTANCE_M`] where there is none (EXR `Z`).
+    pub distance_m: Vec<f32>,
+    /// The clouds' opacity (stratus and cumulus, before rain), 0 to 1
+    /// (EXR `cloud.A`).
+    pub cloud_opacity: Vec<f32>,
+    /// Radiance without clouds and rain, W·sr⁻¹·m⁻² (EXR `sky.R`, `sky.G`, `sky.B`).
+    pub sky_radiance: Vec<[f32; 3]>,
+}
+
+/// The layers of one view (a perspective image or one cube face).
+struct ViewLayers {
+    radiance: Vec<[f32; 3]>,
+    distance_m: Vec<[f32; 1]>,
+    cloud_opacity: Vec<[f32; 1]>,
+    sky_radiance: Vec<[f32; 3]>,
+}
+
+/// A view to draw: its camera, image size, and the ray length per unit of
+/// view-space depth at each pixel.
+struct View {
+    camera: Camera,
+    width: u32,
+    height: u32,
+}
+
+impl View {
+    /// Length of the ray per unit of view-space depth through pixel (x, y).
+    fn ray_stretch(&self, x: u32, y: u32) -> f64 {
+        let tan_half = (self.camera.fov_y_rad * 0.5).tan();
+        let s = ((f64::from(x) + 0.5) / f64::from(self.width) * 2.0 - 1.0)
+            * tan_half
+            * self.camera.aspect;
+        let t = (1.0 - (f64::from(y) + 0.5) / f64::from(self.height) * 2.0) * tan_half;
+        (1.0 + s * s + t * t).sqrt()
+    }
+}
+
+/// The scene without stratus, cumulus and rain.
+fn clear_sky(scene: &Scene) -> Scene {
+    let mut clear = scene.clone();
+    clear.stratus = None;
+    clear.cumulus = None;
+    clear.rain = None;
+    clear
+}
+
+impl HeadlessRenderer {
+    /// Renders a scene with its EXR layers, in the scene camera's
+    /// projection. Up to four frames per view: the image, two for the
+    /// clouds' opacity (none without clouds) and the clear sky.
+    pub fn render_layers(
+        &mut self,
+        scene: &Scene,
+        width: u32,
+        height: u32,
+        time_s: f32,
+    ) -> Result<ImageLayers, HeadlessError> {
+        self.render_layers_selected(scene, width, height, time_s, true)
+    }
+
+    /// The layers, or (`all_layers` false) the radiance alone with the
+    /// other layers left empty.
+    pub(super) fn render_layers_selected(
+        &mut self,
+        scene: &Scene,
+        width: u32,
+        height: u32,
+        time_s: f32,
+        all_layers: bool,
+    ) -> Result<ImageLayers, HeadlessError> {
+        let views: Vec<View> = match scene.camera.projection {
+            Projection::Perspective => vec![View {
+                camera: Camera::from_settings(&scene.camera, width, height),
+                width,
+                height,
+            }],
+            Projection::Equirectangular => {
+                let face_px = panorama::face_size_px(width, height);
+                let side = panorama::face_side_px(face_px);
+                let position_m = DVec3::from_array(scene.camera.position_m);
+                CubeFace::ALL
+                    .iter()
+                    .map(|&face| View {
+                        camera: Camera::cube_face(position_m, face, face_px, panorama::OVERSCAN_PX),
+                        width: side,
+                        height: side,
+                    })
+                    .collect()
+            }
+        };
+        let layers = self.render_view_layers(scene, &views, time_s, all_layers)?;
+        Ok(match scene.camera.projection {
+            Projection::Perspective => {
+                let Some(view) = layers.into_iter().next() else {
+                    unreachable!("one view")
+                };
+                ImageLayers {
+                    width,
+                    height,
+                    radiance: view.radiance,
+                    distance_m: view.distance_m.into_iter().map(|[d]| d).collect(),
+                    cloud_opacity: view.cloud_opacity.into_iter().map(|[a]| a).collect(),
+                    sky_radiance: view.sky_radiance,
+                }
+            }
+            Projection::Equirectangular => {
+                let face_px = panorama::face_size_px(width, height);
+                let mut faces = layers.into_iter();
+                let mut next = || faces.next().unwrap_or_else(|| unreachable!("six faces"));
+                let faces: [ViewLayers; 6] = std::array::from_fn(|_| next());
+                let gather3 = |get: fn(&ViewLayers) -> &Vec<[f32; 3]>, filter| {
+                    let per_face: [Vec<[f32; 3]>; 6] = std::array::from_fn(|f| get(&faces[f]).clone());
+                    if per_face[0].is_empty() {
+                        Vec::new()
+                    } else {
+                        panorama::resample(&per_face, face_px, width, height, filter)
+                    }
+                };
+                let gather1 = |get: fn(&ViewLayers) -> &Vec<[f32; 1]>, filter| {
+                    let per_face: [Vec<[f32; 1]>; 6] = std::array::from_fn(|f| get(&faces[f]).clone());
+                    if per_face[0].is_empty() {
+                        Vec::new()
+                    } else {
+                        panorama::resample(&per_face, face_px, width, height, filter)
+                            .into_iter()
+                            .map(|[v]| v)
+                            .collect()
+                    }
+                };
+                ImageLayers {
+                    width,
+                    height,
+                    radiance: gather3(|l| &l.radiance, Filter::Bilinear),
+                    distance_m: gather1(|l| &l.distance_m, Filter::Nearest),
+                    cloud_opacity: gather1(|l| &l.cloud_opacity, Filter::Bilinear),
+                    sky_radiance: gather3(|l| &l.sky_radiance, Filter::Bilinear),
+                }
+            }
+        })
+    }
+
+    /// Renders the layers of each view. The frames are grouped by kind (all
+    /// views' images, then their opacity frames, then their clear skies) so
+    /// that the clouds and the rain are set up once per kind, not per view.
+    fn render_view_layers(
+        &mut self,
+        scene: &Scene,
+        views: &[View],
+        time_s: f32,
+        all_layers: bool,
+    ) -> Result<Vec<ViewLayers>, HeadlessError> {
+        let mut out = Vec::with_capacity(views.len());
+        for view in views {
+            let (radiance, depth) = self.render_view_hdr(
+                scene,
+                &view.camera,
+                view.width,
+                view.height,
+                time_s,
+                all_layers,
+            )?;
+            let distance_m = depth
+                .map(|depth| {
+                    depth
+                        .iter()
+                        .enumerate()
+                        .map(|(i, &d)| {
+                            if d <= 0.0 {
+                                return [SKY_DISTANCE_M];
+                            }
+                            let (x, y) = (i as u32 % view.width, i as u32 / view.width);
+                            [(NEAR_PLANE_M / f64::from(d) * view.ray_stretch(x, y)) as f32]
+                        })
+                        .collect()
+                })
+                .unwrap_or_default();
+            out.push(ViewLayers {
+                radiance,
+                distance_m,
+                cloud_opacity: Vec::new(),
+                sky_radiance: Vec::new(),
+            });
+        }
+        if !all_layers {
+            return Ok(out);
+        }
+        // The clouds' opacity, from two frames over a grey and a black
+        // background, without rain and at a fixed exposure.
+        let has_clouds = scene.stratus.is_some() || scene.cumulus.is_some();
+        let mut masked = scene.clone();
+        masked.rain = None;
+        masked.camera.auto_exposure = false;
+        for (view, layers) in views.iter().zip(out.iter_mut()) {
+            let pixels = (view.width * view.height) as usize;
+            if !has_clouds {
+                layers.cloud_opacity = vec![[0.0]; pixels];
+                continue;
+            }
+            let result = (|| {
+                self.renderer
+                    .set_background_override(Some(BACKGROUND_PRE_EXPOSED));
+                let (grey, _) = self.render_view_hdr(
+                    &masked,
+                    &view.camera,
+                    view.width,
+                    view.height,
+                    time_s,
+                    false,
+                )?;
+                // The background's radiance: the pre-exposed grey over the
+                // pre-exposure this frame used.
+                let background_radiance = self.pre_exposed_to_radiance(BACKGROUND_PRE_EXPOSED)?;
+                self.renderer.set_background_override(Some(0.0));
+                let (black, _) = self.render_view_hdr(
+                    &masked,
+                    &view.camera,
+                    view.width,
+                    view.height,
+                    time_s,
+                    false,
+                )?;
+                Ok::<_, HeadlessError>((grey, black, background_radiance))
+            })();
+            self.renderer.set_background_override(None);
+            let (grey, black, background_radiance) = result?;
+            layers.cloud_opacity = grey
+                .iter()
+                .zip(&black)
+                .map(|(g, b)| {
+                    let transmitted: f32 = (0..3)
+                        .map(|k| LUMINANCE_WEIGHTS[k] * (g[k] - b[k]))
+                        .sum::<f32>()
+                        / background_radiance;
+                    [(1.0 - transmitted).clamp(0.0, 1.0)]
+                })
+                .collect();
+        }
+        let clear = clear_sky(scene);
+        for (view, layers) in views.iter().zip(out.iter_mut()) {
+            let (sky, _) = self.render_view_hdr(
+                &clear,
+                &view.camera,
+                view.width,
+                view.height,
+                time_s,
+                false,
+            )?;
+            layers.sky_radiance = sky;
+        }
+        Ok(out)
+    }
+
+    /// The radiance a pre-exposed value of the last frame stands for.
+    fn pre_exposed_to_radiance(&self, pre_exposed: f32) -> Result<f32, HeadlessError> {
+        let lighting: crate::atmosphere::LightingUniform =
+            self.read_buffer(self.renderer.atmosphere().lighting_buffer())?;
+        Ok(pre_exposed / lighting.exposure[0])
+    }
+
+    /// Renders a panorama tone-mapped on the CPU with one exposure for the
+    /// whole sphere: the scene's, or metered over the sphere when automatic.
+    pub(super) fn render_equirectangular_rgba8(
+        &mut self,
+        scene: &Scene,
+        width: u32,
+        height: u32,
+        time_s: f32,
+    ) -> Result<super::Rgba8Image, HeadlessError> {
+        let layers = self.render_layers_selected(scene, width, height, time_s, false)?;
+        let camera = &scene.camera;
+        let ev100 = if camera.auto_exposure {
+            let average = panorama::log_average_luminance_cd_m2(&layers.radiance, width, height);
+            // exposure.wgsl: EV100 = log2(L·S/K) with S = 100, K = 12.5.
+            (average * 100.0 / 12.5).log2() - camera.exposure_compensation_ev
+        } else {
+            camera.exposure_ev100
+        };
+        let scale = nimbus_physics::photometry::exposure_scale_from_ev100(ev100);
+        Ok(super::Rgba8Image {
+            width,
+            height,
+            pixels: panorama::tonemap_rgba8(&layers.radiance, scale),
+        })
+    }
+}
