@@ -141,6 +141,10 @@ def main(argv=None):
         names = None
     if names is not None and set(names) >= {"R", "G", "B"} and len(names) == 3:
         names = None  # plain RGB: let Bitmap pick its default
+    # Bitmap.write of an EXR hangs when the thread pool has a single thread
+    # (Mitsuba 3.9.1 / OpenEXR), so the pool gets a second one for writing.
+    if dr.thread_count() < 2:
+        dr.set_thread_count(2)
     total = sums[0] if sums[1] is None else sums[0] + sums[1]
     write_exr(mi, a.output, total / (counts[0] + counts[1]), names)
     written = [a.output]

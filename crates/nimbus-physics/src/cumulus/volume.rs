@@ -24,6 +24,13 @@
 //!   The bump factor is optional here ([`BumpModulation`]); the shader takes
 //!   h at the surface point for the whole chord, the volume at each point.
 //!
+//! **Not reproducible by a volume.** The shader's q is view-dependent and
+//! not the cloud's: the chord through the point's blob sphere *plus* one
+//! through a sphere of each lower level's mean radius (`cumulus_optical_depth`;
+//! overlapping, and blind to the real shape behind); its lighting (ambient,
+//! Lambert, light traps, the forward lobe T, two-stream shadows of the cores
+//! only, eq 5.42) is phenomenological, where the path tracer transports light.
+//!
 //! **Depth** δ: from f_L and its exact gradient, ln f / |∇ ln f| =
 //! f ln f / |∇f| (exact for one round blob: f = e^{1 − d/R} gives R − d),
 //! refined by two Newton steps on ln f_L along the outward normal, i.e. the
@@ -216,7 +223,7 @@ fn refined_depth_m(field: &BlobField, last: usize, p_m: DVec3, f: Dual, cap_m: f
     let gradient = f.gradient.length();
     let first = f.value * f.value.ln() / gradient;
     // Deep (or ∇f = 0): the profile saturates there.
-    if !(first < cap_m) {
+    if first.is_nan() || first >= cap_m {
         return cap_m;
     }
     let outward = -f.gradient / gradient;
@@ -242,7 +249,7 @@ pub fn extinction_per_m(field: &BlobField, params: &VolumeParams, p_m: DVec3) ->
     let s = params.scale;
     let q = p_m / s;
     let f = field.sample(last, q).potential;
-    if !(f.value > 1.0) {
+    if f.value.is_nan() || f.value <= 1.0 {
         return 0.0;
     }
     let r = params.corona_thickness_m;

@@ -1346,6 +1346,7 @@ mod tests {
         let camera = crate::frame::Camera {
             position_m: DVec3::ZERO,
             forward: DVec3::NEG_Z,
+            up: DVec3::Y,
             fov_y_rad: 1.0,
             aspect: 1.5,
             height_px: 720,

@@ -240,33 +240,11 @@ impl HeadlessRenderer {
                 layers.cloud_opacity = vec![[0.0]; pixels];
                 continue;
             }
-            let result = (|| {
-                self.renderer
-                    .set_background_override(Some(BACKGROUND_PRE_EXPOSED));
-                let (grey, _) = self.render_view_hdr(
-                    &masked,
-                    &view.camera,
-                    view.width,
-                    view.height,
-                    time_s,
-                    false,
-                )?;
-                // The background's radiance: the pre-exposed grey over the
-                // pre-exposure this frame used.
-                let background_radiance = self.pre_exposed_to_radiance(BACKGROUND_PRE_EXPOSED)?;
-                self.renderer.set_background_override(Some(0.0));
-                let (black, _) = self.render_view_hdr(
-                    &masked,
-                    &view.camera,
-                    view.width,
-                    view.height,
-                    time_s,
-                    false,
-                )?;
-                Ok::<_, HeadlessError>((grey, black, background_radiance))
-            })();
-            self.renderer.set_background_override(None);
-            let (grey, black, background_radiance) = result?;
+            let grey = self.render_over_background(&masked, view, time_s, BACKGROUND_PRE_EXPOSED)?;
+            // The background's radiance: the pre-exposed grey over the
+            // pre-exposure that frame used.
+            let background_radiance = self.pre_exposed_to_radiance(BACKGROUND_PRE_EXPOSED)?;
+            let black = self.render_over_background(&masked, view, time_s, 0.0)?;
             layers.cloud_opacity = grey
                 .iter()
                 .zip(&black)
@@ -292,6 +270,21 @@ impl HeadlessRenderer {
             layers.sky_radiance = sky;
         }
         Ok(out)
+    }
+
+    /// The radiance of a view drawn with its background (sky, terrain,
+    /// objects) replaced by a grey of this pre-exposed value.
+    fn render_over_background(
+        &mut self,
+        scene: &Scene,
+        view: &View,
+        time_s: f32,
+        pre_exposed: f32,
+    ) -> Result<Vec<[f32; 3]>, HeadlessError> {
+        self.renderer.set_background_override(Some(pre_exposed));
+        let frame = self.render_view_hdr(scene, &view.camera, view.width, view.height, time_s, false);
+        self.renderer.set_background_override(None);
+        Ok(frame?.0)
     }
 
     /// The radiance a pre-exposed value of the last frame stands for.

@@ -33,6 +33,10 @@ pub struct CompareArgs {
     /// Pixels compared.
     #[arg(long, value_enum, default_value_t = Mask::Cloud)]
     mask: Mask,
+    /// Take the cloud mask (`cloud.A`) from this EXR instead of REALTIME
+    /// (e.g. to compare two halves of a reference over the real-time mask).
+    #[arg(long, value_name = "FILE.exr")]
+    mask_from: Option<PathBuf>,
     /// Print one JSON document on standard output.
     #[arg(long)]
     json: bool,
@@ -43,7 +47,23 @@ pub struct CompareArgs {
 
 /// Runs the subcommand.
 pub fn run(args: &CompareArgs) -> anyhow::Result<()> {
-    let realtime = read_exr(&args.realtime)?;
+    let mut realtime = read_exr(&args.realtime)?;
+    if let Some(path) = &args.mask_from {
+        let source = read_exr(path)?;
+        anyhow::ensure!(
+            (source.image.width, source.image.height) == (realtime.image.width, realtime.image.height),
+            "--mask-from {}: {}×{} pixels, but {} is {}×{}",
+            path.display(),
+            source.image.width,
+            source.image.height,
+            args.realtime.display(),
+            realtime.image.width,
+            realtime.image.height
+        );
+        realtime.cloud_opacity = Some(source.cloud_opacity.with_context(|| {
+            format!("--mask-from {}: the EXR has no cloud.A layer", path.display())
+        })?);
+    }
     let reference = read_exr(&args.reference)?;
     anyhow::ensure!(
         (realtime.image.width, realtime.image.height)

@@ -25,7 +25,7 @@ pub const PHASE_SAMPLES: usize = 16_001;
 pub const PHASE_WAVELENGTH_NM: f64 = 550.0;
 
 /// Size of the sky's environment map, pixels.
-const SKY_WIDTH_PX: u32 = 1024;
+const SKY_WIDTH_PX: u32 = 512;
 
 /// Largest terrain mesh exported, vertices per side.
 const MAX_TERRAIN_VERTICES_PER_SIDE: usize = 513;
@@ -41,6 +41,16 @@ const STRATUS_HORIZONTAL_CELLS: usize = 512;
 
 /// Cells of the stratus grid across its thickest cells.
 const STRATUS_VERTICAL_CELLS: usize = 16;
+
+/// Smallest drop in the exported mist, mm (Marshall–Palmer's N(D) is
+/// finite at 0; drops below 0.1 mm hold a negligible cross-section).
+const MIST_MIN_DIAMETER_MM: f64 = 0.1;
+
+/// Side of the exported mist box, m.
+const MIST_SIDE_M: f64 = 40_000.0;
+
+/// Henyey–Greenstein asymmetry of nimbus's mist (rain/mist.wgsl, MIST_PHASE_G).
+const MIST_PHASE_G: f64 = 0.85;
 
 /// What the export wrote.
 pub struct Summary {
@@ -310,8 +320,10 @@ pub fn export(
     }
 
     // 8. Stratus.
+    let mut stratus_bottom_m = f64::INFINITY;
     let stratus = if let Some(settings) = &scene.stratus {
         let (grid, box_m) = stratus_grid(scene, settings, time_s, camera.position_m, optics.extinction_per_m);
+        stratus_bottom_m = grid.origin_m.y;
         write_bytes_atomically(&dir.join("stratus.vol"), "--mitsuba", &grid.to_mitsuba_vol())?;
         medium_shape(&mut xml, "stratus.vol", &box_m, &optics, "droplets");
         approximations.push(format!(
@@ -322,8 +334,63 @@ pub fn export(
     } else {
         false
     };
-    if scene.rain.is_some() {
-        approximations.push("rain: not exported (no streaks, splashes or mist in the reference)".into());
+    // 9. Rain mist.
+    if let Some(rain) = scene.rain.as_ref().filter(|r| r.mist) {
+        let extinction = nimbus_physics::rain::dsd::extinction_per_m(
+            rain.intensity_mm_h,
+            MIST_MIN_DIAMETER_MM,
+            rain.max_diameter_mm,
+        );
+        // Up to the rain's ceiling, and never into the stratus grid's box:
+        // Mitsuba tracks one medium at a time, and a ray leaving one of two
+        // overlapping boxes would lose the other (its lowest cells are empty).
+        let ceiling_m = scene.rain_ceiling_m().min(stratus_bottom_m);
+        let floor_m = scene.terrain.water_level_m.min(0.0) - scene.terrain.height_scale_m;
+        let half = 0.5 * MIST_SIDE_M;
+        let lo = DVec3::new(camera.position_m.x - half, floor_m, camera.position_m.z - half);
+        let hi = DVec3::new(camera.position_m.x + half, ceiling_m, camera.position_m.z + half);
+        if hi.y > lo.y && extinction > 0.0 {
+            let centre = 0.5 * (lo + hi);
+            let box_m = DMat4::from_translation(centre) * DMat4::from_scale(0.5 * (hi - lo));
+            let _ = write!(
+                xml,
+                r#"    <medium type="homogeneous" id="mist">
+        <phase type="hg"><float name="g" value="{MIST_PHASE_G}"/></phase>
+        <rgb name="sigma_t" value="{extinction:.7e}"/>
+        <rgb name="albedo" value="1.0"/>
+    </medium>
+    <shape type="cube">
+        <transform name="to_world"><matrix value="{m}"/></transform>
+        <bsdf type="null"/>
+        <ref name="interior" id="mist"/>
+    </shape>
+"#,
+                m = matrix(&box_m),
+            );
+            let inside = (0..3).all(|k| camera.position_m[k] > lo[k] && camera.position_m[k] < hi[k]);
+            if inside {
+                // The camera is in the mist: the sensor starts its rays in it.
+                xml = xml.replacen(
+                    "        <film type=\"hdrfilm\">",
+                    "        <ref name=\"medium\" id=\"mist\"/>\n        <film type=\"hdrfilm\">",
+                    1,
+                );
+                // The medium must be declared before the sensor refers to it.
+                let declared = xml.find("    <medium type=\"homogeneous\" id=\"mist\">").unwrap_or(0);
+                let end = xml[declared..].find("    </medium>\n").map_or(declared, |e| declared + e + "    </medium>\n".len());
+                let block = xml[declared..end].to_string();
+                xml.replace_range(declared..end, "");
+                let sensor = xml.find("    <sensor").unwrap_or(0);
+                xml.insert_str(sensor, &block);
+            }
+            approximations.push(format!(
+                "rain: streaks and splashes are not exported; the mist is a homogeneous medium (σ_t = {extinction:.2e} m⁻¹ from all drops of {MIST_MIN_DIAMETER_MM}–{} mm, albedo 1, Henyey–Greenstein g = {MIST_PHASE_G}, as nimbus's mist) from below the terrain to the rain's ceiling at {ceiling_m:.0} m, {:.0} km square around the camera, everywhere (rain zones not followed)",
+                rain.max_diameter_mm,
+                MIST_SIDE_M / 1000.0
+            ));
+        }
+    } else if scene.rain.is_some() {
+        approximations.push("rain: not exported (no streaks or splashes; the scene's mist is off)".into());
     }
     xml.push_str("</scene>\n");
     write_bytes_atomically(&dir.join("scene.xml"), "--mitsuba", xml.as_bytes())?;

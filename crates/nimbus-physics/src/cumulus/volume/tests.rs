@@ -281,7 +281,7 @@ fn mitsuba_vol_header_and_length() {
     );
     let bbox: Vec<f32> = (0..6).map(|k| f32_at(24 + 4 * k)).collect();
     assert_eq!(bbox, [-10.0, 0.0, 5.0, -4.0, 4.0, 13.0]);
-    // data[((z ysize + y) xsize + x)]: cell (1, 1, 2) is value 16.
+    // data[((z ysize + y) xsize + x)]: cell (1, 1, 2) is element 16, 8.0.
     assert_eq!(f32_at(48 + 4 * ((2 * 2 + 1) * 3 + 1)), 8.0);
     assert_eq!(grid.value_per_m([1, 1, 2]), 8.0);
 }
@@ -295,7 +295,7 @@ fn parameters_are_checked_and_the_cap_coarsens() {
         corona_thickness_m: f64::NAN,
         ..VolumeParams::default()
     };
-    let e = extinction_grid(&field, &bad).err().expect("error");
+    let e = extinction_grid(&field, &bad).expect_err("error");
     assert!(e.to_string().starts_with("corona_thickness_m = NaN"), "{e}");
     let bad = VolumeParams {
         max_cells: MAX_CELLS_LIMIT + 1,
