@@ -83,7 +83,13 @@ fn exr_layers_are_read_back_with_their_names() {
 #[test]
 fn the_equirectangular_panorama_has_no_seam() {
     let dir = temp_dir("pano");
-    let scene = "[camera]\nposition_m = [0.0, 300.0, 0.0]\nprojection = \"equirectangular\"\n\n[sun]\nazimuth_deg = 120.0\nelevation_deg = 30.0\n";
+    // The embedded default scene (clouds, rain, terrain, sea) as a panorama.
+    let default = nimbus(&["scene", "--print-default"], &dir);
+    assert_success(&default);
+    let scene = String::from_utf8(default.stdout)
+        .expect("UTF-8")
+        .replacen("[camera]\n", "[camera]\nprojection = \"equirectangular\"\n", 1);
+    assert!(scene.contains("projection = \"equirectangular\""));
     std::fs::write(dir.join("pano.toml"), scene).expect("scene");
     let out = nimbus(
         &["render", "pano.toml", "-o", "pano.exr", "--width", "128", "--height", "64"],
@@ -101,10 +107,11 @@ fn the_equirectangular_panorama_has_no_seam() {
         let typical = (1..w).map(|x| (row[x] - row[x - 1]).abs()).fold(0.0f32, f32::max);
         assert!(seam <= typical * 1.5 + 1e-4, "row {y}: seam {seam}, largest step {typical}");
     }
-    // The zenith row is nearly uniform (the pole is one point).
+    // The zenith row circles the pole within 1.4°: nearly uniform, no pinch
+    // or streak (clouds overhead may still vary it a little).
     let top = &g[..w];
     let mean = top.iter().sum::<f32>() / w as f32;
-    assert!(top.iter().all(|v| (v - mean).abs() < 0.05 * mean), "{top:?}");
+    assert!(top.iter().all(|v| (v - mean).abs() < 0.25 * mean), "{top:?}");
     // The upper half is sky (brighter than black), the lower half at the horizon is sea or land.
     assert!(mean > 0.0);
 }

@@ -119,6 +119,8 @@ fn matrix(m: &DMat4) -> String {
 /// mapped to the world by `world_from_grid`.
 fn medium_shape(
     xml: &mut String,
+    media: &mut String,
+    id: &str,
     volume_file: &str,
     world_from_grid: &DMat4,
     optics: &DropletOptics,
@@ -130,24 +132,40 @@ fn medium_shape(
         * DMat4::from_scale(DVec3::splat(0.5));
     let [r, g, b] = optics.albedo_rgb;
     let _ = write!(
+        media,
+        r#"    <medium type="heterogeneous" id="{id}">
+        <ref id="{phase_id}"/>
+        <volume type="gridvolume" name="sigma_t">
+            <string name="filename" value="{volume_file}"/>
+            <transform name="to_world"><matrix value="{grid}"/></transform>
+        </volume>
+        <rgb name="albedo" value="{r:.7}, {g:.7}, {b:.7}"/>
+        <float name="scale" value="1"/>
+    </medium>
+"#,
+        grid = matrix(world_from_grid),
+    );
+    cube_shape(xml, id, &world_from_cube);
+}
+
+/// A box bounding a medium (no surface of its own).
+fn cube_shape(xml: &mut String, medium_id: &str, world_from_cube: &DMat4) {
+    let _ = write!(
         xml,
         r#"    <shape type="cube">
         <transform name="to_world"><matrix value="{cube}"/></transform>
         <bsdf type="null"/>
-        <medium type="heterogeneous" name="interior">
-            <ref id="{phase_id}"/>
-            <volume type="gridvolume" name="sigma_t">
-                <string name="filename" value="{volume_file}"/>
-                <transform name="to_world"><matrix value="{grid}"/></transform>
-            </volume>
-            <rgb name="albedo" value="{r:.7}, {g:.7}, {b:.7}"/>
-            <float name="scale" value="1"/>
-        </medium>
+        <ref name="interior" id="{medium_id}"/>
     </shape>
 "#,
-        cube = matrix(&world_from_cube),
-        grid = matrix(world_from_grid),
+        cube = matrix(world_from_cube),
     );
+}
+
+/// Whether a point lies inside the box `world_from_cube` maps [−1, 1]³ to.
+fn inside_cube(world_from_cube: &DMat4, point: DVec3) -> bool {
+    let local = world_from_cube.inverse().transform_point3(point);
+    local.abs().max_element() < 1.0
 }
 
 /// The grid's box in its own frame: translate to its minimum corner, scale to its size.
@@ -270,8 +288,12 @@ pub fn export(
     let droplet_settings = scene.stratus.clone().unwrap_or_default();
     let optics = droplet_optics(&droplet_settings);
     let values: Vec<String> = optics.phase_values.iter().map(|v| format!("{v:.6e}")).collect();
+    // Media (and their phase function) are declared before the sensor,
+    // which may start its rays in one of them.
+    let mut media = String::new();
+    let mut camera_medium: Option<String> = None;
     let _ = write!(
-        xml,
+        media,
         "    <phase type=\"tabphase\" id=\"droplets\">\n        <string name=\"values\" value=\"{}\"/>\n    </phase>\n",
         values.join(", ")
     );
@@ -310,7 +332,15 @@ pub fn export(
             if !dir.join(&file).exists() || index == 0 {
                 write_bytes_atomically(&dir.join(&file), "--mitsuba", &grid.to_mitsuba_vol())?;
             }
-            medium_shape(&mut xml, &file, &(world_from_field * box_from_unit(grid)), &optics, "droplets");
+            let id = format!("cumulus_{index}");
+            let world_from_grid = world_from_field * box_from_unit(grid);
+            medium_shape(&mut xml, &mut media, &id, &file, &world_from_grid, &optics, "droplets");
+            let world_from_cube = world_from_grid
+                * DMat4::from_translation(DVec3::splat(0.5))
+                * DMat4::from_scale(DVec3::splat(0.5));
+            if inside_cube(&world_from_cube, camera.position_m) {
+                camera_medium = Some(id);
+            }
             cumulus_count += 1;
         }
         if placed.iter().any(|c| (c.scale - 1.0).abs() > 1e-6) {
@@ -325,7 +355,12 @@ pub fn export(
         let (grid, box_m) = stratus_grid(scene, settings, time_s, camera.position_m, optics.extinction_per_m);
         stratus_bottom_m = grid.origin_m.y;
         write_bytes_atomically(&dir.join("stratus.vol"), "--mitsuba", &grid.to_mitsuba_vol())?;
-        medium_shape(&mut xml, "stratus.vol", &box_m, &optics, "droplets");
+        medium_shape(&mut xml, &mut media, "stratus", "stratus.vol", &box_m, &optics, "droplets");
+        let world_from_cube =
+            box_m * DMat4::from_translation(DVec3::splat(0.5)) * DMat4::from_scale(DVec3::splat(0.5));
+        if inside_cube(&world_from_cube, camera.position_m) {
+            camera_medium = Some("stratus".into());
+        }
         approximations.push(format!(
             "stratus: a grid of {:.0} m cells ({}×{}×{}) around the camera; beyond it, no layer",
             grid.cell_m, grid.dims[0], grid.dims[1], grid.dims[2]
@@ -353,35 +388,17 @@ pub fn export(
             let centre = 0.5 * (lo + hi);
             let box_m = DMat4::from_translation(centre) * DMat4::from_scale(0.5 * (hi - lo));
             let _ = write!(
-                xml,
+                media,
                 r#"    <medium type="homogeneous" id="mist">
         <phase type="hg"><float name="g" value="{MIST_PHASE_G}"/></phase>
         <rgb name="sigma_t" value="{extinction:.7e}"/>
         <rgb name="albedo" value="1.0"/>
     </medium>
-    <shape type="cube">
-        <transform name="to_world"><matrix value="{m}"/></transform>
-        <bsdf type="null"/>
-        <ref name="interior" id="mist"/>
-    </shape>
-"#,
-                m = matrix(&box_m),
+"#
             );
-            let inside = (0..3).all(|k| camera.position_m[k] > lo[k] && camera.position_m[k] < hi[k]);
-            if inside {
-                // The camera is in the mist: the sensor starts its rays in it.
-                xml = xml.replacen(
-                    "        <film type=\"hdrfilm\">",
-                    "        <ref name=\"medium\" id=\"mist\"/>\n        <film type=\"hdrfilm\">",
-                    1,
-                );
-                // The medium must be declared before the sensor refers to it.
-                let declared = xml.find("    <medium type=\"homogeneous\" id=\"mist\">").unwrap_or(0);
-                let end = xml[declared..].find("    </medium>\n").map_or(declared, |e| declared + e + "    </medium>\n".len());
-                let block = xml[declared..end].to_string();
-                xml.replace_range(declared..end, "");
-                let sensor = xml.find("    <sensor").unwrap_or(0);
-                xml.insert_str(sensor, &block);
+            cube_shape(&mut xml, "mist", &box_m);
+            if inside_cube(&box_m, camera.position_m) {
+                camera_medium = Some("mist".into());
             }
             approximations.push(format!(
                 "rain: streaks and splashes are not exported; the mist is a homogeneous medium (σ_t = {extinction:.2e} m⁻¹ from all drops of {MIST_MIN_DIAMETER_MM}–{} mm, albedo 1, Henyey–Greenstein g = {MIST_PHASE_G}, as nimbus's mist) from below the terrain to the rain's ceiling at {ceiling_m:.0} m, {:.0} km square around the camera, everywhere (rain zones not followed)",
@@ -392,6 +409,17 @@ pub fn export(
     } else if scene.rain.is_some() {
         approximations.push("rain: not exported (no streaks or splashes; the scene's mist is off)".into());
     }
+    if let Some(id) = &camera_medium {
+        // The camera is inside a medium: its rays start in it.
+        xml = xml.replacen(
+            "        <film type=\"hdrfilm\">",
+            &format!("        <ref name=\"medium\" id=\"{id}\"/>\n        <film type=\"hdrfilm\">"),
+            1,
+        );
+        approximations.push(format!("the camera is inside the {id} medium's box"));
+    }
+    let sensor = xml.find("    <sensor").unwrap_or(xml.len());
+    xml.insert_str(sensor, &media);
     xml.push_str("</scene>\n");
     write_bytes_atomically(&dir.join("scene.xml"), "--mitsuba", xml.as_bytes())?;
     let notes: String = approximations.iter().map(|l| format!("- {l}\n")).collect();
