@@ -116,7 +116,10 @@ pub fn write_exr_layers(path: &Path, image: &ImageLayers) -> anyhow::Result<()> 
         channels.push(AnyChannel::new("Z", plane(image.distance_m.clone())));
     }
     if image.cloud_opacity.len() == pixels {
-        channels.push(AnyChannel::new("cloud.A", plane(image.cloud_opacity.clone())));
+        channels.push(AnyChannel::new(
+            "cloud.A",
+            plane(image.cloud_opacity.clone()),
+        ));
     }
     if image.sky_radiance.len() == pixels {
         for (k, name) in ["sky.R", "sky.G", "sky.B"].into_iter().enumerate() {

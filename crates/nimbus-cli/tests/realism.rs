@@ -50,7 +50,16 @@ fn exr_layers_are_read_back_with_their_names() {
     let dir = temp_dir("layers");
     let scene = scenes_dir().join("cumulus-front-lit.toml");
     let out = nimbus(
-        &["render", scene.to_str().expect("path"), "-o", "c.exr", "--width", "64", "--height", "36"],
+        &[
+            "render",
+            scene.to_str().expect("path"),
+            "-o",
+            "c.exr",
+            "--width",
+            "64",
+            "--height",
+            "36",
+        ],
         &dir,
     );
     assert_success(&out);
@@ -65,13 +74,21 @@ fn exr_layers_are_read_back_with_their_names() {
     // The cumulus covers some pixels fully and leaves the sky clear.
     let cloudy = opacity.iter().filter(|a| **a > 0.9).count();
     let clear = opacity.iter().filter(|a| **a < 0.01).count();
-    assert!(cloudy > 10 && clear > w * h / 2, "cloudy {cloudy}, clear {clear}");
+    assert!(
+        cloudy > 10 && clear > w * h / 2,
+        "cloudy {cloudy}, clear {clear}"
+    );
     // Where the cloud is opaque, the image is the cloud, not the sky; where
     // there is none, the image is the sky layer.
     let (r, sky) = (&c["R"], &c["sky.R"]);
     for i in 0..w * h {
         if opacity[i] < 0.001 && c["Z"][i] >= 1e9 {
-            assert!((r[i] - sky[i]).abs() <= 0.02 * sky[i] + 1e-3, "pixel {i}: {} vs {}", r[i], sky[i]);
+            assert!(
+                (r[i] - sky[i]).abs() <= 0.02 * sky[i] + 1e-3,
+                "pixel {i}: {} vs {}",
+                r[i],
+                sky[i]
+            );
         }
     }
     // Z: the sky is at 1e10 m; the cumulus body and the sea are nearer.
@@ -86,13 +103,24 @@ fn the_equirectangular_panorama_has_no_seam() {
     // The embedded default scene (clouds, rain, terrain, sea) as a panorama.
     let default = nimbus(&["scene", "--print-default"], &dir);
     assert_success(&default);
-    let scene = String::from_utf8(default.stdout)
-        .expect("UTF-8")
-        .replacen("[camera]\n", "[camera]\nprojection = \"equirectangular\"\n", 1);
+    let scene = String::from_utf8(default.stdout).expect("UTF-8").replacen(
+        "[camera]\n",
+        "[camera]\nprojection = \"equirectangular\"\n",
+        1,
+    );
     assert!(scene.contains("projection = \"equirectangular\""));
     std::fs::write(dir.join("pano.toml"), scene).expect("scene");
     let out = nimbus(
-        &["render", "pano.toml", "-o", "pano.exr", "--width", "128", "--height", "64"],
+        &[
+            "render",
+            "pano.toml",
+            "-o",
+            "pano.exr",
+            "--width",
+            "128",
+            "--height",
+            "64",
+        ],
         &dir,
     );
     assert_success(&out);
@@ -104,14 +132,22 @@ fn the_equirectangular_panorama_has_no_seam() {
     for y in 4..h - 4 {
         let row = &g[y * w..(y + 1) * w];
         let seam = (row[0] - row[w - 1]).abs();
-        let typical = (1..w).map(|x| (row[x] - row[x - 1]).abs()).fold(0.0f32, f32::max);
-        assert!(seam <= typical * 1.5 + 1e-4, "row {y}: seam {seam}, largest step {typical}");
+        let typical = (1..w)
+            .map(|x| (row[x] - row[x - 1]).abs())
+            .fold(0.0f32, f32::max);
+        assert!(
+            seam <= typical * 1.5 + 1e-4,
+            "row {y}: seam {seam}, largest step {typical}"
+        );
     }
     // The zenith row circles the pole within 1.4°: nearly uniform, no pinch
     // or streak (clouds overhead may still vary it a little).
     let top = &g[..w];
     let mean = top.iter().sum::<f32>() / w as f32;
-    assert!(top.iter().all(|v| (v - mean).abs() < 0.25 * mean), "{top:?}");
+    assert!(
+        top.iter().all(|v| (v - mean).abs() < 0.25 * mean),
+        "{top:?}"
+    );
     // The upper half is sky (brighter than black), the lower half at the horizon is sea or land.
     assert!(mean > 0.0);
 }
@@ -121,10 +157,22 @@ fn compare_reports_zero_for_identical_images_and_writes_the_report() {
     let dir = temp_dir("compare");
     let scene = scenes_dir().join("cumulus-front-lit.toml");
     assert_success(&nimbus(
-        &["render", scene.to_str().expect("path"), "-o", "a.exr", "--width", "48", "--height", "27"],
+        &[
+            "render",
+            scene.to_str().expect("path"),
+            "-o",
+            "a.exr",
+            "--width",
+            "48",
+            "--height",
+            "27",
+        ],
         &dir,
     ));
-    let out = nimbus(&["compare", "a.exr", "a.exr", "--json", "--out", "r.png"], &dir);
+    let out = nimbus(
+        &["compare", "a.exr", "a.exr", "--json", "--out", "r.png"],
+        &dir,
+    );
     assert_success(&out);
     let json: serde_json::Value = serde_json::from_slice(&out.stdout).expect("one JSON document");
     assert_eq!(json["hdr_flip_mean"], 0.0);
@@ -137,7 +185,10 @@ fn compare_reports_zero_for_identical_images_and_writes_the_report() {
     let out = nimbus(&["compare", "a.exr", "bad.exr"], &dir);
     assert!(!out.status.success());
     let stderr = String::from_utf8_lossy(&out.stderr);
-    assert!(stderr.contains("bad.exr") && stderr.contains("OpenEXR"), "{stderr}");
+    assert!(
+        stderr.contains("bad.exr") && stderr.contains("OpenEXR"),
+        "{stderr}"
+    );
 }
 
 /// The realism suite (docs/REALISM.md): every scene of scenes/realism/ is
@@ -160,36 +211,63 @@ fn the_realism_suite_does_not_move_away_from_its_references() {
     let dir = temp_dir("suite");
     let mut failures = Vec::new();
     for scene in &scenes {
-        let name = scene.file_stem().expect("name").to_string_lossy().into_owned();
+        let name = scene
+            .file_stem()
+            .expect("name")
+            .to_string_lossy()
+            .into_owned();
         let record_path = references.join(format!("{name}.json"));
-        let record: serde_json::Value = serde_json::from_str(
-            &std::fs::read_to_string(&record_path)
-                .unwrap_or_else(|e| panic!("{}: {e} (run tools/reference/suite.sh)", record_path.display())),
-        )
-        .expect("record JSON");
+        let record: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(&record_path).unwrap_or_else(|e| {
+                panic!(
+                    "{}: {e} (run tools/reference/suite.sh)",
+                    record_path.display()
+                )
+            }))
+            .expect("record JSON");
         let realtime = dir.join(format!("{name}.exr"));
         assert_success(&nimbus(
-            &["render", scene.to_str().expect("path"), "-o", realtime.to_str().expect("path")],
+            &[
+                "render",
+                scene.to_str().expect("path"),
+                "-o",
+                realtime.to_str().expect("path"),
+            ],
             &dir,
         ));
         let reference = references.join(format!("{name}.exr"));
         let out = nimbus(
-            &["compare", realtime.to_str().expect("path"), reference.to_str().expect("path"), "--json"],
+            &[
+                "compare",
+                realtime.to_str().expect("path"),
+                reference.to_str().expect("path"),
+                "--json",
+            ],
             &dir,
         );
         assert_success(&out);
         let now: serde_json::Value = serde_json::from_slice(&out.stdout).expect("JSON");
         let measured = now["hdr_flip_mean"].as_f64().expect("flip");
-        let recorded = record["error"]["hdr_flip_mean"].as_f64().expect("recorded flip");
-        let noise = record["reference_noise_hdr_flip_mean"].as_f64().expect("noise");
-        eprintln!("{name}: HDR-FLIP {measured:.4} (recorded {recorded:.4}, reference noise {noise:.4})");
+        let recorded = record["error"]["hdr_flip_mean"]
+            .as_f64()
+            .expect("recorded flip");
+        let noise = record["reference_noise_hdr_flip_mean"]
+            .as_f64()
+            .expect("noise");
+        eprintln!(
+            "{name}: HDR-FLIP {measured:.4} (recorded {recorded:.4}, reference noise {noise:.4})"
+        );
         if measured > recorded + noise {
             failures.push(format!(
                 "{name}: HDR-FLIP {measured:.4} > recorded {recorded:.4} + reference noise {noise:.4}"
             ));
         }
     }
-    assert!(failures.is_empty(), "realism regressed:\n{}", failures.join("\n"));
+    assert!(
+        failures.is_empty(),
+        "realism regressed:\n{}",
+        failures.join("\n")
+    );
 }
 
 /// Requirement 6 of the ground-truth work: nimbus's slab Monte-Carlo tracer
@@ -203,11 +281,18 @@ fn the_realism_suite_does_not_move_away_from_its_references() {
 fn the_slab_tracer_agrees_with_mitsuba() {
     let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/slab_mitsuba.json");
     let doc: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(&path).expect("slab_mitsuba.json")).expect("JSON");
-    let photons = doc["test"]["photons"].as_u64().expect("photons").to_string();
+        serde_json::from_str(&std::fs::read_to_string(&path).expect("slab_mitsuba.json"))
+            .expect("JSON");
+    let photons = doc["test"]["photons"]
+        .as_u64()
+        .expect("photons")
+        .to_string();
     let seed = doc["test"]["seed"].as_u64().expect("seed").to_string();
     let cases = doc["cases"].as_array().expect("cases");
-    let mut suns: Vec<f64> = cases.iter().map(|c| c["sun_zenith_deg"].as_f64().expect("sun")).collect();
+    let mut suns: Vec<f64> = cases
+        .iter()
+        .map(|c| c["sun_zenith_deg"].as_f64().expect("sun"))
+        .collect();
     suns.sort_by(f64::total_cmp);
     suns.dedup();
     assert!(suns.len() >= 2, "two sun angles at least: {suns:?}");
@@ -245,20 +330,34 @@ fn the_slab_tracer_agrees_with_mitsuba() {
         let ours: serde_json::Value = serde_json::from_slice(&out.stdout).expect("slab JSON");
         let (radiance, error) = (
             ours["radiance"]["total"].as_f64().expect("radiance"),
-            ours["std_error"]["radiance"]["total"].as_f64().expect("std error"),
+            ours["std_error"]["radiance"]["total"]
+                .as_f64()
+                .expect("std error"),
         );
         let (reference, reference_error) = (
-            case["mitsuba"]["radiance"].as_f64().expect("mitsuba radiance"),
-            case["mitsuba"]["std_error"].as_f64().expect("mitsuba std error"),
+            case["mitsuba"]["radiance"]
+                .as_f64()
+                .expect("mitsuba radiance"),
+            case["mitsuba"]["std_error"]
+                .as_f64()
+                .expect("mitsuba std error"),
         );
         let sigma = (radiance - reference) / error.hypot(reference_error);
         eprintln!(
             "τ {} {} sun {}° view {}°/{}°: nimbus {radiance:.5} ± {error:.5}, Mitsuba {reference:.5} ± {reference_error:.5} ({sigma:+.2} σ)",
-            case["optical_depth"], case["phase"], case["sun_zenith_deg"], case["view_zenith_deg"], case["relative_azimuth_deg"]
+            case["optical_depth"],
+            case["phase"],
+            case["sun_zenith_deg"],
+            case["view_zenith_deg"],
+            case["relative_azimuth_deg"]
         );
         if sigma.abs() >= 3.0 {
             failures.push(format!("{case}: {sigma:+.2} σ"));
         }
     }
-    assert!(failures.is_empty(), "disagreements:\n{}", failures.join("\n"));
+    assert!(
+        failures.is_empty(),
+        "disagreements:\n{}",
+        failures.join("\n")
+    );
 }

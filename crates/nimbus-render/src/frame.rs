@@ -185,9 +185,17 @@ impl CubeFace {
     pub fn project(direction: DVec3) -> (CubeFace, f64, f64) {
         let a = direction.abs();
         let face = if a.x >= a.y && a.x >= a.z {
-            if direction.x >= 0.0 { CubeFace::PositiveX } else { CubeFace::NegativeX }
+            if direction.x >= 0.0 {
+                CubeFace::PositiveX
+            } else {
+                CubeFace::NegativeX
+            }
         } else if a.y >= a.z {
-            if direction.y >= 0.0 { CubeFace::PositiveY } else { CubeFace::NegativeY }
+            if direction.y >= 0.0 {
+                CubeFace::PositiveY
+            } else {
+                CubeFace::NegativeY
+            }
         } else if direction.z >= 0.0 {
             CubeFace::PositiveZ
         } else {
@@ -196,7 +204,11 @@ impl CubeFace {
         let (forward, up) = face.forward_up();
         let right = forward.cross(up);
         let depth = direction.dot(forward);
-        (face, direction.dot(right) / depth, direction.dot(up) / depth)
+        (
+            face,
+            direction.dot(right) / depth,
+            direction.dot(up) / depth,
+        )
     }
 }
 
@@ -298,7 +310,9 @@ mod tests {
     fn cube_faces_tile_the_sphere_and_project_back() {
         let mut rng = 12345u64;
         let mut next = || {
-            rng = rng.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            rng = rng
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
             (rng >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
         };
         for _ in 0..1000 {

@@ -3,8 +3,8 @@
 pub mod animate;
 pub mod bench;
 pub mod compare;
-pub mod export;
 pub mod cumulus;
+pub mod export;
 pub mod optics;
 pub mod rain;
 pub mod render;

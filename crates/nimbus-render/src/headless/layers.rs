@@ -79,6 +79,27 @@ impl View {
     }
 }
 
+/// One layer of the six cube faces (in [`CubeFace::ALL`] order) resampled
+/// to the panorama; empty when the faces have none.
+fn resample_layer<const C: usize>(
+    faces: [Vec<[f32; C]>; 6],
+    face_px: u32,
+    width: u32,
+    height: u32,
+    filter: Filter,
+) -> Vec<[f32; C]> {
+    if faces[0].is_empty() {
+        Vec::new()
+    } else {
+        panorama::resample(&faces, face_px, width, height, filter)
+    }
+}
+
+/// A one-channel layer as plain values.
+fn single_channel(values: Vec<[f32; 1]>) -> Vec<f32> {
+    values.into_iter().map(|[v]| v).collect()
+}
+
 /// The scene without stratus, cumulus and rain.
 fn clear_sky(scene: &Scene) -> Scene {
     let mut clear = scene.clone();
@@ -142,42 +163,32 @@ impl HeadlessRenderer {
                     width,
                     height,
                     radiance: view.radiance,
-                    distance_m: view.distance_m.into_iter().map(|[d]| d).collect(),
-                    cloud_opacity: view.cloud_opacity.into_iter().map(|[a]| a).collect(),
+                    distance_m: single_channel(view.distance_m),
+                    cloud_opacity: single_channel(view.cloud_opacity),
                     sky_radiance: view.sky_radiance,
                 }
             }
             Projection::Equirectangular => {
                 let face_px = panorama::face_size_px(width, height);
-                let mut faces = layers.into_iter();
-                let mut next = || faces.next().unwrap_or_else(|| unreachable!("six faces"));
-                let faces: [ViewLayers; 6] = std::array::from_fn(|_| next());
-                let gather3 = |get: fn(&ViewLayers) -> &Vec<[f32; 3]>, filter| {
-                    let per_face: [Vec<[f32; 3]>; 6] = std::array::from_fn(|f| get(&faces[f]).clone());
-                    if per_face[0].is_empty() {
-                        Vec::new()
-                    } else {
-                        panorama::resample(&per_face, face_px, width, height, filter)
-                    }
-                };
-                let gather1 = |get: fn(&ViewLayers) -> &Vec<[f32; 1]>, filter| {
-                    let per_face: [Vec<[f32; 1]>; 6] = std::array::from_fn(|f| get(&faces[f]).clone());
-                    if per_face[0].is_empty() {
-                        Vec::new()
-                    } else {
-                        panorama::resample(&per_face, face_px, width, height, filter)
-                            .into_iter()
-                            .map(|[v]| v)
-                            .collect()
-                    }
-                };
+                let mut faces = layers;
+                let (n, w, h) = (face_px, width, height);
+                let radiance = std::array::from_fn(|f| std::mem::take(&mut faces[f].radiance));
+                let distance = std::array::from_fn(|f| std::mem::take(&mut faces[f].distance_m));
+                let opacity = std::array::from_fn(|f| std::mem::take(&mut faces[f].cloud_opacity));
+                let sky = std::array::from_fn(|f| std::mem::take(&mut faces[f].sky_radiance));
                 ImageLayers {
                     width,
                     height,
-                    radiance: gather3(|l| &l.radiance, Filter::Bilinear),
-                    distance_m: gather1(|l| &l.distance_m, Filter::Nearest),
-                    cloud_opacity: gather1(|l| &l.cloud_opacity, Filter::Bilinear),
-                    sky_radiance: gather3(|l| &l.sky_radiance, Filter::Bilinear),
+                    radiance: resample_layer(radiance, n, w, h, Filter::Bilinear),
+                    distance_m: single_channel(resample_layer(distance, n, w, h, Filter::Nearest)),
+                    cloud_opacity: single_channel(resample_layer(
+                        opacity,
+                        n,
+                        w,
+                        h,
+                        Filter::Bilinear,
+                    )),
+                    sky_radiance: resample_layer(sky, n, w, h, Filter::Bilinear),
                 }
             }
         })
@@ -240,7 +251,8 @@ impl HeadlessRenderer {
                 layers.cloud_opacity = vec![[0.0]; pixels];
                 continue;
             }
-            let grey = self.render_over_background(&masked, view, time_s, BACKGROUND_PRE_EXPOSED)?;
+            let grey =
+                self.render_over_background(&masked, view, time_s, BACKGROUND_PRE_EXPOSED)?;
             // The background's radiance: the pre-exposed grey over the
             // pre-exposure that frame used.
             let background_radiance = self.pre_exposed_to_radiance(BACKGROUND_PRE_EXPOSED)?;
@@ -259,14 +271,8 @@ impl HeadlessRenderer {
         }
         let clear = clear_sky(scene);
         for (view, layers) in views.iter().zip(out.iter_mut()) {
-            let (sky, _) = self.render_view_hdr(
-                &clear,
-                &view.camera,
-                view.width,
-                view.height,
-                time_s,
-                false,
-            )?;
+            let (sky, _) =
+                self.render_view_hdr(&clear, &view.camera, view.width, view.height, time_s, false)?;
             layers.sky_radiance = sky;
         }
         Ok(out)
@@ -282,7 +288,8 @@ impl HeadlessRenderer {
         pre_exposed: f32,
     ) -> Result<Vec<[f32; 3]>, HeadlessError> {
         self.renderer.set_background_override(Some(pre_exposed));
-        let frame = self.render_view_hdr(scene, &view.camera, view.width, view.height, time_s, false);
+        let frame =
+            self.render_view_hdr(scene, &view.camera, view.width, view.height, time_s, false);
         self.renderer.set_background_override(None);
         Ok(frame?.0)
     }

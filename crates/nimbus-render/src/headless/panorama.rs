@@ -97,7 +97,12 @@ pub fn resample<const C: usize>(
                     let (fx, fy) = ((px - x0).clamp(0.0, 1.0), (py - y0).clamp(0.0, 1.0));
                     let (x0, y0) = (x0 as usize, y0 as usize);
                     let at = |ix: usize, iy: usize| image[iy * side + ix];
-                    let (a, b, c, d) = (at(x0, y0), at(x0 + 1, y0), at(x0, y0 + 1), at(x0 + 1, y0 + 1));
+                    let (a, b, c, d) = (
+                        at(x0, y0),
+                        at(x0 + 1, y0),
+                        at(x0, y0 + 1),
+                        at(x0 + 1, y0 + 1),
+                    );
                     std::array::from_fn(|k| {
                         let top = f64::from(a[k]) * (1.0 - fx) + f64::from(b[k]) * fx;
                         let bottom = f64::from(c[k]) * (1.0 - fx) + f64::from(d[k]) * fx;
@@ -125,7 +130,11 @@ pub fn log_average_luminance_cd_m2(radiance: &[[f32; 3]], width: u32, height: u3
         sum += w * luminance.max(1e-4).log2();
         weight += w;
     }
-    if weight > 0.0 { (sum / weight).exp2() } else { 1e-4 }
+    if weight > 0.0 {
+        (sum / weight).exp2()
+    } else {
+        1e-4
+    }
 }
 
 /// CPU twin of `tonemap.wgsl`'s ACES fit (Hill 2016, BakingLab): exposed
@@ -262,13 +271,20 @@ mod tests {
         let radiance: Vec<[f32; 3]> = (0..w * h)
             .map(|i| {
                 let y = i / w;
-                if y == 0 || y == h - 1 { [10.0; 3] } else { [0.01; 3] }
+                if y == 0 || y == h - 1 {
+                    [10.0; 3]
+                } else {
+                    [0.01; 3]
+                }
             })
             .collect();
         let average = log_average_luminance_cd_m2(&radiance, w, h);
         let dark = nimbus_physics::photometry::luminance_cd_m2([0.01; 3]);
         let bright = nimbus_physics::photometry::luminance_cd_m2([10.0; 3]);
         let unweighted = (0.5 * dark.log2() + 0.5 * bright.log2()).exp2();
-        assert!(average < unweighted && average > dark, "{average} {unweighted}");
+        assert!(
+            average < unweighted && average > dark,
+            "{average} {unweighted}"
+        );
     }
 }

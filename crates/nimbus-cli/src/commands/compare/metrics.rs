@@ -216,7 +216,11 @@ mod tests {
                 [base * 0.8 + sun, base * 0.9 + sun, base + sun]
             })
             .collect();
-        RgbImage { width, height, pixels }
+        RgbImage {
+            width,
+            height,
+            pixels,
+        }
     }
 
     #[test]
@@ -246,10 +250,19 @@ mod tests {
             ..img.clone()
         };
         let a = hdr_flip(&reference, &test, PIXELS_PER_DEGREE);
-        let b = hdr_flip(&scale(&reference, 16.0), &scale(&test, 16.0), PIXELS_PER_DEGREE);
+        let b = hdr_flip(
+            &scale(&reference, 16.0),
+            &scale(&test, 16.0),
+            PIXELS_PER_DEGREE,
+        );
         let mean = |v: &[f32]| v.iter().map(|x| f64::from(*x)).sum::<f64>() / v.len() as f64;
         assert!(mean(&a) > 0.01, "a 30 % red shift is visible: {}", mean(&a));
-        assert!((mean(&a) - mean(&b)).abs() < 0.01 * mean(&a), "{} vs {}", mean(&a), mean(&b));
+        assert!(
+            (mean(&a) - mean(&b)).abs() < 0.01 * mean(&a),
+            "{} vs {}",
+            mean(&a),
+            mean(&b)
+        );
     }
 
     /// Larger differences give larger errors.
@@ -259,7 +272,11 @@ mod tests {
         let mut previous = 0.0;
         for factor in [1.05f32, 1.3, 2.0, 4.0] {
             let test = RgbImage {
-                pixels: reference.pixels.iter().map(|p| p.map(|c| c * factor)).collect(),
+                pixels: reference
+                    .pixels
+                    .iter()
+                    .map(|p| p.map(|c| c * factor))
+                    .collect(),
                 ..reference.clone()
             };
             let flip = hdr_flip(&reference, &test, PIXELS_PER_DEGREE);
@@ -288,7 +305,11 @@ mod tests {
     fn metrics_of_a_uniform_scale() {
         let reference = gradient(16, 8);
         let test = RgbImage {
-            pixels: reference.pixels.iter().map(|p| p.map(|c| c * 1.5)).collect(),
+            pixels: reference
+                .pixels
+                .iter()
+                .map(|p| p.map(|c| c * 1.5))
+                .collect(),
             ..reference.clone()
         };
         let mask = vec![true; reference.pixels.len()];

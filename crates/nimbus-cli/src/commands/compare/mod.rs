@@ -50,32 +50,28 @@ pub fn run(args: &CompareArgs) -> anyhow::Result<()> {
     let mut realtime = read_exr(&args.realtime)?;
     if let Some(path) = &args.mask_from {
         let source = read_exr(path)?;
-        anyhow::ensure!(
-            (source.image.width, source.image.height) == (realtime.image.width, realtime.image.height),
-            "--mask-from {}: {}×{} pixels, but {} is {}×{}",
-            path.display(),
-            source.image.width,
-            source.image.height,
-            args.realtime.display(),
-            realtime.image.width,
-            realtime.image.height
-        );
+        ensure_same_size(
+            &source.image,
+            path,
+            &realtime.image,
+            &args.realtime,
+            "--mask-from ",
+        )?;
         realtime.cloud_opacity = Some(source.cloud_opacity.with_context(|| {
-            format!("--mask-from {}: the EXR has no cloud.A layer", path.display())
+            format!(
+                "--mask-from {}: the EXR has no cloud.A layer",
+                path.display()
+            )
         })?);
     }
     let reference = read_exr(&args.reference)?;
-    anyhow::ensure!(
-        (realtime.image.width, realtime.image.height)
-            == (reference.image.width, reference.image.height),
-        "{}: {}×{} pixels, but {} is {}×{}",
-        args.reference.display(),
-        reference.image.width,
-        reference.image.height,
-        args.realtime.display(),
-        realtime.image.width,
-        realtime.image.height
-    );
+    ensure_same_size(
+        &reference.image,
+        &args.reference,
+        &realtime.image,
+        &args.realtime,
+        "",
+    )?;
     if let Some(out) = &args.out {
         super::check_output_dir(out)?;
     }
@@ -102,11 +98,36 @@ pub fn run(args: &CompareArgs) -> anyhow::Result<()> {
             "red/blue of the means    {:.4} (reference {:.4})",
             m.red_over_blue_test, m.red_over_blue_reference
         );
-        println!("chromaticity Δxy         {:.4}", m.mean_chromaticity_difference_xy);
+        println!(
+            "chromaticity Δxy         {:.4}",
+            m.mean_chromaticity_difference_xy
+        );
     }
     if let Some(out) = &args.out {
         eprintln!("nimbus: wrote {}", out.display());
     }
+    Ok(())
+}
+
+/// Fails, naming both files, unless `image` (from `path`, named after
+/// `flag`) has the size of `other` (from `other_path`).
+fn ensure_same_size(
+    image: &RgbImage,
+    path: &Path,
+    other: &RgbImage,
+    other_path: &Path,
+    flag: &str,
+) -> anyhow::Result<()> {
+    anyhow::ensure!(
+        (image.width, image.height) == (other.width, other.height),
+        "{flag}{}: {}×{} pixels, but {} is {}×{}",
+        path.display(),
+        image.width,
+        image.height,
+        other_path.display(),
+        other.width,
+        other.height
+    );
     Ok(())
 }
 
@@ -171,7 +192,10 @@ pub fn read_exr(path: &Path) -> anyhow::Result<ExrImage> {
         .iter()
         .map(|name| {
             channel(name).with_context(|| {
-                format!("{}: the EXR has no channel {name} (R, G, B needed)", path.display())
+                format!(
+                    "{}: the EXR has no channel {name} (R, G, B needed)",
+                    path.display()
+                )
             })
         })
         .collect::<anyhow::Result<_>>()?;
@@ -201,7 +225,12 @@ pub fn read_exr(path: &Path) -> anyhow::Result<ExrImage> {
 }
 
 /// Writes real-time | reference | error map (magma) side by side.
-fn write_report(path: &Path, test: &RgbImage, reference: &RgbImage, flip: &[f32]) -> anyhow::Result<()> {
+fn write_report(
+    path: &Path,
+    test: &RgbImage,
+    reference: &RgbImage,
+    flip: &[f32],
+) -> anyhow::Result<()> {
     let (w, h) = (test.width as usize, test.height as usize);
     let stops = metrics::key_exposure(reference);
     let left = metrics::display_rgb8(test, stops);

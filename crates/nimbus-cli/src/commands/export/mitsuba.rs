@@ -11,7 +11,7 @@ use nimbus_physics::cumulus::volume::{ExtinctionGrid, VolumeParams, extinction_g
 use nimbus_physics::optics::dsd::{SizeDistribution, bulk_optics};
 use nimbus_physics::optics::tables::CHANNEL_WAVELENGTHS_NM;
 use nimbus_physics::optics::water::water_refractive_index;
-use nimbus_render::frame::{Camera, equirectangular_uv};
+use nimbus_render::frame::{Camera, equirectangular_direction};
 use nimbus_render::headless::HeadlessRenderer;
 use nimbus_render::scene::{Projection, Scene, StratusSettings};
 use std::fmt::Write as _;
@@ -79,7 +79,13 @@ fn droplet_optics(settings: &StratusSettings) -> DropletOptics {
     let angles = nimbus_physics::optics::tables::computation_angles(5.0);
     let mut albedo_rgb = [1.0; 3];
     for (c, wavelength) in CHANNEL_WAVELENGTHS_NM.iter().enumerate() {
-        let optics = bulk_optics(&dsd, *wavelength, water_refractive_index(*wavelength), &[0.0, 180.0], 1e-3);
+        let optics = bulk_optics(
+            &dsd,
+            *wavelength,
+            water_refractive_index(*wavelength),
+            &[0.0, 180.0],
+            1e-3,
+        );
         albedo_rgb[c] = optics.single_scattering_albedo();
     }
     let optics = bulk_optics(
@@ -89,7 +95,10 @@ fn droplet_optics(settings: &StratusSettings) -> DropletOptics {
         &angles,
         1e-3,
     );
-    let table = nimbus_physics::optics::phase::PhaseTable::new(optics.angles_deg.clone(), optics.phase.clone());
+    let table = nimbus_physics::optics::phase::PhaseTable::new(
+        optics.angles_deg.clone(),
+        optics.phase.clone(),
+    );
     // Mitsuba's `tabphase` takes the values over cos θ from −1 (back
     // scattering) to +1 (forward), θ the scattering angle, and normalises them.
     let phase_values = (0..PHASE_SAMPLES)
@@ -112,11 +121,15 @@ fn vector(v: DVec3) -> String {
 fn matrix(m: &DMat4) -> String {
     // Mitsuba reads the 16 values row by row.
     let rows = m.transpose().to_cols_array();
-    rows.iter().map(|v| format!("{v:.9}")).collect::<Vec<_>>().join(" ")
+    rows.iter()
+        .map(|v| format!("{v:.9}"))
+        .collect::<Vec<_>>()
+        .join(" ")
 }
 
 /// A heterogeneous droplet medium inside a box: the unit cube of the grid
-/// mapped to the world by `world_from_grid`.
+/// mapped to the world by `world_from_grid`. Returns the box's transform
+/// (Mitsuba's [−1, 1]³ cube to the world).
 fn medium_shape(
     xml: &mut String,
     media: &mut String,
@@ -125,7 +138,7 @@ fn medium_shape(
     world_from_grid: &DMat4,
     optics: &DropletOptics,
     phase_id: &str,
-) {
+) -> DMat4 {
     // Mitsuba's `cube` spans [−1, 1]³; the grid volume [0, 1]³.
     let world_from_cube = *world_from_grid
         * DMat4::from_translation(DVec3::splat(0.5))
@@ -146,6 +159,7 @@ fn medium_shape(
         grid = matrix(world_from_grid),
     );
     cube_shape(xml, id, &world_from_cube);
+    world_from_cube
 }
 
 /// A box bounding a medium (no surface of its own).
@@ -170,8 +184,7 @@ fn inside_cube(world_from_cube: &DMat4, point: DVec3) -> bool {
 
 /// The grid's box in its own frame: translate to its minimum corner, scale to its size.
 fn box_from_unit(grid: &ExtinctionGrid) -> DMat4 {
-    DMat4::from_translation(grid.origin_m)
-        * DMat4::from_scale(grid.max_corner_m() - grid.origin_m)
+    DMat4::from_translation(grid.origin_m) * DMat4::from_scale(grid.max_corner_m() - grid.origin_m)
 }
 
 /// Writes the scene.
@@ -206,10 +219,15 @@ pub fn export(
     remove_sun_disc(&mut sky.pixels, SKY_WIDTH_PX, sky_height, to_sun);
     let sky_file = dir.join("sky.exr");
     crate::output::write_atomically(&sky_file, |temporary| {
-        exr::prelude::write_rgb_file(temporary, SKY_WIDTH_PX as usize, sky_height as usize, |x, y| {
-            let [r, g, b] = sky.pixels[y * SKY_WIDTH_PX as usize + x];
-            (r, g, b)
-        })
+        exr::prelude::write_rgb_file(
+            temporary,
+            SKY_WIDTH_PX as usize,
+            sky_height as usize,
+            |x, y| {
+                let [r, g, b] = sky.pixels[y * SKY_WIDTH_PX as usize + x];
+                (r, g, b)
+            },
+        )
         .with_context(|| format!("{}: EXR write failed", sky_file.display()))
     })?;
 
@@ -223,7 +241,10 @@ pub fn export(
     };
     let top = nimbus_render::atmosphere::solar_irradiance_top();
     let atmosphere = &scene.atmosphere;
-    let t = atmosphere.transmittance_to_top(atmosphere.bottom_radius_m + cloud_altitude_m.max(0.0), to_sun.y);
+    let t = atmosphere.transmittance_to_top(
+        atmosphere.bottom_radius_m + cloud_altitude_m.max(0.0),
+        to_sun.y,
+    );
     let sun_irradiance: [f64; 3] = std::array::from_fn(|c| f64::from(top[c]) * t[c]);
 
     // 4. Camera.
@@ -287,7 +308,11 @@ pub fn export(
     // cumulus shader has none of its own, so the same droplets).
     let droplet_settings = scene.stratus.clone().unwrap_or_default();
     let optics = droplet_optics(&droplet_settings);
-    let values: Vec<String> = optics.phase_values.iter().map(|v| format!("{v:.6e}")).collect();
+    let values: Vec<String> = optics
+        .phase_values
+        .iter()
+        .map(|v| format!("{v:.6e}"))
+        .collect();
     // Media (and their phase function) are declared before the sensor,
     // which may start its rays in one of them.
     let mut media = String::new();
@@ -301,7 +326,8 @@ pub fn export(
     // 7. Cumulus.
     let mut cumulus_count = 0;
     if let (Some(settings), Some(params)) = (&scene.cumulus, &variant_params) {
-        let mut variants: Vec<Option<(ExtinctionGrid, DVec3, nimbus_physics::cumulus::hierarchy::Cumulus)>> =
+        // Each variant's grid and origin, built (and its .vol written) once.
+        let mut variants: Vec<Option<(ExtinctionGrid, DVec3)>> =
             (0..params.count).map(|_| None).collect();
         for (index, cloud) in placed.iter().enumerate() {
             let slot = variants
@@ -317,9 +343,11 @@ pub fn export(
                 let grid = extinction_grid(&cumulus.field, &volume)
                     .map_err(|e| anyhow::anyhow!("cumulus variant {}: {e}", cloud.variant))?;
                 let origin = variant_origin_m(&grid);
-                *slot = Some((grid, origin, cumulus));
+                let file = format!("cumulus_{}.vol", cloud.variant);
+                write_bytes_atomically(&dir.join(&file), "--mitsuba", &grid.to_mitsuba_vol())?;
+                *slot = Some((grid, origin));
             }
-            let Some((grid, origin_m, _)) = slot.as_ref() else {
+            let Some((grid, origin_m)) = slot.as_ref() else {
                 continue;
             };
             // The shape scales; α_ρ and the corona do not (the shader's are
@@ -329,15 +357,17 @@ pub fn export(
                 * DMat4::from_scale(DVec3::splat(cloud.scale))
                 * DMat4::from_translation(-*origin_m);
             let file = format!("cumulus_{}.vol", cloud.variant);
-            if !dir.join(&file).exists() || index == 0 {
-                write_bytes_atomically(&dir.join(&file), "--mitsuba", &grid.to_mitsuba_vol())?;
-            }
             let id = format!("cumulus_{index}");
             let world_from_grid = world_from_field * box_from_unit(grid);
-            medium_shape(&mut xml, &mut media, &id, &file, &world_from_grid, &optics, "droplets");
-            let world_from_cube = world_from_grid
-                * DMat4::from_translation(DVec3::splat(0.5))
-                * DMat4::from_scale(DVec3::splat(0.5));
+            let world_from_cube = medium_shape(
+                &mut xml,
+                &mut media,
+                &id,
+                &file,
+                &world_from_grid,
+                &optics,
+                "droplets",
+            );
             if inside_cube(&world_from_cube, camera.position_m) {
                 camera_medium = Some(id);
             }
@@ -352,12 +382,28 @@ pub fn export(
     // 8. Stratus.
     let mut stratus_bottom_m = f64::INFINITY;
     let stratus = if let Some(settings) = &scene.stratus {
-        let (grid, box_m) = stratus_grid(scene, settings, time_s, camera.position_m, optics.extinction_per_m);
+        let (grid, box_m) = stratus_grid(
+            scene,
+            settings,
+            time_s,
+            camera.position_m,
+            optics.extinction_per_m,
+        );
         stratus_bottom_m = grid.origin_m.y;
-        write_bytes_atomically(&dir.join("stratus.vol"), "--mitsuba", &grid.to_mitsuba_vol())?;
-        medium_shape(&mut xml, &mut media, "stratus", "stratus.vol", &box_m, &optics, "droplets");
-        let world_from_cube =
-            box_m * DMat4::from_translation(DVec3::splat(0.5)) * DMat4::from_scale(DVec3::splat(0.5));
+        write_bytes_atomically(
+            &dir.join("stratus.vol"),
+            "--mitsuba",
+            &grid.to_mitsuba_vol(),
+        )?;
+        let world_from_cube = medium_shape(
+            &mut xml,
+            &mut media,
+            "stratus",
+            "stratus.vol",
+            &box_m,
+            &optics,
+            "droplets",
+        );
         if inside_cube(&world_from_cube, camera.position_m) {
             camera_medium = Some("stratus".into());
         }
@@ -382,8 +428,16 @@ pub fn export(
         let ceiling_m = scene.rain_ceiling_m().min(stratus_bottom_m);
         let floor_m = scene.terrain.water_level_m.min(0.0) - scene.terrain.height_scale_m;
         let half = 0.5 * MIST_SIDE_M;
-        let lo = DVec3::new(camera.position_m.x - half, floor_m, camera.position_m.z - half);
-        let hi = DVec3::new(camera.position_m.x + half, ceiling_m, camera.position_m.z + half);
+        let lo = DVec3::new(
+            camera.position_m.x - half,
+            floor_m,
+            camera.position_m.z - half,
+        );
+        let hi = DVec3::new(
+            camera.position_m.x + half,
+            ceiling_m,
+            camera.position_m.z + half,
+        );
         if hi.y > lo.y && extinction > 0.0 {
             let centre = 0.5 * (lo + hi);
             let box_m = DMat4::from_translation(centre) * DMat4::from_scale(0.5 * (hi - lo));
@@ -407,7 +461,8 @@ pub fn export(
             ));
         }
     } else if scene.rain.is_some() {
-        approximations.push("rain: not exported (no streaks or splashes; the scene's mist is off)".into());
+        approximations
+            .push("rain: not exported (no streaks or splashes; the scene's mist is off)".into());
     }
     if let Some(id) = &camera_medium {
         // The camera is inside a medium: its rays start in it.
@@ -423,7 +478,11 @@ pub fn export(
     xml.push_str("</scene>\n");
     write_bytes_atomically(&dir.join("scene.xml"), "--mitsuba", xml.as_bytes())?;
     let notes: String = approximations.iter().map(|l| format!("- {l}\n")).collect();
-    write_bytes_atomically(&dir.join("APPROXIMATIONS.md"), "--mitsuba", notes.as_bytes())?;
+    write_bytes_atomically(
+        &dir.join("APPROXIMATIONS.md"),
+        "--mitsuba",
+        notes.as_bytes(),
+    )?;
     Ok(Summary {
         cumulus_count,
         stratus,
@@ -470,7 +529,11 @@ fn stratus_grid(
     let dy = (settings.thickness_m / STRATUS_VERTICAL_CELLS as f64).max(1.0);
     let ny = (settings.thickness_m / dy).ceil() as usize + 2;
     let mid = settings.base_m + 0.5 * settings.thickness_m;
-    let origin = DVec3::new(camera_m.x - 0.5 * side_m, mid - 0.5 * ny as f64 * dy, camera_m.z - 0.5 * side_m);
+    let origin = DVec3::new(
+        camera_m.x - 0.5 * side_m,
+        mid - 0.5 * ny as f64 * dy,
+        camera_m.z - 0.5 * side_m,
+    );
     let mut values = vec![0.0f32; n * ny * n];
     for k in 0..n {
         for i in 0..n {
@@ -488,7 +551,11 @@ fn stratus_grid(
     // Flat cells: Mitsuba maps the grid to its box whatever its cells'
     // shape, so the box below carries the vertical cell `dy`.
     let box_m = DMat4::from_translation(origin)
-        * DMat4::from_scale(DVec3::new(n as f64 * cell_m, ny as f64 * dy, n as f64 * cell_m));
+        * DMat4::from_scale(DVec3::new(
+            n as f64 * cell_m,
+            ny as f64 * dy,
+            n as f64 * cell_m,
+        ));
     (
         ExtinctionGrid {
             origin_m: origin,
@@ -506,7 +573,10 @@ fn write_terrain(scene: &Scene, dir: &Path, xml: &mut String) -> anyhow::Result<
     let terrain = nimbus_physics::terrain::generate(&scene.terrain);
     let n = terrain.vertices_per_side();
     let stride = n.div_ceil(MAX_TERRAIN_VERTICES_PER_SIDE).max(1);
-    let indices: Vec<usize> = (0..n).step_by(stride).chain(((n - 1) % stride != 0).then_some(n - 1)).collect();
+    let indices: Vec<usize> = (0..n)
+        .step_by(stride)
+        .chain(((n - 1) % stride != 0).then_some(n - 1))
+        .collect();
     let m = indices.len();
     let mut ply = format!(
         "ply\nformat binary_little_endian 1.0\nelement vertex {}\nproperty float x\nproperty float y\nproperty float z\nproperty float u\nproperty float v\nelement face {}\nproperty list uchar int vertex_indices\nend_header\n",
@@ -518,7 +588,13 @@ fn write_terrain(scene: &Scene, dir: &Path, xml: &mut String) -> anyhow::Result<
         for (a, &i) in indices.iter().enumerate() {
             let (x, z) = terrain.vertex_xz_m(i, j);
             let y = terrain.ground_height_m[j * n + i];
-            for v in [x as f32, y, z as f32, a as f32 / (m - 1) as f32, b as f32 / (m - 1) as f32] {
+            for v in [
+                x as f32,
+                y,
+                z as f32,
+                a as f32 / (m - 1) as f32,
+                b as f32 / (m - 1) as f32,
+            ] {
                 ply.extend_from_slice(&v.to_le_bytes());
             }
         }
@@ -527,7 +603,10 @@ fn write_terrain(scene: &Scene, dir: &Path, xml: &mut String) -> anyhow::Result<
         for a in 0..m - 1 {
             let v = |a: usize, b: usize| (b * m + a) as i32;
             // Counter-clockwise seen from above (+y): normals up.
-            for tri in [[v(a, b), v(a, b + 1), v(a + 1, b)], [v(a + 1, b), v(a, b + 1), v(a + 1, b + 1)]] {
+            for tri in [
+                [v(a, b), v(a, b + 1), v(a + 1, b)],
+                [v(a + 1, b), v(a, b + 1), v(a + 1, b + 1)],
+            ] {
                 ply.push(3);
                 for i in tri {
                     ply.extend_from_slice(&i.to_le_bytes());
@@ -596,9 +675,8 @@ fn remove_sun_disc(pixels: &mut [[f32; 3]], width: u32, height: u32, to_sun: DVe
     let direction = |i: usize| {
         let u = ((i % width as usize) as f64 + 0.5) / f64::from(width);
         let v = ((i / width as usize) as f64 + 0.5) / f64::from(height);
-        nimbus_render::frame::equirectangular_direction(u, v)
+        equirectangular_direction(u, v)
     };
-    let _ = equirectangular_uv;
     let (mut sum, mut count) = ([0.0f64; 3], 0usize);
     for (i, p) in pixels.iter().enumerate() {
         let c = direction(i).dot(to_sun);
@@ -609,7 +687,11 @@ fn remove_sun_disc(pixels: &mut [[f32; 3]], width: u32, height: u32, to_sun: DVe
             count += 1;
         }
     }
-    let ring = if count > 0 { sum.map(|s| (s / count as f64) as f32) } else { [0.0; 3] };
+    let ring = if count > 0 {
+        sum.map(|s| (s / count as f64) as f32)
+    } else {
+        [0.0; 3]
+    };
     for (i, p) in pixels.iter_mut().enumerate() {
         if direction(i).dot(to_sun) >= inner {
             *p = ring;

@@ -65,7 +65,10 @@ pub fn run(args: &ExportArgs) -> anyhow::Result<()> {
         parent.display()
     );
     std::fs::create_dir_all(&args.mitsuba).with_context(|| {
-        format!("--mitsuba {}: cannot create the directory", args.mitsuba.display())
+        format!(
+            "--mitsuba {}: cannot create the directory",
+            args.mitsuba.display()
+        )
     })?;
     let mut headless = nimbus_render::headless::HeadlessRenderer::new(args.frame.adapter)?;
     eprintln!(
