@@ -180,7 +180,7 @@ fn viewer_keeps_the_embedded_shaders_when_the_files_on_disk_do_not_compile() {
         }
     }
     copy_wgsl(&source, &shaders);
-    let sky = shaders.join("sky/sky.wgsl");
+    let sky = shaders.join("passes/sky/sky.wgsl");
     let text = std::fs::read_to_string(&sky).expect("sky.wgsl");
     std::fs::write(&sky, format!("{text}\nfn broken( {{\n")).expect("write");
     let out = x.nimbus(

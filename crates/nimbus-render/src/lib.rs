@@ -2,37 +2,52 @@
 //!
 //! Embed it in a wgpu program: create a [`Renderer`] on your device, call
 //! [`Renderer::prepare`] with the [`Scene`] each frame, then
-//! [`Renderer::encode`] to draw the sky and terrain into your colour and
-//! depth targets. [`headless::HeadlessRenderer`] does the same offscreen with a
-//! device of its own (the `nimbus` CLI, tests, benchmarks).
+//! [`Renderer::encode`] to draw the sky, terrain, clouds and rain into your
+//! colour and depth targets. [`headless::HeadlessRenderer`] does the same
+//! offscreen with a device of its own (the `nimbus` CLI, tests, benchmarks).
 //!
-//! One module per pass ([`sky`], [`terrain`], [`stratus`], [`cumulus`], [`tonemap`]): its settings,
-//! GPU resources, draw function and WGSL side by side. The order of the
-//! passes in a frame is in [`Renderer::encode`].
+//! # Layers
+//!
+//! Each module imports only those above it in this list (checked by
+//! `tests/layering.rs`):
+//!
+//! 1. [`core`]: GPU context, targets, timing, binding and pipeline helpers,
+//!    device limits, the cache directory.
+//! 2. [`shader`]: WGSL composition (`// import` lines) and the WGSL library
+//!    shared by several passes.
+//! 3. [`scene`]: the scene's settings, their validation and their conversion
+//!    to the physics crate's types.
+//! 4. [`frame`]: the frame uniform and every resource the whole frame
+//!    reads (atmosphere lookups, cloud lighting, cloud shadow map,
+//!    occluders), handed to the passes as [`frame::FrameBindings`].
+//! 5. [`passes`]: one module per pass ([`passes::atmosphere`],
+//!    [`passes::sky`], [`passes::terrain`], [`passes::objects`],
+//!    [`passes::stratus`] with its radiosity, [`passes::cumulus`],
+//!    [`passes::rain`], [`passes::exposure`], [`passes::tonemap`]): its
+//!    settings, GPU resources, encode step and WGSL side by side. A pass
+//!    never imports another.
+//! 6. [`renderer`]: the frame's order of passes and the registry of every
+//!    shader module.
+//! 7. [`headless`]: offscreen rendering on a device of its own.
+//!
+//! The paths of earlier versions (`nimbus_render::stratus`, `::gpu`, ...)
+//! are kept as re-exports.
 
-pub mod atmosphere;
-pub mod binding;
-pub mod cumulus;
-pub mod exposure;
+pub mod core;
 pub mod frame;
-pub mod gpu;
 pub mod headless;
-pub mod objects;
-pub mod occluders;
-pub mod radiosity;
-pub mod rain;
+pub mod passes;
 pub mod renderer;
 pub mod scene;
 pub mod shader;
-pub mod sky;
-pub mod stratus;
-pub mod targets;
-pub mod terrain;
-pub mod timing;
-pub mod tonemap;
 
-pub use gpu::{AdapterPreference, GpuContext, GpuError};
+pub use self::core::{binding, gpu, targets, timing};
+pub use frame::occluders;
+pub use passes::stratus::radiosity;
+pub use passes::{atmosphere, cumulus, exposure, objects, rain, sky, stratus, terrain, tonemap};
+
+pub use self::core::gpu::{AdapterPreference, GpuContext, GpuError};
 pub use renderer::{
-    FrameTargets, PASS_NAMES, RenderError, Renderer, RendererDescriptor, TargetLoad,
+    FrameTargets, PASS_NAMES, PassId, RenderError, Renderer, RendererDescriptor, TargetLoad,
 };
 pub use scene::{Scene, SceneError};

@@ -4,7 +4,7 @@
 
 use nimbus_render::atmosphere::{AtmosphereUniform, LightingUniform};
 use nimbus_render::frame::FrameUniform;
-use nimbus_render::shader::all_modules;
+use nimbus_render::renderer::all_modules;
 use nimbus_render::sky::SkyPassUniform;
 use nimbus_render::tonemap::TonemapUniform;
 use std::mem::{offset_of, size_of};

@@ -7,11 +7,11 @@ pub mod panorama;
 
 pub use layers::{ImageLayers, SKY_DISTANCE_M};
 
+use crate::core::gpu::{AdapterPreference, GpuContext, GpuError};
+use crate::core::targets::{DEPTH_FORMAT, Target};
 use crate::frame::Camera;
-use crate::gpu::{AdapterPreference, GpuContext, GpuError};
 use crate::renderer::{FrameTargets, RenderError, Renderer, RendererDescriptor, TargetLoad};
 use crate::scene::{Projection, Scene};
-use crate::targets::{DEPTH_FORMAT, Target};
 
 /// Format of the tone-mapped output.
 pub const OUTPUT_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba8Unorm;
@@ -225,7 +225,7 @@ impl HeadlessRenderer {
         let bytes = read_texture(&self.gpu, &hdr.texture, 8)?;
         let halves: &[half::f16] = bytemuck::cast_slice(&bytes);
         // The drawing passes wrote radiance times the frame's pre-exposure.
-        let lighting: crate::atmosphere::LightingUniform =
+        let lighting: crate::passes::atmosphere::LightingUniform =
             self.read_buffer(self.renderer.atmosphere().lighting_buffer())?;
         let inverse_exposure = 1.0 / lighting.exposure[0];
         let pixels = halves
@@ -294,11 +294,12 @@ impl HeadlessRenderer {
         let mut encoder = self.gpu.device.create_command_encoder(&Default::default());
         encoder.copy_buffer_to_buffer(buffer, 0, &staging, 0, size);
         self.gpu.queue.submit([encoder.finish()]);
-        crate::binding::read_mapped(&self.gpu.device, &staging).map_err(HeadlessError::Readback)
+        crate::core::binding::read_mapped(&self.gpu.device, &staging)
+            .map_err(HeadlessError::Readback)
     }
 
     /// The exposure the last frame applied.
-    pub fn exposure_state(&self) -> Result<crate::exposure::ExposureState, HeadlessError> {
+    pub fn exposure_state(&self) -> Result<crate::passes::exposure::ExposureState, HeadlessError> {
         self.read_buffer(self.renderer.exposure().state_buffer())
     }
 }
@@ -338,7 +339,7 @@ pub fn read_texture(
     );
     gpu.queue.submit([encoder.finish()]);
     let bytes =
-        crate::binding::read_mapped(&gpu.device, &buffer).map_err(HeadlessError::Readback)?;
+        crate::core::binding::read_mapped(&gpu.device, &buffer).map_err(HeadlessError::Readback)?;
     let mut out = Vec::with_capacity((row_bytes * height * layers) as usize);
     for row in bytes.chunks(padded_row as usize) {
         out.extend_from_slice(&row[..row_bytes as usize]);

@@ -7,6 +7,8 @@
 //! the value and what is allowed.
 
 mod animation;
+pub mod gltf;
+pub mod object_geometry;
 mod objects;
 mod rain;
 mod validate;
@@ -23,6 +25,7 @@ pub use rain::{
 pub use validate::SceneError;
 
 use nimbus_physics::atmosphere::AtmosphereParams;
+use nimbus_physics::cloud_layer::CloudLayerField;
 use nimbus_physics::cumulus::shading::{CumulusShading, ShadingTerms};
 use nimbus_physics::terrain::TerrainParams;
 use serde::{Deserialize, Serialize};
@@ -31,12 +34,10 @@ use std::path::{Path, PathBuf};
 /// The text of the embedded default scene (`scenes/default.toml`).
 pub const DEFAULT_SCENE_TOML: &str = include_str!("../../../../scenes/default.toml");
 
-/// Largest image side nimbus renders, pixels (further bounded by the device).
-pub const MAX_IMAGE_SIDE_PX: u32 = 16_384;
+pub use crate::core::limits::{MAX_IMAGE_PIXELS, MAX_IMAGE_SIDE_PX};
 
-/// Largest image area nimbus renders, pixels (8192 × 8192): the HDR target
-/// alone then takes 512 MiB.
-pub const MAX_IMAGE_PIXELS: u64 = 8192 * 8192;
+/// Most clouds a cumulus field places (the cumulus pass's capacity).
+pub const MAX_CLOUDS: usize = 400;
 
 /// Largest terrain resolution (grid cells per side): the vertex buffer then
 /// takes 134 MB, within every device's default 256 MiB buffer limit.
@@ -56,7 +57,7 @@ pub struct Scene {
     pub atmosphere: AtmosphereParams,
     /// The procedural terrain.
     pub terrain: TerrainParams,
-    /// Cumulus clouds (reserved: parsed and validated, not rendered yet).
+    /// Cumulus clouds: a field of them placed over the terrain.
     pub cumulus: Option<CumulusSettings>,
     /// Stratiform cloud layer.
     pub stratus: Option<StratusSettings>,
@@ -137,7 +138,7 @@ pub enum Projection {
     /// The full sphere around `position_m` as a latitude–longitude image
     /// (an HDRI): y up, longitude 0 (north, −Z) at the image's centre, east
     /// to its right, the zenith along the top edge (see
-    /// [`crate::frame::equirectangular_direction`]). The view direction and
+    /// `frame::equirectangular_direction`). The view direction and
     /// `fov_deg` are ignored. Drawn as six cube faces resampled.
     Equirectangular,
 }
@@ -439,6 +440,24 @@ impl FileStamp {
             modified: metadata.modified().ok(),
             bytes: metadata.len(),
         })
+    }
+}
+
+/// The thickness field of a scene's stratus layer, carried by its wind
+/// (the CPU twin of `field.wgsl`; the rain zones read it too).
+pub fn cloud_layer_field(scene: &Scene, settings: &StratusSettings) -> CloudLayerField {
+    let wind = scene
+        .wind
+        .as_ref()
+        .map_or([0.0, 0.0], |w| w.velocity_xz_m_s());
+    CloudLayerField {
+        max_thickness_m: settings.thickness_m,
+        coverage: settings.coverage,
+        feature_size_m: settings.feature_size_m,
+        octaves: settings.detail,
+        seed: settings.seed,
+        wind_velocity_m_s: wind,
+        evolution_time_s: settings.evolution_time_s,
     }
 }
 

@@ -1,5 +1,5 @@
 //! Static scene objects (`[[objects]]`): boxes and glTF meshes standing in
-//! the scene, drawn lit like the terrain by [`crate::objects`] and used as
+//! the scene, drawn lit like the terrain by the objects pass and used as
 //! occluders (e.g. of rain).
 //!
 //! One TOML table per object, its shape chosen by `kind`:
@@ -254,14 +254,13 @@ impl Scene {
                     }
                     let budget = MAX_OBJECT_TRIANGLES.saturating_sub(triangles);
                     let mesh =
-                        crate::objects::gltf_mesh::load_gltf(&self.resolve_path(gltf), budget)
-                            .map_err(|e| {
-                                c.invalid(
-                                    &key("gltf"),
-                                    format!("{gltf:?}"),
-                                    format!("must be a readable glTF 2.0 file: {e}"),
-                                )
-                            })?;
+                        super::gltf::load_gltf(&self.resolve_path(gltf), budget).map_err(|e| {
+                            c.invalid(
+                                &key("gltf"),
+                                format!("{gltf:?}"),
+                                format!("must be a readable glTF 2.0 file: {e}"),
+                            )
+                        })?;
                     triangles += mesh.triangle_count();
                 }
                 // Unreachable: the keys were checked above.

@@ -442,7 +442,7 @@ impl Scene {
                 "cumulus.clouds",
                 cu.clouds.len() as u64,
                 0,
-                crate::cumulus::MAX_CLOUDS as u64,
+                super::MAX_CLOUDS as u64,
             )?;
             for (i, cloud) in cu.clouds.iter().enumerate() {
                 let key = |name: &str| format!("cumulus.clouds[{i}].{name}");

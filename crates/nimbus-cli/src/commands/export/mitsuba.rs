@@ -49,7 +49,7 @@ const MIST_MIN_DIAMETER_MM: f64 = 0.1;
 /// Side of the exported mist box, m.
 const MIST_SIDE_M: f64 = 40_000.0;
 
-/// Henyey–Greenstein asymmetry of nimbus's mist (rain/mist.wgsl, MIST_PHASE_G).
+/// Henyey–Greenstein asymmetry of nimbus's mist (passes/rain/mist.wgsl, MIST_PHASE_G).
 const MIST_PHASE_G: f64 = 0.85;
 
 /// What the export wrote.

@@ -58,14 +58,14 @@ pub fn run(args: &ViewArgs) -> anyhow::Result<()> {
             dir.display()
         );
     }
-    // The renderer's source directory holds `shaders/common.wgsl`.
+    // The renderer's source directory holds `shader/common.wgsl`.
     let is_source_dir =
         |dir: &std::path::Path| dir.join(nimbus_render::shader::COMMON.name).is_file();
     let shader_dir = match &args.shader_dir {
         Some(dir) => {
             anyhow::ensure!(
                 is_source_dir(dir),
-                "--shader-dir {}: not the renderer's source directory (no shaders/common.wgsl in it)",
+                "--shader-dir {}: not the renderer's source directory (no shader/common.wgsl in it)",
                 dir.display()
             );
             Some(dir.clone())

@@ -1,0 +1,161 @@
+//! The cloud shadow map: what the cumulus pass draws and every pass lit by
+//! the sun reads (terrain, objects, the stratus layer, the cumulus bodies).
+//! WGSL: `shader/cloud_shadow_uniform.wgsl`, `shader/cloud_shadow_lookup.wgsl`.
+
+use crate::core::binding;
+use crate::core::targets::DEPTH_FORMAT;
+use bytemuck::{Pod, Zeroable};
+use wgpu::util::DeviceExt;
+
+/// Side of the cloud shadow map, texels.
+pub const SHADOW_MAP_SIZE: u32 = 2048;
+/// GPU layout of the shadow map's uniform (WGSL `CloudShadow`).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct CloudShadowUniform {
+    /// Shadow clip space from world space (orthographic, z in [0, 1]).
+    pub clip_from_world: [[f32; 4]; 4],
+    /// Depth range (m), core extinction α_ρ (m⁻¹), asymmetry g, texels per side.
+    pub params: [f32; 4],
+    /// Map holds clouds (0/1), filter radius (texels), unused, unused.
+    pub flags: [u32; 4],
+}
+
+/// The cloud shadow map: a two-layer depth texture (nearest and farthest
+/// cloud core along the sun's light) and its uniform. Created once by the
+/// renderer; the cumulus pass draws it, the passes lit by the sun bind it
+/// at group 1, bindings 8 and 9.
+#[derive(Debug)]
+pub struct CloudShadowMap {
+    texture: wgpu::Texture,
+    array_view: wgpu::TextureView,
+    layer_views: [wgpu::TextureView; 2],
+    uniform: wgpu::Buffer,
+    lookup_layout: wgpu::BindGroupLayout,
+    lookup_group: wgpu::BindGroup,
+}
+
+impl CloudShadowMap {
+    /// Creates the map (empty: no clouds, every lookup returns 1).
+    pub fn new(device: &wgpu::Device, queue: &wgpu::Queue) -> Self {
+        let texture = device.create_texture(&wgpu::TextureDescriptor {
+            label: Some("cloud shadow map"),
+            size: wgpu::Extent3d {
+                width: SHADOW_MAP_SIZE,
+                height: SHADOW_MAP_SIZE,
+                depth_or_array_layers: 2,
+            },
+            mip_level_count: 1,
+            sample_count: 1,
+            dimension: wgpu::TextureDimension::D2,
+            format: DEPTH_FORMAT,
+            usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::TEXTURE_BINDING,
+            view_formats: &[],
+        });
+        let array_view = texture.create_view(&wgpu::TextureViewDescriptor {
+            dimension: Some(wgpu::TextureViewDimension::D2Array),
+            ..Default::default()
+        });
+        let layer_view = |layer: u32| {
+            texture.create_view(&wgpu::TextureViewDescriptor {
+                dimension: Some(wgpu::TextureViewDimension::D2),
+                base_array_layer: layer,
+                array_layer_count: Some(1),
+                ..Default::default()
+            })
+        };
+        let layer_views = [layer_view(0), layer_view(1)];
+        let uniform = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("cloud shadow uniform"),
+            contents: bytemuck::bytes_of(&CloudShadowUniform::default()),
+            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+        });
+        let lookup_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("cloud shadow lookup"),
+            entries: &Self::layout_entries(wgpu::ShaderStages::FRAGMENT),
+        });
+        let map = Self {
+            lookup_group: device.create_bind_group(&wgpu::BindGroupDescriptor {
+                label: Some("cloud shadow lookup"),
+                layout: &lookup_layout,
+                entries: &shadow_entries(&uniform, &array_view),
+            }),
+            texture,
+            array_view,
+            layer_views,
+            uniform,
+            lookup_layout,
+        };
+        map.write(queue, &CloudShadowUniform::default());
+        map
+    }
+
+    /// Layout entries of the uniform (binding 8) and the map (binding 9).
+    pub fn layout_entries(visibility: wgpu::ShaderStages) -> [wgpu::BindGroupLayoutEntry; 2] {
+        [
+            binding::uniform_layout_entry(
+                8,
+                visibility,
+                std::mem::size_of::<CloudShadowUniform>() as u64,
+            ),
+            wgpu::BindGroupLayoutEntry {
+                binding: 9,
+                visibility,
+                ty: wgpu::BindingType::Texture {
+                    sample_type: wgpu::TextureSampleType::Depth,
+                    view_dimension: wgpu::TextureViewDimension::D2Array,
+                    multisampled: false,
+                },
+                count: None,
+            },
+        ]
+    }
+
+    /// Bind group entries matching [`Self::layout_entries`].
+    pub fn bind_group_entries(&self) -> [wgpu::BindGroupEntry<'_>; 2] {
+        shadow_entries(&self.uniform, &self.array_view)
+    }
+
+    /// A group holding only the lookup (for passes with no group 1 of their own).
+    pub fn lookup_layout(&self) -> &wgpu::BindGroupLayout {
+        &self.lookup_layout
+    }
+
+    /// The group of [`Self::lookup_layout`].
+    pub fn lookup_group(&self) -> &wgpu::BindGroup {
+        &self.lookup_group
+    }
+
+    /// The depth texture (layer 0 nearest core, layer 1 farthest).
+    pub fn texture(&self) -> &wgpu::Texture {
+        &self.texture
+    }
+
+    /// The depth view of one layer (0 nearest core, 1 farthest), for the
+    /// pass that draws the map.
+    pub fn layer_views(&self) -> &[wgpu::TextureView; 2] {
+        &self.layer_views
+    }
+
+    /// Writes the map's uniform (the pass that draws the map does, each frame).
+    pub fn write(&self, queue: &wgpu::Queue, value: &CloudShadowUniform) {
+        queue.write_buffer(&self.uniform, 0, bytemuck::bytes_of(value));
+    }
+}
+
+/// The shadow map's bind group entries: the uniform at 8, the map at 9.
+fn shadow_entries<'a>(
+    uniform: &'a wgpu::Buffer,
+    map: &'a wgpu::TextureView,
+) -> [wgpu::BindGroupEntry<'a>; 2] {
+    [
+        wgpu::BindGroupEntry {
+            binding: 8,
+            resource: uniform.as_entire_binding(),
+        },
+        wgpu::BindGroupEntry {
+            binding: 9,
+            resource: wgpu::BindingResource::TextureView(map),
+        },
+    ]
+}

@@ -1,0 +1,30 @@
+// import shader/atmosphere.wgsl
+// Aerial-perspective volume (Hillaire 2020, §5.4): for each froxel of the
+// camera frustum, the light scattered towards the camera between it and the
+// camera (RGB, W·sr⁻¹·m⁻²) and the mean transmittance (A). Depth slices are
+// quadratic in distance up to 128 km; each froxel marches 16 steps. Needs
+// common.wgsl and atmosphere.wgsl.
+
+@group(1) @binding(0) var<uniform> atmosphere: Atmosphere;
+@group(1) @binding(1) var lut_sampler: sampler;
+@group(1) @binding(2) var transmittance_lut: texture_2d<f32>;
+@group(1) @binding(3) var multiple_scattering_lut: texture_2d<f32>;
+@group(1) @binding(4) var aerial_perspective_out: texture_storage_3d<rgba16float, write>;
+
+const AERIAL_PERSPECTIVE_STEPS: u32 = 16u;
+
+@compute @workgroup_size(4, 4, 4)
+fn aerial_perspective_main(@builtin(global_invocation_id) id: vec3<u32>) {
+    if (any(vec3<f32>(id) >= AERIAL_PERSPECTIVE_SIZE)) {
+        return;
+    }
+    let uv = (vec2<f32>(id.xy) + 0.5) / AERIAL_PERSPECTIVE_SIZE.xy;
+    let view = view_ray_world(vec2<f32>(uv.x * 2.0 - 1.0, 1.0 - uv.y * 2.0));
+    let w = (f32(id.z) + 0.5) / AERIAL_PERSPECTIVE_SIZE.z;
+    let distance_m = AERIAL_PERSPECTIVE_MAX_DISTANCE_M * w * w;
+    let r = observer_radius(atmosphere, frame.camera_position_m.y);
+    let result = scatter_along(transmittance_lut, multiple_scattering_lut, lut_sampler, atmosphere, r, view,
+        frame.sun_direction, distance_m, AERIAL_PERSPECTIVE_STEPS);
+    let transmittance = dot(result.transmittance, vec3<f32>(1.0 / 3.0));
+    textureStore(aerial_perspective_out, id, vec4<f32>(result.luminance * atmosphere.sun_irradiance_top, transmittance));
+}

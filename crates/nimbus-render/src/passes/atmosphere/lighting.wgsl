@@ -1,0 +1,131 @@
+// import shader/atmosphere.wgsl
+// import shader/lighting_types.wgsl
+// Lighting inputs of the cloud, terrain and rain passes, from the sky-view
+// and transmittance LUTs, in one storage buffer (`Lighting`):
+// - sh: radiance of the whole environment seen from the camera as order-2
+//   real spherical harmonics (Ramamoorthi & Hanrahan 2001): the sky above the
+//   horizon, the ground (C_ground) below it;
+// - sky_irradiance_up: C_sky, the sky's irradiance on an upward surface;
+// - sun_irradiance: C_sun, the direct solar irradiance at the camera's
+//   altitude after atmospheric transmittance (normal incidence);
+// - ground_radiance: C_ground, the radiance of a Lambertian ground of the
+//   atmosphere's ground albedo lit by that sun and sky.
+// One workgroup of 64 invocations integrates 1024 Fibonacci directions.
+// Mirrors nimbus_physics::sh and the CPU reference in the render tests.
+// Needs common.wgsl, atmosphere.wgsl and lighting_types.wgsl.
+
+@group(1) @binding(0) var<uniform> atmosphere: Atmosphere;
+@group(1) @binding(1) var lut_sampler: sampler;
+@group(1) @binding(2) var transmittance_lut: texture_2d<f32>;
+@group(1) @binding(3) var sky_view_lut: texture_2d<f32>;
+@group(1) @binding(4) var<storage, read_write> lighting_out: Lighting;
+
+const LIGHTING_DIRECTIONS: u32 = 1024u;
+const LIGHTING_THREADS: u32 = 64u;
+
+var<workgroup> partial_irradiance: array<vec3<f32>, 64>;
+var<workgroup> partial_sh: array<array<vec3<f32>, 9>, 64>;
+
+fn lighting_direction(index: u32) -> vec3<f32> {
+    let golden_angle = ATMOSPHERE_PI * (3.0 - sqrt(5.0));
+    let y = 1.0 - (2.0 * f32(index) + 1.0) / f32(LIGHTING_DIRECTIONS);
+    let radius = sqrt(max(1.0 - y * y, 0.0));
+    let phi = golden_angle * f32(index);
+    return vec3<f32>(radius * cos(phi), y, radius * sin(phi));
+}
+
+fn sh_basis(d: vec3<f32>) -> array<f32, 9> {
+    return array<f32, 9>(
+        0.282095,
+        0.488603 * d.y,
+        0.488603 * d.z,
+        0.488603 * d.x,
+        1.092548 * d.x * d.y,
+        1.092548 * d.y * d.z,
+        0.315392 * (3.0 * d.z * d.z - 1.0),
+        1.092548 * d.x * d.z,
+        0.546274 * (d.x * d.x - d.y * d.y),
+    );
+}
+
+fn sky_view_radiance(direction: vec3<f32>) -> vec3<f32> {
+    let r = observer_radius(atmosphere, frame.camera_position_m.y);
+    return sky_view_lookup(sky_view_lut, lut_sampler, atmosphere, r, direction, frame.sun_direction);
+}
+
+@compute @workgroup_size(64)
+fn lighting_main(@builtin(local_invocation_index) thread: u32) {
+    let weight = 4.0 * ATMOSPHERE_PI / f32(LIGHTING_DIRECTIONS);
+    let per_thread = LIGHTING_DIRECTIONS / LIGHTING_THREADS;
+
+    // Pass 1: the sky's irradiance on an upward surface.
+    var e_up = vec3<f32>(0.0);
+    for (var k = 0u; k < per_thread; k = k + 1u) {
+        let d = lighting_direction(thread * per_thread + k);
+        if (d.y > 0.0) {
+            e_up += sky_view_radiance(d) * d.y * weight;
+        }
+    }
+    partial_irradiance[thread] = e_up;
+    workgroupBarrier();
+    var sky_irradiance_up = vec3<f32>(0.0);
+    for (var t = 0u; t < LIGHTING_THREADS; t = t + 1u) {
+        sky_irradiance_up += partial_irradiance[t];
+    }
+
+    // The sun at the camera, and the ground it and the sky light.
+    let r = observer_radius(atmosphere, frame.camera_position_m.y);
+    let mu_s = frame.sun_direction.y;
+    let sun_irradiance = atmosphere.sun_irradiance_top
+        * sample_sun_transmittance(transmittance_lut, lut_sampler, atmosphere, r, mu_s);
+    let ground_radiance = atmosphere.ground_albedo / ATMOSPHERE_PI
+        * (sun_irradiance * max(mu_s, 0.0) + sky_irradiance_up);
+
+    // Pass 2: project sky (above) and ground (below) on the SH basis.
+    var sh: array<vec3<f32>, 9>;
+    for (var c = 0u; c < 9u; c = c + 1u) {
+        sh[c] = vec3<f32>(0.0);
+    }
+    for (var k = 0u; k < per_thread; k = k + 1u) {
+        let d = lighting_direction(thread * per_thread + k);
+        var radiance = ground_radiance;
+        if (d.y > 0.0) {
+            radiance = sky_view_radiance(d);
+        }
+        let y = sh_basis(d);
+        for (var c = 0u; c < 9u; c = c + 1u) {
+            sh[c] += radiance * y[c] * weight;
+        }
+    }
+    partial_sh[thread] = sh;
+    workgroupBarrier();
+    if (thread == 0u) {
+        var total: array<vec3<f32>, 9>;
+        for (var c = 0u; c < 9u; c = c + 1u) {
+            total[c] = vec3<f32>(0.0);
+        }
+        for (var t = 0u; t < LIGHTING_THREADS; t = t + 1u) {
+            for (var c = 0u; c < 9u; c = c + 1u) {
+                total[c] += partial_sh[t][c];
+            }
+        }
+        for (var c = 0u; c < 9u; c = c + 1u) {
+            lighting_out.sh[c] = vec4<f32>(total[c], 0.0);
+        }
+        lighting_out.sky_irradiance_up = vec4<f32>(sky_irradiance_up, 0.0);
+        lighting_out.sun_irradiance = vec4<f32>(sun_irradiance, 0.0);
+        lighting_out.ground_radiance = vec4<f32>(ground_radiance, 0.0);
+        // Incident-light meter (ISO 2720, calibration C = 250 lx·s for a flat
+        // receptor, ISO 100) on a horizontal surface at the camera:
+        // EV100 = log2(E S / C). Its exposure is the pre-exposure with
+        // automatic exposure; the exposure pass refines it from the image.
+        let illuminance_lux = 683.0 * dot(sun_irradiance * max(mu_s, 0.0) + sky_irradiance_up,
+            vec3<f32>(0.2126, 0.7152, 0.0722));
+        let incident_ev100 = log2(max(illuminance_lux, 1e-4) * 100.0 / 250.0);
+        var pre_exposure = frame.exposure_scale;
+        if (frame.auto_exposure != 0u) {
+            pre_exposure = 683.0 / (1.2 * exp2(incident_ev100 - frame.exposure_compensation_ev));
+        }
+        lighting_out.exposure = vec4<f32>(pre_exposure, incident_ev100, 0.0, 0.0);
+    }
+}

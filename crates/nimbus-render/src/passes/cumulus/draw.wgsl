@@ -1,0 +1,83 @@
+// import passes/cumulus/cumulus.wgsl
+// import shader/cloud_shadow_lookup.wgsl
+// The camera's view of the cumulus (see cumulus.wgsl). Needs cumulus.wgsl
+// and shader/cloud_shadow_lookup.wgsl.
+
+@vertex
+fn cumulus_vertex(v: CumulusVertex, i: CumulusInstance) -> CumulusVarying {
+    var out = cumulus_varying(v, i);
+    out.clip_position = frame.clip_from_world * vec4<f32>(out.world_m, 1.0);
+    return out;
+}
+
+struct CumulusShaded {
+    // Pre-exposed radiance seen by the camera (through the air), not premultiplied.
+    radiance: vec3<f32>,
+    opacity: f32,
+}
+
+fn cumulus_evaluate(in: CumulusVarying) -> CumulusShaded {
+    var h = 0.5;
+    var gradient = vec3<f32>(0.0);
+    if (cumulus_term_on(CUMULUS_BUMP)) {
+        h = cumulus_bump_height(in.noise_position);
+        gradient = cumulus_bump_gradient(in.noise_position, h);
+    }
+    let p = cumulus_point(in, h, gradient);
+    let o = normalize(frame.camera_position_m - in.world_m);
+    let l = frame.sun_direction;
+    let terms = cumulus_shade_terms(p, o, l);
+    var shadow = stratus_sun_transmittance(in.world_m);
+    var forward_shadow = shadow;
+    if (cumulus_term_on(CUMULUS_SHADOW)) {
+        // The forward-scattered light crosses the blob's chord behind the
+        // point: it is shadowed where it enters, at the chord's far end (on
+        // a back-lit rim, the sun-facing side), not at the point.
+        let chord_m = 2.0 * p.blob_radius_m * saturate(dot(p.normal, o));
+        shadow *= cloud_shadow_transmittance(in.world_m);
+        forward_shadow *= cloud_shadow_transmittance(in.world_m - o * chord_m);
+    }
+    let sun = cumulus_sun_radiance(in.world_m.y);
+    let environment = stratus_ground_irradiance(in.world_m, terms.smoothed_normal, sh_irradiance(lighting, terms.smoothed_normal));
+    let radiance = cumulus_radiance(terms, environment / PI, sun, shadow, forward_shadow);
+    var out: CumulusShaded;
+    out.radiance = to_target(stratus_apply_aerial_perspective(radiance, in.world_m)).rgb;
+    out.opacity = cumulus_opacity(terms);
+    return out;
+}
+
+// The body: opaque fragments, depth written.
+@fragment
+fn cumulus_opaque_fragment(in: CumulusVarying) -> @location(0) vec4<f32> {
+    let shaded = cumulus_evaluate(in);
+    if (shaded.opacity < CUMULUS_OPAQUE_ALPHA) {
+        discard;
+    }
+    return vec4<f32>(shaded.radiance, 1.0);
+}
+
+struct CumulusFringeOutput {
+    // Σ w α C and Σ w α (additive).
+    @location(0) accumulation: vec4<f32>,
+    // Π (1 − α) (multiplicative).
+    @location(1) revealage: vec4<f32>,
+}
+
+// The fringes: weighted blended OIT (McGuire & Bavoil 2013), the weight
+// favouring nearer fragments (their eq. 7 shape, in kilometres) and bounded
+// so half floats cannot overflow.
+@fragment
+fn cumulus_fringe_fragment(in: CumulusVarying) -> CumulusFringeOutput {
+    let shaded = cumulus_evaluate(in);
+    let a = shaded.opacity;
+    if (a >= CUMULUS_OPAQUE_ALPHA || a < 1.0 / 1024.0) {
+        discard;
+    }
+    let distance_km = length(frame.camera_position_m - in.world_m) * 1e-3;
+    let weight = a * clamp(1.0 / (1e-3 + pow(distance_km / 5.0, 3.0)), 1e-2, 1e2);
+    var out: CumulusFringeOutput;
+    let colour = min(shaded.radiance, vec3<f32>(frame.max_pre_exposed * 1e-2));
+    out.accumulation = vec4<f32>(colour * weight, weight);
+    out.revealage = vec4<f32>(a);
+    return out;
+}

@@ -1,0 +1,256 @@
+//! Cumulus pass: fields of cumulus clouds, each an instance of a few shape
+//! variants ([`variants`], from [`nimbus_physics::cumulus`]), shaded by the
+//! phenomenological shader of Bouthors (2004, ch. 5) after Neyret (2000)
+//! (`shading.wgsl`, twin of [`nimbus_physics::cumulus::shading`]).
+//!
+//! Per frame:
+//! 1. On the CPU, the clouds in the view frustum get a level of detail by
+//!    their distance (a mesh cell of at most [`LOD_CELL_PX`] pixels); the
+//!    instance buffer is grouped by variant and level.
+//! 2. `cumulus_shadow`: the cores (τ ≥ 1 seen from the sun) of every cloud
+//!    drawn into the [`CloudShadowMap`], an orthographic depth map along the
+//!    sun's light: layer 0 the nearest core, layer 1 the farthest. Terrain,
+//!    the stratus layer and the clouds read it (`shadow_lookup.wgsl`).
+//! 3. `cumulus`: the opaque body (A ≥ 0.995), depth-tested against the
+//!    terrain and depth-written.
+//! 4. `cumulus_fringes`: the semi-transparent fringes into weighted blended
+//!    order-independent transparency targets (McGuire & Bavoil 2013),
+//!    depth-tested against the terrain and the bodies: no sorting, so no
+//!    popping, between clouds or within one.
+//! 5. After the stratus layer (which is depth-tested against the bodies),
+//!    `cumulus_composite` blends the fringes over the frame.
+
+pub mod variants;
+
+use crate::core::binding;
+use crate::core::targets::{DEPTH_FORMAT, HDR_FORMAT};
+use crate::frame::FrameUniform;
+pub use crate::frame::cloud_shadow::{CloudShadowMap, CloudShadowUniform, SHADOW_MAP_SIZE};
+use crate::scene::{CumulusSettings, Scene};
+use crate::shader::{self, WgslFile};
+use bytemuck::{Pod, Zeroable};
+use glam::{DVec3, Mat4, Vec3, Vec4};
+use nimbus_physics::atmosphere::AtmosphereParams;
+use nimbus_physics::cumulus::cloud_field::{CloudFieldParams, CloudInstance, place_clouds};
+use nimbus_physics::cumulus::shading::{CLOUD_ASYMMETRY, LightTrapModel};
+use std::ops::Range;
+use std::sync::Arc;
+use variants::{CumulusVariant, CumulusVertex, VariantParams};
+use wgpu::util::DeviceExt;
+
+/// The shader's terms (CPU twin: `nimbus_physics::cumulus::shading`).
+pub const SHADING: WgslFile = WgslFile {
+    name: "passes/cumulus/shading.wgsl",
+    source: include_str!("shading.wgsl"),
+};
+pub use crate::shader::{
+    CLOUD_SHADOW_LOOKUP as SHADOW_LOOKUP, CLOUD_SHADOW_UNIFORM as SHADOW_UNIFORM,
+};
+const CUMULUS_WGSL: WgslFile = WgslFile {
+    name: "passes/cumulus/cumulus.wgsl",
+    source: include_str!("cumulus.wgsl"),
+};
+const DRAW_WGSL: WgslFile = WgslFile {
+    name: "passes/cumulus/draw.wgsl",
+    source: include_str!("draw.wgsl"),
+};
+const COMPOSITE_WGSL: WgslFile = WgslFile {
+    name: "passes/cumulus/composite.wgsl",
+    source: include_str!("composite.wgsl"),
+};
+
+/// What a pass that is shadowed by the clouds composes (after the drawing
+/// libraries): the shadow uniform and lookup, group 1 bindings 8 and 9.
+pub const SHADOW_LIBRARIES: [WgslFile; 2] = [SHADOW_UNIFORM, SHADOW_LOOKUP];
+
+/// The composed WGSL of the camera's passes.
+pub fn draw_shader_source() -> String {
+    shader::compose(&[SHADING, CUMULUS_WGSL, DRAW_WGSL])
+}
+
+/// The composed WGSL of the shadow map's pass.
+pub fn shadow_shader_source() -> String {
+    shader::compose(&[SHADING, CUMULUS_WGSL])
+}
+
+/// The composed WGSL of the fringes' composite.
+pub fn composite_shader_source() -> String {
+    shader::compose(&[COMPOSITE_WGSL])
+}
+
+/// Percentage-closer filter radius of the shadow lookups, texels ((2k + 1)² taps).
+pub const SHADOW_FILTER_TEXELS: u32 = 1;
+/// Largest projected size of a mesh cell, pixels, before a coarser level of
+/// detail is used.
+pub const LOD_CELL_PX: f64 = 3.0;
+pub use crate::scene::MAX_CLOUDS;
+
+mod field;
+mod gpu_types;
+mod node;
+mod prepare;
+mod resources;
+#[allow(unused_imports)]
+pub use field::*;
+#[allow(unused_imports)]
+pub use gpu_types::*;
+#[allow(unused_imports)]
+pub use node::*;
+#[allow(unused_imports)]
+pub use prepare::*;
+#[allow(unused_imports)]
+pub use resources::*;
+/// Level of detail drawn into the shadow map (clamped to what exists): its
+/// cells (a last-level blob radius) match the map's texels of ~10 m.
+const SHADOW_LOD: usize = 1;
+
+#[derive(Debug)]
+struct GpuLod {
+    vertices: wgpu::Buffer,
+    indices: wgpu::Buffer,
+    index_count: u32,
+}
+
+#[derive(Debug)]
+struct GpuVariant {
+    shape: Arc<CumulusVariant>,
+    lods: Vec<GpuLod>,
+}
+
+/// A run of instances of one mesh.
+#[derive(Clone, Debug, PartialEq)]
+struct Draw {
+    variant: usize,
+    lod: usize,
+    instances: Range<u32>,
+}
+
+#[derive(Debug)]
+struct FringeTargets {
+    size: (u32, u32),
+    accumulation: wgpu::TextureView,
+    revealage: wgpu::TextureView,
+    composite_group: wgpu::BindGroup,
+}
+
+/// Why the cumulus cannot be prepared.
+#[derive(Debug, thiserror::Error)]
+pub enum CumulusError {
+    /// A shape variant could not be generated.
+    #[error(transparent)]
+    Variant(#[from] variants::VariantError),
+}
+
+/// A cloud of the field with what every frame needs of it, derived once
+/// when the field is placed.
+#[derive(Clone, Debug)]
+struct FieldCloud {
+    variant: usize,
+    /// World bounding sphere: centre and radius, m.
+    centre_m: DVec3,
+    radius_m: f64,
+    /// The finest level's cell at the cloud's scale, m.
+    finest_cell_m: f64,
+    instance: CumulusInstance,
+}
+
+/// What the clouds of a frame are.
+#[derive(Clone, Debug, PartialEq)]
+struct FieldKey {
+    /// The settings with the shader's parameters and terms left at their
+    /// defaults: changing those does not move the clouds.
+    placement: CumulusSettings,
+    area_centre_m: [f64; 2],
+    area_side_m: f64,
+}
+
+/// The cumulus pass.
+#[derive(Debug)]
+pub struct CumulusPass {
+    uniform: wgpu::Buffer,
+    group: wgpu::BindGroup,
+    shadow_group: wgpu::BindGroup,
+    shadow_pipelines: [wgpu::RenderPipeline; 2],
+    opaque_pipeline: wgpu::RenderPipeline,
+    fringe_pipeline: wgpu::RenderPipeline,
+    composite_pipeline: wgpu::RenderPipeline,
+    composite_layout: wgpu::BindGroupLayout,
+    fringe: Option<FringeTargets>,
+    variants: Option<(VariantParams, Vec<GpuVariant>)>,
+    field: Option<(FieldKey, Vec<FieldCloud>)>,
+    /// The field's clouds where the wind has carried them this frame.
+    moved: Vec<FieldCloud>,
+    instances: Option<wgpu::Buffer>,
+    draws: Vec<Draw>,
+    shadow_draws: Vec<Draw>,
+    enabled: bool,
+    shadow_enabled: bool,
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn shadow_transform_maps_the_spheres_into_the_unit_box() {
+        let to_sun = DVec3::new(0.3, 0.8, -0.2).normalize();
+        let spheres = [
+            (DVec3::new(1000.0, 1500.0, -200.0), 500.0),
+            (DVec3::new(-3000.0, 1800.0, 4000.0), 800.0),
+        ];
+        let (m, depth) = shadow_clip_from_world(to_sun, &spheres);
+        for (c, r) in spheres {
+            for d in [
+                DVec3::X,
+                DVec3::Y,
+                DVec3::Z,
+                -DVec3::X,
+                -DVec3::Y,
+                -DVec3::Z,
+            ] {
+                let p = m * (c + d * r).as_vec3().extend(1.0);
+                assert!(p.x.abs() <= 1.0 + 1e-4 && p.y.abs() <= 1.0 + 1e-4, "{p}");
+                assert!((-1e-4..=1.0 + 1e-4).contains(&p.z), "{p}");
+            }
+        }
+        // Depth grows along the light: a point towards the sun is nearer.
+        let a = m * Vec3::new(0.0, 1600.0, 0.0).extend(1.0);
+        let b = m
+            * (DVec3::new(0.0, 1600.0, 0.0) + to_sun * 100.0)
+                .as_vec3()
+                .extend(1.0);
+        assert!(b.z < a.z);
+        assert!(((a.z - b.z) as f64 * depth - 100.0).abs() < 0.1);
+    }
+
+    #[test]
+    fn levels_of_detail_coarsen_with_distance() {
+        let pixel = 1.0e-3;
+        assert_eq!(level_of_detail(20.0, 1000.0, pixel, 3), 0);
+        assert_eq!(level_of_detail(20.0, 14_000.0, pixel, 3), 1);
+        assert_eq!(level_of_detail(20.0, 30_000.0, pixel, 3), 2);
+        assert_eq!(level_of_detail(20.0, 300_000.0, pixel, 3), 2);
+    }
+
+    #[test]
+    fn frustum_keeps_what_is_ahead() {
+        let camera = crate::frame::Camera {
+            position_m: DVec3::ZERO,
+            forward: DVec3::NEG_Z,
+            up: DVec3::Y,
+            fov_y_rad: 1.0,
+            aspect: 1.5,
+            height_px: 720,
+        };
+        let m = camera.clip_from_world().as_mat4();
+        assert!(sphere_in_frustum(&m, Vec3::new(0.0, 0.0, -5000.0), 100.0));
+        assert!(!sphere_in_frustum(&m, Vec3::new(0.0, 0.0, 5000.0), 100.0));
+        assert!(!sphere_in_frustum(
+            &m,
+            Vec3::new(9000.0, 0.0, -1000.0),
+            100.0
+        ));
+        // A sphere around the camera is always drawn.
+        assert!(sphere_in_frustum(&m, Vec3::new(0.0, 0.0, 50.0), 100.0));
+    }
+}

@@ -1,0 +1,172 @@
+//! The encode step: the shadow map, the opaque bodies, the fringes' order-independent accumulation (weighted blended OIT) and its composite.
+
+#[allow(unused_imports)]
+use super::*;
+
+impl CumulusPass {
+    pub(super) fn ensure_fringe_targets(&mut self, device: &wgpu::Device, width: u32, height: u32) {
+        if self.fringe.as_ref().map(|f| f.size) == Some((width, height)) {
+            return;
+        }
+        let target = |label: &str, format| {
+            crate::core::targets::Target::new(
+                device,
+                label,
+                format,
+                width,
+                height,
+                wgpu::TextureUsages::TEXTURE_BINDING,
+            )
+            .view
+        };
+        let accumulation = target("cumulus fringe accumulation", ACCUMULATION_FORMAT);
+        let revealage = target("cumulus fringe revealage", REVEALAGE_FORMAT);
+        let composite_group = binding::sequential_bind_group(
+            device,
+            "cumulus composite",
+            &self.composite_layout,
+            vec![
+                wgpu::BindingResource::TextureView(&accumulation),
+                wgpu::BindingResource::TextureView(&revealage),
+            ],
+        );
+        self.fringe = Some(FringeTargets {
+            size: (width, height),
+            accumulation,
+            revealage,
+            composite_group,
+        });
+    }
+
+    pub(super) fn record(&self, pass: &mut wgpu::RenderPass<'_>, draws: &[Draw]) {
+        let (Some((_, variants)), Some(instances)) = (&self.variants, &self.instances) else {
+            return;
+        };
+        pass.set_vertex_buffer(1, instances.slice(..));
+        for draw in draws {
+            let lod = &variants[draw.variant].lods[draw.lod];
+            pass.set_vertex_buffer(0, lod.vertices.slice(..));
+            pass.set_index_buffer(lod.indices.slice(..), wgpu::IndexFormat::Uint32);
+            pass.draw_indexed(0..lod.index_count, 0, draw.instances.clone());
+        }
+    }
+
+    /// Records the shadow map: nearest cores, then farthest.
+    pub fn encode_shadow(
+        &self,
+        encoder: &mut wgpu::CommandEncoder,
+        frame: &wgpu::BindGroup,
+        shadow_map: &CloudShadowMap,
+        timestamps: Option<(&wgpu::QuerySet, u32)>,
+    ) {
+        for (layer, pipeline) in self.shadow_pipelines.iter().enumerate() {
+            let clear = if layer == 0 { 1.0 } else { 0.0 };
+            let timestamp_writes =
+                timestamps.map(|(query_set, index)| wgpu::RenderPassTimestampWrites {
+                    query_set,
+                    beginning_of_pass_write_index: (layer == 0).then_some(index * 2),
+                    end_of_pass_write_index: (layer == 1).then_some(index * 2 + 1),
+                });
+            let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+                label: Some("cumulus shadow"),
+                color_attachments: &[],
+                depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
+                    view: &shadow_map.layer_views()[layer],
+                    depth_ops: Some(wgpu::Operations {
+                        load: wgpu::LoadOp::Clear(clear),
+                        store: wgpu::StoreOp::Store,
+                    }),
+                    stencil_ops: None,
+                }),
+                timestamp_writes,
+                occlusion_query_set: None,
+                multiview_mask: None,
+            });
+            if !self.shadow_enabled {
+                continue;
+            }
+            pass.set_pipeline(pipeline);
+            pass.set_bind_group(0, frame, &[]);
+            pass.set_bind_group(1, &self.shadow_group, &[]);
+            self.record(&mut pass, &self.shadow_draws);
+        }
+    }
+
+    /// Records the opaque bodies into a pass on the HDR target and depth.
+    pub fn draw_opaque(
+        &self,
+        pass: &mut wgpu::RenderPass<'_>,
+        frame: &wgpu::BindGroup,
+        atmosphere: &wgpu::BindGroup,
+        stratus: &wgpu::BindGroup,
+    ) {
+        pass.set_pipeline(&self.opaque_pipeline);
+        pass.set_bind_group(0, frame, &[]);
+        pass.set_bind_group(1, &self.group, &[]);
+        pass.set_bind_group(2, atmosphere, &[]);
+        pass.set_bind_group(3, stratus, &[]);
+        self.record(pass, &self.draws);
+    }
+
+    /// Records the fringes' accumulation (its own pass, depth read-only).
+    pub fn encode_fringes(
+        &self,
+        encoder: &mut wgpu::CommandEncoder,
+        depth: &wgpu::TextureView,
+        groups: [&wgpu::BindGroup; 3],
+        timestamp_writes: Option<wgpu::RenderPassTimestampWrites<'_>>,
+    ) {
+        let Some(fringe) = &self.fringe else { return };
+        let [frame, atmosphere, stratus] = groups;
+        let attachment = |view, clear: f64| {
+            Some(wgpu::RenderPassColorAttachment {
+                view,
+                depth_slice: None,
+                resolve_target: None,
+                ops: wgpu::Operations {
+                    load: wgpu::LoadOp::Clear(wgpu::Color {
+                        r: clear,
+                        g: clear,
+                        b: clear,
+                        a: clear,
+                    }),
+                    store: wgpu::StoreOp::Store,
+                },
+            })
+        };
+        let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+            label: Some("cumulus fringes"),
+            color_attachments: &[
+                attachment(&fringe.accumulation, 0.0),
+                attachment(&fringe.revealage, 1.0),
+            ],
+            depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
+                view: depth,
+                depth_ops: None,
+                stencil_ops: None,
+            }),
+            timestamp_writes,
+            occlusion_query_set: None,
+            multiview_mask: None,
+        });
+        pass.set_pipeline(&self.fringe_pipeline);
+        pass.set_bind_group(0, frame, &[]);
+        pass.set_bind_group(1, &self.group, &[]);
+        pass.set_bind_group(2, atmosphere, &[]);
+        pass.set_bind_group(3, stratus, &[]);
+        self.record(&mut pass, &self.draws);
+    }
+
+    /// Records the fringes' composite into a pass on the HDR target.
+    pub fn draw_composite(&self, pass: &mut wgpu::RenderPass<'_>) {
+        let Some(fringe) = &self.fringe else { return };
+        pass.set_pipeline(&self.composite_pipeline);
+        pass.set_bind_group(0, &fringe.composite_group, &[]);
+        pass.draw(0..3, 0..1);
+    }
+}
+
+/// Format of the fringes' Σ w α C, Σ w α target.
+pub(super) const ACCUMULATION_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba16Float;
+/// Format of the fringes' Π (1 − α) target.
+pub(super) const REVEALAGE_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::R16Float;

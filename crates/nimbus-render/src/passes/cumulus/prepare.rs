@@ -1,0 +1,271 @@
+//! Per-frame preparation: shapes generated or loaded, the field placed, this frame's instances selected and uploaded.
+
+#[allow(unused_imports)]
+use super::*;
+
+impl CumulusPass {
+    /// Whether the frame has clouds to draw.
+    pub fn enabled(&self) -> bool {
+        self.enabled
+    }
+
+    /// Whether the shadow map is drawn this frame.
+    pub fn shadow_enabled(&self) -> bool {
+        self.shadow_enabled
+    }
+
+    /// The clouds of the last prepared frame, where the wind has carried
+    /// them (see [`CloudPlacement`]).
+    pub fn placed_clouds(&self) -> Vec<CloudPlacement> {
+        self.moved
+            .iter()
+            .map(|cloud| {
+                let [x, y, z, scale] = cloud.instance.offset_scale;
+                let [cos_yaw, sin_yaw, ..] = cloud.instance.rotation_noise;
+                CloudPlacement {
+                    variant: cloud.variant,
+                    base_centre_m: DVec3::new(f64::from(x), f64::from(y), f64::from(z)),
+                    yaw_rad: f64::from(sin_yaw).atan2(f64::from(cos_yaw)),
+                    scale: f64::from(scale),
+                }
+            })
+            .collect()
+    }
+
+    /// The variants' generation parameters (`None` without cumulus).
+    pub fn variant_params(&self) -> Option<&VariantParams> {
+        self.variants.as_ref().map(|v| &v.0)
+    }
+
+    /// The placed clouds' footprints as (x, z, radius), m: their bounding
+    /// spheres seen from below (where rain under cumulus falls).
+    pub fn footprints_m(&self) -> Vec<[f32; 3]> {
+        self.moved
+            .iter()
+            .map(|c| [c.centre_m.x as f32, c.centre_m.z as f32, c.radius_m as f32])
+            .collect()
+    }
+
+    /// Number of clouds in the field and number drawn this frame.
+    pub fn cloud_counts(&self) -> (usize, usize) {
+        let drawn = self.draws.iter().map(|d| d.instances.len()).sum();
+        (self.field.as_ref().map_or(0, |f| f.1.len()), drawn)
+    }
+
+    /// Generates (or loads) the shapes, places the field, and selects and
+    /// uploads this frame's instances and shadow transform.
+    #[allow(clippy::too_many_arguments)]
+    pub fn prepare(
+        &mut self,
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        scene: &Scene,
+        frame: &FrameUniform,
+        shadow_map: &CloudShadowMap,
+        width: u32,
+        height: u32,
+    ) -> Result<(), CumulusError> {
+        self.draws.clear();
+        self.shadow_draws.clear();
+        let Some(settings) = &scene.cumulus else {
+            self.moved.clear();
+            self.enabled = false;
+            self.shadow_enabled = false;
+            shadow_map.write(queue, &CloudShadowUniform::default());
+            return Ok(());
+        };
+        let params = VariantParams {
+            count: settings.variants,
+            seed: settings.shape_seed,
+            levels_of_detail: settings.levels_of_detail,
+        };
+        if self.variants.as_ref().map(|v| &v.0) != Some(&params) {
+            let shapes = variants::load_or_generate(&crate::core::cache::cache_dir(), &params)?;
+            let gpu = shapes
+                .into_iter()
+                .map(|shape| GpuVariant {
+                    lods: shape
+                        .lods
+                        .iter()
+                        .map(|lod| GpuLod {
+                            vertices: device.create_buffer_init(
+                                &wgpu::util::BufferInitDescriptor {
+                                    label: Some("cumulus vertices"),
+                                    contents: bytemuck::cast_slice(&lod.vertices),
+                                    usage: wgpu::BufferUsages::VERTEX,
+                                },
+                            ),
+                            indices: device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                                label: Some("cumulus indices"),
+                                contents: bytemuck::cast_slice(&lod.indices),
+                                usage: wgpu::BufferUsages::INDEX,
+                            }),
+                            index_count: lod.indices.len() as u32,
+                        })
+                        .collect(),
+                    shape,
+                })
+                .collect();
+            self.variants = Some((params, gpu));
+            self.field = None;
+        }
+        let Some((_, variants)) = &self.variants else {
+            return Ok(());
+        };
+        let key = FieldKey {
+            placement: CumulusSettings {
+                shading: Default::default(),
+                terms: Default::default(),
+                ..settings.clone()
+            },
+            area_centre_m: [0.0, 0.0],
+            area_side_m: settings.area_m.unwrap_or(scene.terrain.extent_m),
+        };
+        if self.field.as_ref().map(|f| &f.0) != Some(&key) {
+            let clouds = if settings.clouds.is_empty() {
+                let footprints: Vec<f64> = variants
+                    .iter()
+                    .map(|v| f64::from(v.shape.footprint_radius_m))
+                    .collect();
+                place_clouds(
+                    &CloudFieldParams {
+                        coverage: settings.coverage,
+                        base_m: settings.base_m,
+                        seed: settings.seed,
+                        centre_m: key.area_centre_m,
+                        side_m: key.area_side_m,
+                        scale_range: settings.scale_range,
+                        max_clouds: MAX_CLOUDS,
+                    },
+                    &footprints,
+                )
+                .clouds
+            } else {
+                settings
+                    .clouds
+                    .iter()
+                    .map(|c| CloudInstance {
+                        variant: c.variant.min(settings.variants.saturating_sub(1)),
+                        base_centre_m: DVec3::from_array(c.position_m),
+                        yaw_rad: c.yaw_deg.to_radians(),
+                        scale: c.scale,
+                    })
+                    .collect()
+            };
+            let clouds = clouds
+                .iter()
+                .enumerate()
+                .map(|(index, cloud)| {
+                    field_cloud(index, cloud, &variants[cloud.variant as usize].shape)
+                })
+                .collect();
+            self.field = Some((key, clouds));
+        }
+        let Some((key, placed)) = &self.field else {
+            return Ok(());
+        };
+        // The wind carries the clouds; a generated field wraps around its
+        // square area so that it never empties.
+        let drift = scene.cloud_drift_m(f64::from(frame.time_s));
+        let wrap = settings.clouds.is_empty().then_some(key.area_side_m);
+        self.moved.clear();
+        self.moved.extend(
+            placed
+                .iter()
+                .map(|cloud| drifted_cloud(cloud, drift, key.area_centre_m, wrap)),
+        );
+        let clouds = &self.moved;
+        let uniform = CumulusUniform::new(settings, &scene.atmosphere, scene.sun.direction());
+        queue.write_buffer(&self.uniform, 0, bytemuck::bytes_of(&uniform));
+
+        // Instances: the camera's (culled, by level of detail), then the shadow's (all).
+        let clip_from_world = frame.clip_from_world();
+        let camera = Vec3::from_array(frame.camera_position_m);
+        let mut camera_list: Vec<(usize, usize, CumulusInstance)> = Vec::new();
+        for cloud in clouds {
+            if !sphere_in_frustum(
+                &clip_from_world,
+                cloud.centre_m.as_vec3(),
+                cloud.radius_m as f32,
+            ) {
+                continue;
+            }
+            let distance = (cloud.centre_m.as_vec3() - camera).length() as f64 - cloud.radius_m;
+            let lod = level_of_detail(
+                cloud.finest_cell_m,
+                distance,
+                f64::from(frame.pixel_angle_rad),
+                variants[cloud.variant].lods.len(),
+            );
+            camera_list.push((cloud.variant, lod, cloud.instance));
+        }
+        camera_list.sort_by_key(|(v, l, _)| (*v, *l));
+        let mut data: Vec<CumulusInstance> = Vec::with_capacity(camera_list.len() + clouds.len());
+        let push_runs = |list: &[(usize, usize, CumulusInstance)],
+                         draws: &mut Vec<Draw>,
+                         data: &mut Vec<CumulusInstance>| {
+            for (v, l, inst) in list {
+                let at = data.len() as u32;
+                data.push(*inst);
+                match draws.last_mut() {
+                    Some(d) if d.variant == *v && d.lod == *l && d.instances.end == at => {
+                        d.instances.end = at + 1
+                    }
+                    _ => draws.push(Draw {
+                        variant: *v,
+                        lod: *l,
+                        instances: at..at + 1,
+                    }),
+                }
+            }
+        };
+        push_runs(&camera_list, &mut self.draws, &mut data);
+        let sun = scene.sun.direction();
+        let to_sun = DVec3::from_array(sun);
+        self.shadow_enabled = to_sun.y > 0.0 && !clouds.is_empty() && settings.terms.shadow;
+        if self.shadow_enabled {
+            let mut shadow_list: Vec<(usize, usize, CumulusInstance)> = clouds
+                .iter()
+                .map(|cloud| {
+                    let lods = variants[cloud.variant].lods.len();
+                    (cloud.variant, SHADOW_LOD.min(lods - 1), cloud.instance)
+                })
+                .collect();
+            shadow_list.sort_by_key(|(v, l, _)| (*v, *l));
+            push_runs(&shadow_list, &mut self.shadow_draws, &mut data);
+            let spheres: Vec<(DVec3, f64)> =
+                clouds.iter().map(|c| (c.centre_m, c.radius_m)).collect();
+            let (matrix, depth_m) = shadow_clip_from_world(to_sun, &spheres);
+            shadow_map.write(
+                queue,
+                &CloudShadowUniform {
+                    clip_from_world: matrix.to_cols_array_2d(),
+                    params: [
+                        depth_m as f32,
+                        settings.shading.density_per_m as f32,
+                        CLOUD_ASYMMETRY as f32,
+                        SHADOW_MAP_SIZE as f32,
+                    ],
+                    flags: [1, SHADOW_FILTER_TEXELS, 0, 0],
+                },
+            );
+        } else {
+            shadow_map.write(queue, &CloudShadowUniform::default());
+        }
+        self.enabled = !self.draws.is_empty();
+        let bytes = (data.len().max(1) * std::mem::size_of::<CumulusInstance>()) as u64;
+        if self.instances.as_ref().is_none_or(|b| b.size() < bytes) {
+            self.instances = Some(device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("cumulus instances"),
+                size: bytes.next_power_of_two(),
+                usage: wgpu::BufferUsages::VERTEX | wgpu::BufferUsages::COPY_DST,
+                mapped_at_creation: false,
+            }));
+        }
+        if let Some(buffer) = &self.instances {
+            queue.write_buffer(buffer, 0, bytemuck::cast_slice(&data));
+        }
+        self.ensure_fringe_targets(device, width, height);
+        Ok(())
+    }
+}

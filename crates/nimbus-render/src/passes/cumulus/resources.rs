@@ -1,0 +1,268 @@
+//! The cumulus pass's pipelines and layouts, created once.
+
+#[allow(unused_imports)]
+use super::*;
+
+pub(super) fn pipeline_descriptor_depth(
+    write: bool,
+    compare: wgpu::CompareFunction,
+) -> wgpu::DepthStencilState {
+    wgpu::DepthStencilState {
+        format: DEPTH_FORMAT,
+        depth_write_enabled: Some(write),
+        depth_compare: Some(compare),
+        stencil: Default::default(),
+        bias: Default::default(),
+    }
+}
+
+impl CumulusPass {
+    /// Creates the pipelines; shapes and the field are made by [`Self::prepare`].
+    pub fn new(
+        device: &wgpu::Device,
+        frame_layout: &wgpu::BindGroupLayout,
+        atmosphere_layout: &wgpu::BindGroupLayout,
+        stratus_layout: &wgpu::BindGroupLayout,
+        shadow_map: &CloudShadowMap,
+    ) -> Self {
+        let uniform_size = std::mem::size_of::<CumulusUniform>() as u64;
+        let uniform = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("cumulus uniform"),
+            size: uniform_size,
+            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        let draw_stages = wgpu::ShaderStages::VERTEX_FRAGMENT;
+        let [shadow_uniform_entry, shadow_map_entry] = CloudShadowMap::layout_entries(draw_stages);
+        let group_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("cumulus"),
+            entries: &[
+                binding::uniform_layout_entry(0, draw_stages, uniform_size),
+                shadow_uniform_entry,
+                shadow_map_entry,
+            ],
+        });
+        let shadow_group_layout =
+            device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+                label: Some("cumulus shadow"),
+                entries: &[
+                    binding::uniform_layout_entry(0, draw_stages, uniform_size),
+                    shadow_uniform_entry,
+                ],
+            });
+        let [shadow_uniform, shadow_texture] = shadow_map.bind_group_entries();
+        let group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("cumulus"),
+            layout: &group_layout,
+            entries: &[
+                wgpu::BindGroupEntry {
+                    binding: 0,
+                    resource: uniform.as_entire_binding(),
+                },
+                shadow_uniform.clone(),
+                shadow_texture,
+            ],
+        });
+        let shadow_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("cumulus shadow"),
+            layout: &shadow_group_layout,
+            entries: &[
+                wgpu::BindGroupEntry {
+                    binding: 0,
+                    resource: uniform.as_entire_binding(),
+                },
+                shadow_uniform,
+            ],
+        });
+
+        let shadow_module =
+            shader::create_module(device, "cumulus shadow", &shadow_shader_source());
+        let shadow_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some("cumulus shadow"),
+            bind_group_layouts: &[Some(frame_layout), Some(&shadow_group_layout)],
+            immediate_size: 0,
+        });
+        let buffers = vertex_layouts().map(Some);
+        let shadow_pipeline = |label: &str, compare| {
+            device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+                label: Some(label),
+                layout: Some(&shadow_layout),
+                vertex: wgpu::VertexState {
+                    module: &shadow_module,
+                    entry_point: Some("cumulus_shadow_vertex"),
+                    compilation_options: Default::default(),
+                    buffers: &buffers,
+                },
+                primitive: wgpu::PrimitiveState::default(),
+                depth_stencil: Some(pipeline_descriptor_depth(true, compare)),
+                multisample: Default::default(),
+                fragment: Some(wgpu::FragmentState {
+                    module: &shadow_module,
+                    entry_point: Some("cumulus_shadow_fragment"),
+                    compilation_options: Default::default(),
+                    targets: &[],
+                }),
+                multiview_mask: None,
+                cache: None,
+            })
+        };
+        let shadow_pipelines = [
+            shadow_pipeline("cumulus shadow nearest", wgpu::CompareFunction::Less),
+            shadow_pipeline("cumulus shadow farthest", wgpu::CompareFunction::Greater),
+        ];
+
+        let module = shader::create_module(device, "cumulus", &draw_shader_source());
+        let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some("cumulus"),
+            bind_group_layouts: &[
+                Some(frame_layout),
+                Some(&group_layout),
+                Some(atmosphere_layout),
+                Some(stratus_layout),
+            ],
+            immediate_size: 0,
+        });
+        let draw_pipeline =
+            |label: &str,
+             entry: &str,
+             depth_write: bool,
+             targets: &[Option<wgpu::ColorTargetState>]| {
+                device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+                    label: Some(label),
+                    layout: Some(&layout),
+                    vertex: wgpu::VertexState {
+                        module: &module,
+                        entry_point: Some("cumulus_vertex"),
+                        compilation_options: Default::default(),
+                        buffers: &buffers,
+                    },
+                    primitive: wgpu::PrimitiveState {
+                        cull_mode: Some(wgpu::Face::Back),
+                        ..Default::default()
+                    },
+                    depth_stencil: Some(pipeline_descriptor_depth(
+                        depth_write,
+                        wgpu::CompareFunction::Greater,
+                    )),
+                    multisample: Default::default(),
+                    fragment: Some(wgpu::FragmentState {
+                        module: &module,
+                        entry_point: Some(entry),
+                        compilation_options: Default::default(),
+                        targets,
+                    }),
+                    multiview_mask: None,
+                    cache: None,
+                })
+            };
+        let opaque_pipeline = draw_pipeline(
+            "cumulus",
+            "cumulus_opaque_fragment",
+            true,
+            &[Some(HDR_FORMAT.into())],
+        );
+        let additive = wgpu::BlendComponent {
+            src_factor: wgpu::BlendFactor::One,
+            dst_factor: wgpu::BlendFactor::One,
+            operation: wgpu::BlendOperation::Add,
+        };
+        let multiplicative = wgpu::BlendComponent {
+            src_factor: wgpu::BlendFactor::Zero,
+            dst_factor: wgpu::BlendFactor::OneMinusSrc,
+            operation: wgpu::BlendOperation::Add,
+        };
+        let fringe_pipeline = draw_pipeline(
+            "cumulus fringes",
+            "cumulus_fringe_fragment",
+            false,
+            &[
+                Some(wgpu::ColorTargetState {
+                    format: ACCUMULATION_FORMAT,
+                    blend: Some(wgpu::BlendState {
+                        color: additive,
+                        alpha: additive,
+                    }),
+                    write_mask: wgpu::ColorWrites::ALL,
+                }),
+                Some(wgpu::ColorTargetState {
+                    format: REVEALAGE_FORMAT,
+                    blend: Some(wgpu::BlendState {
+                        color: multiplicative,
+                        alpha: multiplicative,
+                    }),
+                    write_mask: wgpu::ColorWrites::ALL,
+                }),
+            ],
+        );
+
+        let composite_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("cumulus composite"),
+            entries: &[
+                binding::texture_entry(
+                    0,
+                    wgpu::TextureViewDimension::D2,
+                    false,
+                    wgpu::ShaderStages::FRAGMENT,
+                ),
+                binding::texture_entry(
+                    1,
+                    wgpu::TextureViewDimension::D2,
+                    false,
+                    wgpu::ShaderStages::FRAGMENT,
+                ),
+            ],
+        });
+        let composite_module =
+            shader::create_module(device, "cumulus composite", &composite_shader_source());
+        let composite_pipeline_layout =
+            device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+                label: Some("cumulus composite"),
+                bind_group_layouts: &[Some(&composite_layout)],
+                immediate_size: 0,
+            });
+        let composite_pipeline = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+            label: Some("cumulus composite"),
+            layout: Some(&composite_pipeline_layout),
+            vertex: wgpu::VertexState {
+                module: &composite_module,
+                entry_point: Some("fullscreen_vertex"),
+                compilation_options: Default::default(),
+                buffers: &[],
+            },
+            primitive: wgpu::PrimitiveState::default(),
+            depth_stencil: None,
+            multisample: Default::default(),
+            fragment: Some(wgpu::FragmentState {
+                module: &composite_module,
+                entry_point: Some("cumulus_composite_fragment"),
+                compilation_options: Default::default(),
+                targets: &[Some(wgpu::ColorTargetState {
+                    format: HDR_FORMAT,
+                    blend: Some(crate::core::pipeline::PREMULTIPLIED_OVER),
+                    write_mask: wgpu::ColorWrites::ALL,
+                })],
+            }),
+            multiview_mask: None,
+            cache: None,
+        });
+        Self {
+            uniform,
+            group,
+            shadow_group,
+            shadow_pipelines,
+            opaque_pipeline,
+            fringe_pipeline,
+            composite_pipeline,
+            composite_layout,
+            fringe: None,
+            variants: None,
+            field: None,
+            moved: Vec::new(),
+            instances: None,
+            draws: Vec::new(),
+            shadow_draws: Vec::new(),
+            enabled: false,
+            shadow_enabled: false,
+        }
+    }
+}

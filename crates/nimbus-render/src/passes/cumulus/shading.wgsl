@@ -1,0 +1,232 @@
+// import shader/cloud_layer_lookup.wgsl
+// The phenomenological cumulus shader (Bouthors 2004, §5.10, eqs 5.31–5.43,
+// after Neyret 2000): the terms as pure functions of a surface point, the
+// GPU twin of nimbus_physics::cumulus::shading (whose documentation gives
+// the formulas, the choices where the paper is garbled and their reasons).
+// Needs shader/cloud_layer_field.wgsl (gradient_noise_3d).
+
+struct Cumulus {
+    // α_a, α_l, α_f, α_t.
+    weights: vec4<f32>,
+    // α_g, Trans, α_ρ (m⁻¹), corona thickness r (m).
+    corona: vec4<f32>,
+    // α_b, α_w, α_d, α_h.
+    detail: vec4<f32>,
+    // Neyret's k, lacunarity of the bump octaves, octaves, unused.
+    noise: vec4<f32>,
+    // Terms on (bits: ambient 1, bump 2, light traps 4, corona 8, shadow 16),
+    // light-trap model (0 furrows, 1 arctan), unused, unused.
+    flags: vec4<u32>,
+    // The sun's radiance C_s = E_sun/π at the cloud bases (RGB) and their
+    // height (m); its change per metre of height (RGB).
+    sun_at_base: vec4<f32>,
+    sun_per_m: vec4<f32>,
+}
+
+@group(1) @binding(0) var<uniform> cumulus: Cumulus;
+
+const CUMULUS_AMBIENT: u32 = 1u;
+const CUMULUS_BUMP: u32 = 2u;
+const CUMULUS_LIGHT_TRAPS: u32 = 4u;
+const CUMULUS_CORONA: u32 = 8u;
+const CUMULUS_SHADOW: u32 = 16u;
+// Fragments at least this opaque are drawn in the opaque pass (depth
+// written); the others in the order-independent fringe pass.
+const CUMULUS_OPAQUE_ALPHA: f32 = 0.995;
+// Forward differences of the bump noise, in noise coordinates.
+const CUMULUS_BUMP_STEP: f32 = 0.05;
+
+fn cumulus_term_on(term: u32) -> bool {
+    return (cumulus.flags.x & term) != 0u;
+}
+
+// What the shader reads at a surface point, world space.
+struct CumulusPoint {
+    // Interpolated surface normal N (unit).
+    normal: vec3<f32>,
+    // Radius of the point's blob, m.
+    blob_radius_m: f32,
+    // Normals of S_{l−1}, S_{l−2}, S_{l−3} (unit; N where the level is absent).
+    base_normals: array<vec3<f32>, 3>,
+    // δ_j, distances to S_{l−j} over that level's mean radius (large where absent).
+    base_distances: vec3<f32>,
+    // Mean radii of the lower levels, m (0 where absent).
+    base_radii_m: vec3<f32>,
+    // Unit vector from the blob's centre to the point.
+    blob_up: vec3<f32>,
+    // Bump height h ∈ [0, 1] and its gradient in noise coordinates.
+    bump_height: f32,
+    bump_gradient: vec3<f32>,
+}
+
+struct CumulusTerms {
+    smoothed_normal: vec3<f32>,
+    lambert: f32,
+    light_traps: f32,
+    forward: f32,
+    // Optical depth of the chord behind the point (a large value with the corona off).
+    optical_depth: f32,
+}
+
+// ∫ρ ds along the chord at impact b through a sphere of radius R whose
+// density is saturate((R − s)/r) (nimbus_physics::cumulus::shading::
+// chord_density_integral_m, which derives it).
+fn cumulus_chord_m(impact_m: f32, radius_m: f32, corona_m: f32) -> f32 {
+    let b = abs(impact_m);
+    let big_r = max(radius_m, 0.0);
+    if (b >= big_r) {
+        return 0.0;
+    }
+    let t_r = sqrt(max(big_r * big_r - b * b, 0.0));
+    let r = max(corona_m, 1e-6);
+    let core = max(big_r - r, 0.0);
+    var t_c = 0.0;
+    var s_c = b;
+    if (b < core) {
+        t_c = sqrt(core * core - b * b);
+        s_c = core;
+    }
+    var log_term = 0.0;
+    if (b > 0.0) {
+        log_term = b * b * log((t_r + big_r) / (t_c + s_c));
+    }
+    let shell = big_r * (t_r - t_c) - 0.5 * (t_r * big_r - t_c * s_c) - 0.5 * log_term;
+    return 2.0 * (t_c + shell / r);
+}
+
+fn cumulus_sphere_chord_m(n: vec3<f32>, o: vec3<f32>, radius_m: f32) -> f32 {
+    let c = saturate(dot(n, o));
+    return cumulus_chord_m(radius_m * sqrt(max(1.0 - c * c, 0.0)), radius_m, cumulus.corona.w);
+}
+
+// Optical depth of the cloud behind the point seen along `o`: the blob and
+// the lower levels' surfaces, modulated by the bump.
+fn cumulus_optical_depth(p: CumulusPoint, o: vec3<f32>, bump_on: bool) -> f32 {
+    var q = cumulus_sphere_chord_m(p.normal, o, p.blob_radius_m);
+    for (var j = 0; j < 3; j += 1) {
+        q += cumulus_sphere_chord_m(p.base_normals[j], o, p.base_radii_m[j]);
+    }
+    var modulation = 1.0;
+    if (bump_on) {
+        modulation = 1.0 - cumulus.detail.x * p.bump_height;
+    }
+    return cumulus.corona.z * modulation * q;
+}
+
+// Bump height h = ½ + ½ Σ_k g^k n(x λ^k) / Σ_k g^k, g = 1/λ (the octaves of
+// the unmodelled levels, each a lacunarity λ smaller and fainter), and its
+// gradient by forward differences. Twin of
+// nimbus_physics::cumulus::shading::bump_height_and_gradient.
+fn cumulus_bump_height(x: vec3<f32>) -> f32 {
+    let lacunarity = cumulus.noise.y;
+    let octaves = u32(cumulus.noise.z);
+    var sum = 0.0;
+    var norm = 0.0;
+    var amplitude = 1.0;
+    var frequency = 1.0;
+    for (var k = 0u; k < octaves; k += 1u) {
+        sum += amplitude * gradient_noise_3d(x * frequency, 0x5eedu + k * 7919u);
+        norm += amplitude;
+        amplitude /= lacunarity;
+        frequency *= lacunarity;
+    }
+    if (norm <= 0.0) {
+        return 0.5;
+    }
+    return clamp(0.5 + 0.5 * sum / norm, 0.0, 1.0);
+}
+
+fn cumulus_bump_gradient(x: vec3<f32>, h: f32) -> vec3<f32> {
+    let e = CUMULUS_BUMP_STEP;
+    return vec3<f32>(
+        cumulus_bump_height(x + vec3<f32>(e, 0.0, 0.0)) - h,
+        cumulus_bump_height(x + vec3<f32>(0.0, e, 0.0)) - h,
+        cumulus_bump_height(x + vec3<f32>(0.0, 0.0, e)) - h,
+    ) / e;
+}
+
+// The terms of eqs 5.34–5.41 at a point seen along `o` and lit along `l`.
+fn cumulus_shade_terms(p: CumulusPoint, o: vec3<f32>, l: vec3<f32>) -> CumulusTerms {
+    var out: CumulusTerms;
+    // Smoothed normal (eq 5.34).
+    var sum = vec3<f32>(0.0);
+    for (var j = 0; j < 3; j += 1) {
+        let w = saturate(cumulus.detail.y * p.base_distances[j]);
+        sum += w * p.normal + (1.0 - w) * p.base_normals[j];
+    }
+    var n_smooth = p.normal;
+    if (dot(sum, sum) > 1e-12) {
+        n_smooth = normalize(sum);
+    }
+    out.smoothed_normal = n_smooth;
+    let bump_on = cumulus_term_on(CUMULUS_BUMP);
+    // Bump (eq 5.35) and Lambert (eq 5.41).
+    var n_bump = n_smooth;
+    if (bump_on) {
+        let g = p.bump_gradient;
+        let tangential = g - dot(g, n_smooth) * n_smooth;
+        let perturbed = n_smooth - cumulus.detail.x * tangential;
+        if (dot(perturbed, perturbed) > 1e-12) {
+            n_bump = normalize(perturbed);
+        }
+    }
+    out.lambert = saturate(dot(n_bump, l));
+    // Light traps (eqs 5.37–5.39, or Neyret §4.3).
+    out.light_traps = 0.0;
+    if (cumulus_term_on(CUMULUS_LIGHT_TRAPS)) {
+        if (cumulus.flags.y == 0u) {
+            var lower = 0.0;
+            for (var j = 0; j < 3; j += 1) {
+                lower += saturate(1.0 - cumulus.detail.z * p.base_distances[j]) * saturate(dot(p.base_normals[j], l));
+            }
+            var h = 1.0;
+            if (bump_on) {
+                h = p.bump_height;
+            }
+            out.light_traps = lower + saturate(cumulus.detail.w - h) * saturate(dot(n_smooth, l));
+        } else {
+            let under = p.base_normals[0];
+            let height = saturate(dot(under, p.blob_up));
+            let k = cumulus.noise.x;
+            out.light_traps = saturate(dot(under, l)) * atan(k * (1.0 - height)) / atan(k);
+        }
+    }
+    // Density, forward scattering (eqs 5.31, 5.32, 5.40 corrected).
+    out.forward = 0.0;
+    out.optical_depth = 1e30;
+    if (cumulus_term_on(CUMULUS_CORONA)) {
+        let tau = cumulus_optical_depth(p, o, bump_on);
+        let rho = max(saturate(tau), 1e-4);
+        let cos_theta = saturate(-dot(o, l));
+        let lobe = pow(cos_theta, cumulus.corona.x / rho);
+        out.forward = saturate(cumulus.corona.y * (1.0 - rho) * (1.0 - rho) * lobe);
+        out.optical_depth = tau;
+    }
+    return out;
+}
+
+// Opacity A = 1 − e^{−τ}.
+fn cumulus_opacity(terms: CumulusTerms) -> f32 {
+    return 1.0 - exp(-min(terms.optical_depth, 80.0));
+}
+
+// C_s at a height: linear between the clouds' base and 2 km above it,
+// computed on the CPU from the atmosphere (nimbus_physics::atmosphere), as
+// the sun's transmittance changes slowly over a cloud's height.
+fn cumulus_sun_radiance(height_m: f32) -> vec3<f32> {
+    let above = clamp(height_m - cumulus.sun_at_base.w, 0.0, 2000.0);
+    return max(cumulus.sun_at_base.rgb + cumulus.sun_per_m.rgb * above, vec3<f32>(0.0));
+}
+
+// I of eq 5.42 from the terms, the environment's radiance C_c, the sun's C_s,
+// the shadow E at the point and E at the far end of the blob's chord, where
+// the light that the corona scatters forwards enters it (all radiances,
+// W·sr⁻¹·m⁻²).
+fn cumulus_radiance(terms: CumulusTerms, ambient: vec3<f32>, sun: vec3<f32>, shadow: vec3<f32>, forward_shadow: vec3<f32>) -> vec3<f32> {
+    var a = 0.0;
+    if (cumulus_term_on(CUMULUS_AMBIENT)) {
+        a = cumulus.weights.x;
+    }
+    let reflected = cumulus.weights.z * terms.light_traps + cumulus.weights.y * terms.lambert;
+    return a * ambient + sun * (shadow * reflected + forward_shadow * cumulus.weights.w * terms.forward);
+}

@@ -1,0 +1,274 @@
+//! Objects pass: the scene's static objects (`[[objects]]`: boxes and glTF
+//! meshes), baked into one world-space vertex and index buffer, drawn after
+//! the terrain and lit exactly as it is (`shader/lambert.wgsl`).
+//!
+//! The geometry is rebuilt only when `scene.objects` (or the directory
+//! their paths resolve against) changes, or a file read for it is
+//! rewritten (its [`crate::scene::FileStamp`]); [`ObjectsPass::generation`] counts
+//! the rebuilds so that consumers of [`ObjectsPass::occluder_geometry`]
+//! (the rain's occlusion map) know when to redraw. The cumulus shadow map
+//! is bound at group 1, bindings 8 and 9, as for the terrain.
+
+pub use crate::scene::gltf as gltf_mesh;
+pub use crate::scene::object_geometry as geometry;
+
+pub use geometry::{ObjectGeometry, ObjectVertex, ObjectsError};
+pub use gltf_mesh::{GltfError, GltfMesh, load_gltf};
+
+use crate::core::limits;
+use crate::core::targets::{DEPTH_FORMAT, HDR_FORMAT};
+use crate::frame::cloud_shadow::CloudShadowMap;
+use crate::frame::occluders::OccluderGeometry;
+use crate::scene::{FileStamp, Scene, SceneObject};
+use crate::shader::{self, WgslFile};
+use std::path::PathBuf;
+
+const OBJECTS_WGSL: WgslFile = WgslFile {
+    name: "passes/objects/objects.wgsl",
+    source: include_str!("objects.wgsl"),
+};
+
+/// The composed WGSL of this pass.
+pub fn shader_source() -> String {
+    shader::compose(&[OBJECTS_WGSL])
+}
+
+const VERTEX_ATTRIBUTES: [wgpu::VertexAttribute; 3] =
+    wgpu::vertex_attr_array![0 => Float32x3, 1 => Float32x3, 2 => Float32x3];
+
+// The occluder consumers read the position at the start of each vertex.
+const _: () = assert!(std::mem::offset_of!(ObjectVertex, position_m) == 0);
+
+/// The objects' buffers on the GPU.
+#[derive(Debug)]
+struct GpuGeometry {
+    vertices: wgpu::Buffer,
+    indices: wgpu::Buffer,
+    index_count: u32,
+    bounds_m: ([f32; 3], [f32; 3]),
+}
+
+/// What the current geometry was built from.
+#[derive(Debug, PartialEq)]
+struct BuiltFrom {
+    objects: Vec<SceneObject>,
+    base_dir: Option<PathBuf>,
+    /// The files read, as they were then.
+    files: Vec<(PathBuf, Option<FileStamp>)>,
+}
+
+impl BuiltFrom {
+    /// Whether `scene`'s objects are these, from the same files unchanged.
+    fn matches(&self, scene: &Scene) -> bool {
+        self.objects == scene.objects
+            && self.base_dir == scene.base_dir
+            && self
+                .files
+                .iter()
+                .all(|(path, stamp)| FileStamp::of(path) == *stamp)
+    }
+}
+
+/// The objects pass.
+#[derive(Debug)]
+pub struct ObjectsPass {
+    pipeline: wgpu::RenderPipeline,
+    group_layout: wgpu::BindGroupLayout,
+    /// Group 1: the cumulus shadow map (created at the first prepare).
+    bind_group: Option<wgpu::BindGroup>,
+    built_from: Option<BuiltFrom>,
+    geometry: Option<GpuGeometry>,
+    generation: u64,
+}
+
+impl ObjectsPass {
+    /// Creates the pipeline; the geometry is built by [`Self::prepare`].
+    pub fn new(
+        device: &wgpu::Device,
+        frame_layout: &wgpu::BindGroupLayout,
+        atmosphere_layout: &wgpu::BindGroupLayout,
+        stratus_layout: &wgpu::BindGroupLayout,
+    ) -> Self {
+        let group_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("objects cloud shadow"),
+            entries: &CloudShadowMap::layout_entries(wgpu::ShaderStages::FRAGMENT),
+        });
+        let module = shader::create_module(device, "objects", &shader_source());
+        let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some("objects"),
+            bind_group_layouts: &[
+                Some(frame_layout),
+                Some(&group_layout),
+                Some(atmosphere_layout),
+                Some(stratus_layout),
+            ],
+            immediate_size: 0,
+        });
+        let pipeline = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+            label: Some("objects"),
+            layout: Some(&layout),
+            vertex: wgpu::VertexState {
+                module: &module,
+                entry_point: Some("objects_vertex"),
+                compilation_options: Default::default(),
+                buffers: &[Some(wgpu::VertexBufferLayout {
+                    array_stride: std::mem::size_of::<ObjectVertex>() as u64,
+                    step_mode: wgpu::VertexStepMode::Vertex,
+                    attributes: &VERTEX_ATTRIBUTES,
+                })],
+            },
+            // No culling: glTF meshes need not be closed (a roof may be one
+            // sheet); the fragment shader lights back faces as the side seen.
+            primitive: wgpu::PrimitiveState {
+                cull_mode: None,
+                ..Default::default()
+            },
+            depth_stencil: Some(wgpu::DepthStencilState {
+                format: DEPTH_FORMAT,
+                depth_write_enabled: Some(true),
+                depth_compare: Some(wgpu::CompareFunction::Greater),
+                stencil: Default::default(),
+                bias: Default::default(),
+            }),
+            multisample: Default::default(),
+            fragment: Some(wgpu::FragmentState {
+                module: &module,
+                entry_point: Some("objects_fragment"),
+                compilation_options: Default::default(),
+                targets: &[Some(HDR_FORMAT.into())],
+            }),
+            multiview_mask: None,
+            cache: None,
+        });
+        Self {
+            pipeline,
+            group_layout,
+            bind_group: None,
+            built_from: None,
+            geometry: None,
+            generation: 0,
+        }
+    }
+
+    /// Rebuilds and uploads the objects' geometry when `scene.objects`
+    /// changed (reading their glTF files again), after checking the buffer
+    /// sizes against the device's limit. On failure the pass draws nothing
+    /// until a later prepare succeeds.
+    pub fn prepare(
+        &mut self,
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        scene: &Scene,
+        cloud_shadow: &CloudShadowMap,
+    ) -> Result<(), ObjectsError> {
+        if self.bind_group.is_none() {
+            self.bind_group = Some(device.create_bind_group(&wgpu::BindGroupDescriptor {
+                label: Some("objects cloud shadow"),
+                layout: &self.group_layout,
+                entries: &cloud_shadow.bind_group_entries(),
+            }));
+        }
+        let unchanged = self.built_from.as_ref().is_some_and(|b| b.matches(scene));
+        if unchanged {
+            return Ok(());
+        }
+        // The old buffers go first: on failure nothing stale is drawn.
+        self.built_from = None;
+        if self.geometry.take().is_some() {
+            self.generation += 1;
+        }
+        let geometry = geometry::build(scene)?;
+        if let Some(bounds_m) = geometry.bounds_m() {
+            let what = format!("objects ({} triangles)", geometry.triangle_count());
+            let vertex_bytes = std::mem::size_of_val(geometry.vertices.as_slice()) as u64;
+            let index_bytes = std::mem::size_of_val(geometry.indices.as_slice()) as u64;
+            limits::check_buffer_size(device, &what, vertex_bytes)?;
+            limits::check_buffer_size(device, &what, index_bytes)?;
+            let buffer = |label: &str, usage: wgpu::BufferUsages, bytes: &[u8]| {
+                let buffer = device.create_buffer(&wgpu::BufferDescriptor {
+                    label: Some(label),
+                    size: bytes.len() as u64,
+                    usage: usage | wgpu::BufferUsages::COPY_DST,
+                    mapped_at_creation: false,
+                });
+                queue.write_buffer(&buffer, 0, bytes);
+                buffer
+            };
+            self.geometry = Some(GpuGeometry {
+                vertices: buffer(
+                    "objects vertices",
+                    wgpu::BufferUsages::VERTEX,
+                    bytemuck::cast_slice(&geometry.vertices),
+                ),
+                indices: buffer(
+                    "objects indices",
+                    wgpu::BufferUsages::INDEX,
+                    bytemuck::cast_slice(&geometry.indices),
+                ),
+                index_count: geometry.indices.len() as u32,
+                bounds_m,
+            });
+            // Counted once per rebuild that has geometry, once more when
+            // buffers were dropped above: any change of the buffers shows.
+            self.generation += 1;
+        }
+        self.built_from = Some(BuiltFrom {
+            objects: scene.objects.clone(),
+            base_dir: scene.base_dir.clone(),
+            files: geometry
+                .files_read
+                .iter()
+                .map(|f| (f.clone(), FileStamp::of(f)))
+                .collect(),
+        });
+        Ok(())
+    }
+
+    /// Whether there is anything to draw.
+    pub fn enabled(&self) -> bool {
+        self.geometry.is_some()
+    }
+
+    /// The objects' triangles for occlusion maps (world position at offset
+    /// 0 of each vertex, `u32` indices); `None` without objects.
+    pub fn occluder_geometry(&self) -> Option<OccluderGeometry<'_>> {
+        self.geometry.as_ref().map(|g| OccluderGeometry {
+            vertices: &g.vertices,
+            indices: &g.indices,
+            index_count: g.index_count,
+            vertex_stride: std::mem::size_of::<ObjectVertex>() as u64,
+        })
+    }
+
+    /// Axis-aligned bounds (min, max) of all objects, world m; `None` without objects.
+    pub fn world_bounds_m(&self) -> Option<([f32; 3], [f32; 3])> {
+        self.geometry.as_ref().map(|g| g.bounds_m)
+    }
+
+    /// Counts the rebuilds of the geometry: changes whenever the buffers of
+    /// [`Self::occluder_geometry`] (or their absence) change.
+    pub fn generation(&self) -> u64 {
+        self.generation
+    }
+
+    /// Records the draw into `pass` (nothing without objects).
+    pub fn draw(
+        &self,
+        pass: &mut wgpu::RenderPass<'_>,
+        frame: &wgpu::BindGroup,
+        atmosphere: &wgpu::BindGroup,
+        stratus: &wgpu::BindGroup,
+    ) {
+        let (Some(geometry), Some(group)) = (&self.geometry, &self.bind_group) else {
+            return;
+        };
+        pass.set_pipeline(&self.pipeline);
+        pass.set_bind_group(0, frame, &[]);
+        pass.set_bind_group(1, group, &[]);
+        pass.set_bind_group(2, atmosphere, &[]);
+        pass.set_bind_group(3, stratus, &[]);
+        pass.set_vertex_buffer(0, geometry.vertices.slice(..));
+        pass.set_index_buffer(geometry.indices.slice(..), wgpu::IndexFormat::Uint32);
+        pass.draw_indexed(0..geometry.index_count, 0, 0..1);
+    }
+}

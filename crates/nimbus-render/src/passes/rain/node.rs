@@ -1,0 +1,161 @@
+//! The encode step: the simulation and visibility compute, the streaks and splashes, the mist.
+
+#[allow(unused_imports)]
+use super::*;
+
+impl RainPass {
+    /// Records the rain shadow map (when it must be redrawn), the
+    /// simulation's steps and the visibility list.
+    pub fn encode_simulation(
+        &self,
+        encoder: &mut wgpu::CommandEncoder,
+        frame: &wgpu::BindGroup,
+        occluders: &[OccluderGeometry<'_>],
+        timestamps: Option<wgpu::ComputePassTimestampWrites<'_>>,
+    ) {
+        let Some(state) = &self.state else { return };
+        if self.plan.redraw_occlusion {
+            let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+                label: Some("rain shadow map"),
+                color_attachments: &[],
+                depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
+                    view: &state.shared.occlusion_view,
+                    depth_ops: Some(wgpu::Operations {
+                        load: wgpu::LoadOp::Clear(1.0),
+                        store: wgpu::StoreOp::Store,
+                    }),
+                    stencil_ops: None,
+                }),
+                timestamp_writes: None,
+                occlusion_query_set: None,
+                multiview_mask: None,
+            });
+            pass.set_bind_group(0, &self.occlusion_group, &[]);
+            for geometry in occluders {
+                let pipeline = self
+                    .occluders
+                    .iter()
+                    .find(|(stride, _)| *stride == geometry.vertex_stride);
+                if let Some((_, pipeline)) = pipeline {
+                    pass.set_pipeline(pipeline);
+                    geometry.draw(&mut pass);
+                }
+            }
+        }
+        let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+            label: Some("rain simulation"),
+            timestamp_writes: timestamps,
+        });
+        // Workgroups per buffer (a buffer holds at most one dispatch row's).
+        let groups: Vec<(&DropSegment, u32)> = state
+            .drops
+            .segments
+            .iter()
+            .map(|segment| {
+                let drops = segment.dispatched(state.dispatched);
+                (segment, drops.div_ceil(WORKGROUP_SIZE))
+            })
+            .filter(|&(_, groups)| groups > 0)
+            .collect();
+        pass.set_pipeline(&self.simulate);
+        pass.set_bind_group(0, frame, &[]);
+        for i in 0..self.plan.steps.len() {
+            for &(segment, groups) in &groups {
+                pass.set_bind_group(
+                    1,
+                    &segment.simulation_group,
+                    &[(i as u64 * STEP_STRIDE) as u32],
+                );
+                pass.dispatch_workgroups(groups, 1, 1);
+            }
+        }
+        pass.set_pipeline(&self.cull);
+        pass.set_bind_group(0, frame, &[]);
+        for &(segment, groups) in &groups {
+            pass.set_bind_group(1, &segment.visibility_group, &[]);
+            pass.dispatch_workgroups(groups, 1, 1);
+        }
+    }
+
+    /// The bind group of the draws of one drops' buffer, with the frame's
+    /// depth (read-only).
+    pub(super) fn draw_group(
+        &self,
+        state: &RainState,
+        segment: &DropSegment,
+        depth: &wgpu::TextureView,
+    ) -> wgpu::BindGroup {
+        binding::sequential_bind_group(
+            &self.device,
+            "rain draw",
+            &self.draw_layout,
+            vec![
+                self.uniform.as_entire_binding(),
+                segment.drops.as_entire_binding(),
+                segment.visible.as_entire_binding(),
+                state.shared.splashes.as_entire_binding(),
+                wgpu::BindingResource::TextureView(depth),
+            ],
+        )
+    }
+
+    /// Draws the streaks and splashes into `pass` (whose depth attachment is
+    /// `depth`, read-only: the streaks fade where they meet surfaces).
+    pub fn draw(
+        &self,
+        pass: &mut wgpu::RenderPass<'_>,
+        depth: &wgpu::TextureView,
+        [frame, atmosphere, stratus]: [&wgpu::BindGroup; 3],
+    ) {
+        let Some(state) = &self.state else {
+            return;
+        };
+        pass.set_bind_group(0, frame, &[]);
+        pass.set_bind_group(2, atmosphere, &[]);
+        pass.set_bind_group(3, stratus, &[]);
+        pass.set_pipeline(&self.streaks);
+        for (index, segment) in state.drops.segments.iter().enumerate() {
+            if index > 0 && segment.dispatched(state.dispatched) == 0 {
+                break;
+            }
+            pass.set_bind_group(1, &self.draw_group(state, segment, depth), &[]);
+            pass.draw_indirect(
+                &state.drops.draw_args,
+                index as u64 * state.drops.draw_args_stride,
+            );
+        }
+        if self.settings.as_ref().is_some_and(|s| s.splashes) {
+            // The splashes read no drops: the last buffer's group, still
+            // bound, serves them.
+            pass.set_pipeline(&self.splash);
+            pass.draw(0..6, 0..SPLASH_CAPACITY * SPLASH_DROPLETS);
+        }
+    }
+
+    /// Draws the mist over the frame (full screen, no depth attachment; the
+    /// frame's depth is read as a texture).
+    pub fn draw_mist(
+        &self,
+        pass: &mut wgpu::RenderPass<'_>,
+        depth: &wgpu::TextureView,
+        [frame, atmosphere, stratus]: [&wgpu::BindGroup; 3],
+    ) {
+        let Some(state) = &self.state else { return };
+        let group = binding::sequential_bind_group(
+            &self.device,
+            "rain mist",
+            &self.mist_layout,
+            vec![
+                self.uniform.as_entire_binding(),
+                state.shared.zones.as_entire_binding(),
+                wgpu::BindingResource::TextureView(depth),
+            ],
+        );
+        pass.set_pipeline(&self.mist);
+        pass.set_bind_group(0, frame, &[]);
+        pass.set_bind_group(1, &group, &[]);
+        pass.set_bind_group(2, atmosphere, &[]);
+        pass.set_bind_group(3, stratus, &[]);
+        pass.draw(0..3, 0..1);
+    }
+}

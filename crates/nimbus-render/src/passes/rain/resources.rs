@@ -1,0 +1,413 @@
+//! The rain pass's pipelines and bind-group layouts, created once.
+
+#[allow(unused_imports)]
+use super::*;
+
+pub(super) fn compute_pipeline(
+    device: &wgpu::Device,
+    label: &str,
+    source: String,
+    entry: &str,
+    layouts: &[Option<&wgpu::BindGroupLayout>],
+) -> wgpu::ComputePipeline {
+    let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+        label: Some(label),
+        source: wgpu::ShaderSource::Wgsl(source.into()),
+    });
+    let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+        label: Some(label),
+        bind_group_layouts: layouts,
+        immediate_size: 0,
+    });
+    device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+        label: Some(label),
+        layout: Some(&layout),
+        module: &module,
+        entry_point: Some(entry),
+        compilation_options: Default::default(),
+        cache: None,
+    })
+}
+
+/// Premultiplied "over" blending.
+pub(super) const OVER: wgpu::BlendState = wgpu::BlendState {
+    color: wgpu::BlendComponent {
+        src_factor: wgpu::BlendFactor::One,
+        dst_factor: wgpu::BlendFactor::OneMinusSrcAlpha,
+        operation: wgpu::BlendOperation::Add,
+    },
+    alpha: wgpu::BlendComponent {
+        src_factor: wgpu::BlendFactor::Zero,
+        dst_factor: wgpu::BlendFactor::One,
+        operation: wgpu::BlendOperation::Add,
+    },
+};
+
+/// dst·T + src: the mist's in-scattering over the attenuated frame.
+pub(super) const ATTENUATE_AND_ADD: wgpu::BlendState = wgpu::BlendState {
+    color: wgpu::BlendComponent {
+        src_factor: wgpu::BlendFactor::One,
+        dst_factor: wgpu::BlendFactor::SrcAlpha,
+        operation: wgpu::BlendOperation::Add,
+    },
+    alpha: wgpu::BlendComponent {
+        src_factor: wgpu::BlendFactor::Zero,
+        dst_factor: wgpu::BlendFactor::One,
+        operation: wgpu::BlendOperation::Add,
+    },
+};
+
+#[allow(clippy::too_many_arguments)]
+pub(super) fn draw_pipeline(
+    device: &wgpu::Device,
+    label: &str,
+    module: &wgpu::ShaderModule,
+    vertex: &str,
+    fragment: &str,
+    layout: &wgpu::PipelineLayout,
+    blend: wgpu::BlendState,
+    depth: bool,
+) -> wgpu::RenderPipeline {
+    device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+        label: Some(label),
+        layout: Some(layout),
+        vertex: wgpu::VertexState {
+            module,
+            entry_point: Some(vertex),
+            compilation_options: Default::default(),
+            buffers: &[],
+        },
+        fragment: Some(wgpu::FragmentState {
+            module,
+            entry_point: Some(fragment),
+            compilation_options: Default::default(),
+            targets: &[Some(wgpu::ColorTargetState {
+                format: HDR_FORMAT,
+                blend: Some(blend),
+                write_mask: wgpu::ColorWrites::ALL,
+            })],
+        }),
+        primitive: wgpu::PrimitiveState::default(),
+        depth_stencil: depth.then_some(wgpu::DepthStencilState {
+            format: DEPTH_FORMAT,
+            depth_write_enabled: Some(false),
+            depth_compare: Some(wgpu::CompareFunction::Greater),
+            stencil: Default::default(),
+            bias: Default::default(),
+        }),
+        multisample: Default::default(),
+        multiview_mask: None,
+        cache: None,
+    })
+}
+
+impl RainPass {
+    /// Creates the pipelines; buffers are made by [`Self::prepare`] when a scene has rain.
+    pub fn new(
+        device: &wgpu::Device,
+        frame_layout: &wgpu::BindGroupLayout,
+        atmosphere_layout: &wgpu::BindGroupLayout,
+        stratus_layout: &wgpu::BindGroupLayout,
+    ) -> Self {
+        use wgpu::BufferBindingType::{Storage, Uniform};
+        let compute = wgpu::ShaderStages::COMPUTE;
+        let draw = wgpu::ShaderStages::VERTEX_FRAGMENT;
+        let uniform_size = std::mem::size_of::<RainUniform>() as u64;
+        let step_size = std::mem::size_of::<RainStepUniform>() as u64;
+        let segment_size = std::mem::size_of::<RainSegmentUniform>() as u64;
+        let read = Storage { read_only: true };
+        let write = Storage { read_only: false };
+        let depth_texture =
+            |binding: u32, visibility: wgpu::ShaderStages| wgpu::BindGroupLayoutEntry {
+                binding,
+                visibility,
+                ty: wgpu::BindingType::Texture {
+                    sample_type: wgpu::TextureSampleType::Depth,
+                    view_dimension: wgpu::TextureViewDimension::D2,
+                    multisampled: false,
+                },
+                count: None,
+            };
+        let simulation_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("rain simulation"),
+            entries: &[
+                uniform_layout_entry(0, compute, uniform_size),
+                wgpu::BindGroupLayoutEntry {
+                    binding: 1,
+                    visibility: compute,
+                    ty: wgpu::BindingType::Buffer {
+                        ty: Uniform,
+                        has_dynamic_offset: true,
+                        min_binding_size: wgpu::BufferSize::new(step_size),
+                    },
+                    count: None,
+                },
+                buffer_entry(2, write, DROP_BYTES, compute),
+                buffer_entry(3, read, 16, compute),
+                buffer_entry(4, read, 4, compute),
+                depth_texture(5, compute),
+                buffer_entry(6, write, SPLASH_BYTES, compute),
+                buffer_entry(7, write, 4, compute),
+                uniform_layout_entry(8, compute, segment_size),
+            ],
+        });
+        let visibility_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("rain visibility"),
+            entries: &[
+                uniform_layout_entry(0, compute, uniform_size),
+                buffer_entry(1, read, DROP_BYTES, compute),
+                buffer_entry(2, write, 4, compute),
+                buffer_entry(3, write, 16, compute),
+                uniform_layout_entry(4, compute, segment_size),
+            ],
+        });
+        let draw_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("rain draw"),
+            entries: &[
+                uniform_layout_entry(0, draw, uniform_size),
+                buffer_entry(1, read, DROP_BYTES, wgpu::ShaderStages::VERTEX),
+                buffer_entry(2, read, 4, wgpu::ShaderStages::VERTEX),
+                buffer_entry(3, read, SPLASH_BYTES, wgpu::ShaderStages::VERTEX),
+                depth_texture(4, wgpu::ShaderStages::FRAGMENT),
+            ],
+        });
+        let mist_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("rain mist"),
+            entries: &[
+                uniform_layout_entry(0, draw, uniform_size),
+                buffer_entry(1, read, 4, wgpu::ShaderStages::FRAGMENT),
+                depth_texture(2, wgpu::ShaderStages::FRAGMENT),
+            ],
+        });
+        let simulate = compute_pipeline(
+            device,
+            "rain simulation",
+            simulation_shader_source(),
+            "simulate",
+            &[Some(frame_layout), Some(&simulation_layout)],
+        );
+        let cull = compute_pipeline(
+            device,
+            "rain visibility",
+            visibility_shader_source(),
+            "cull",
+            &[Some(frame_layout), Some(&visibility_layout)],
+        );
+        let streaks_module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+            label: Some("rain streaks"),
+            source: wgpu::ShaderSource::Wgsl(streaks_shader_source().into()),
+        });
+        let draw_pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some("rain draw"),
+            bind_group_layouts: &[
+                Some(frame_layout),
+                Some(&draw_layout),
+                Some(atmosphere_layout),
+                Some(stratus_layout),
+            ],
+            immediate_size: 0,
+        });
+        let streaks = draw_pipeline(
+            device,
+            "rain streaks",
+            &streaks_module,
+            "streak_vertex_main",
+            "streak_fragment",
+            &draw_pipeline_layout,
+            OVER,
+            true,
+        );
+        let splash = draw_pipeline(
+            device,
+            "rain splashes",
+            &streaks_module,
+            "splash_vertex_main",
+            "streak_fragment",
+            &draw_pipeline_layout,
+            OVER,
+            true,
+        );
+        let mist_module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+            label: Some("rain mist"),
+            source: wgpu::ShaderSource::Wgsl(mist_shader_source().into()),
+        });
+        let mist_pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some("rain mist"),
+            bind_group_layouts: &[
+                Some(frame_layout),
+                Some(&mist_layout),
+                Some(atmosphere_layout),
+                Some(stratus_layout),
+            ],
+            immediate_size: 0,
+        });
+        let mist = draw_pipeline(
+            device,
+            "rain mist",
+            &mist_module,
+            "mist_vertex",
+            "mist_fragment",
+            &mist_pipeline_layout,
+            ATTENUATE_AND_ADD,
+            false,
+        );
+        let occlusion_uniform = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("rain shadow map view"),
+            size: 64,
+            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        let occlusion_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("rain shadow map view"),
+            entries: &[uniform_layout_entry(0, wgpu::ShaderStages::VERTEX, 64)],
+        });
+        let occlusion_group = binding::sequential_bind_group(
+            device,
+            "rain shadow map view",
+            &occlusion_layout,
+            vec![occlusion_uniform.as_entire_binding()],
+        );
+        let occluders_module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+            label: Some("rain shadow map"),
+            source: wgpu::ShaderSource::Wgsl(occluders_shader_source().into()),
+        });
+        let occluders_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some("rain shadow map"),
+            bind_group_layouts: &[Some(&occlusion_layout)],
+            immediate_size: 0,
+        });
+        let occlusion_texture = device.create_texture(&wgpu::TextureDescriptor {
+            label: Some("rain shadow map"),
+            size: wgpu::Extent3d {
+                width: OCCLUSION_MAP_SIZE,
+                height: OCCLUSION_MAP_SIZE,
+                depth_or_array_layers: 1,
+            },
+            mip_level_count: 1,
+            sample_count: 1,
+            dimension: wgpu::TextureDimension::D2,
+            format: wgpu::TextureFormat::Depth32Float,
+            usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::TEXTURE_BINDING,
+            view_formats: &[],
+        });
+        let steps = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("rain steps"),
+            size: STEP_STRIDE * MAX_STEPS_PER_FRAME as u64,
+            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        let uniform = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("rain"),
+            size: uniform_size,
+            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        Self {
+            device: device.clone(),
+            uniform,
+            steps,
+            occlusion_uniform,
+            occlusion_group,
+            simulation_layout,
+            visibility_layout,
+            draw_layout,
+            mist_layout,
+            simulate,
+            cull,
+            streaks,
+            splash,
+            mist,
+            occluders_module,
+            occluders_layout,
+            occluders: Vec::new(),
+            occlusion_texture,
+            state: None,
+            plan: FramePlan::default(),
+            settings: None,
+            drops_per_buffer_cap: None,
+            drop: DropTransfer::water(),
+        }
+    }
+
+    /// The rain shadow map's depth-only pipeline for vertices of `stride` bytes.
+    pub(super) fn occluder_pipeline(
+        &self,
+        device: &wgpu::Device,
+        stride: u64,
+    ) -> wgpu::RenderPipeline {
+        device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+            label: Some("rain shadow map"),
+            layout: Some(&self.occluders_layout),
+            vertex: wgpu::VertexState {
+                module: &self.occluders_module,
+                entry_point: Some("occluder_vertex"),
+                compilation_options: Default::default(),
+                buffers: &[Some(wgpu::VertexBufferLayout {
+                    array_stride: stride,
+                    step_mode: wgpu::VertexStepMode::Vertex,
+                    attributes: &crate::frame::occluders::POSITION_ATTRIBUTES,
+                })],
+            },
+            fragment: None,
+            primitive: wgpu::PrimitiveState::default(),
+            depth_stencil: Some(wgpu::DepthStencilState {
+                format: wgpu::TextureFormat::Depth32Float,
+                depth_write_enabled: Some(true),
+                depth_compare: Some(wgpu::CompareFunction::Less),
+                stencil: Default::default(),
+                bias: Default::default(),
+            }),
+            multisample: Default::default(),
+            multiview_mask: None,
+            cache: None,
+        })
+    }
+
+    /// Whether the current scene has rain.
+    pub fn enabled(&self) -> bool {
+        self.settings.is_some() && self.state.is_some()
+    }
+
+    /// Whether the current scene's rain has mist.
+    pub fn mist_enabled(&self) -> bool {
+        self.enabled() && self.settings.as_ref().is_some_and(|s| s.mist)
+    }
+
+    /// Drops simulated this frame (the dispatched count).
+    pub fn dispatched_drops(&self) -> u32 {
+        self.state.as_ref().map_or(0, |s| s.dispatched)
+    }
+
+    /// The map of rain zones in use (for tests and tools).
+    pub fn zones(&self) -> Option<&RainZones> {
+        self.state.as_ref().map(|s| &s.zone_map)
+    }
+
+    /// The steps the last [`Self::prepare`] planned (for tests replaying them on the CPU).
+    pub fn planned_steps(&self) -> &[RainStepUniform] {
+        &self.plan.steps
+    }
+
+    /// The drops' buffers in order of their ids, each with the number of
+    /// drops it holds (for tests and tools that read the simulation back).
+    pub fn drops_buffers(&self) -> Vec<(&wgpu::Buffer, u32)> {
+        self.state.as_ref().map_or_else(Vec::new, |s| {
+            s.drops
+                .segments
+                .iter()
+                .map(|g| (&g.drops, g.capacity))
+                .collect()
+        })
+    }
+
+    /// Caps the drops per buffer below what the device binds in one
+    /// (`None`: the device's limit), so that a device's split of millions
+    /// of drops can be exercised with a few thousand. Takes effect when the
+    /// rain next starts anew.
+    pub fn set_drops_per_buffer_cap(&mut self, cap: Option<u32>) {
+        if self.drops_per_buffer_cap != cap {
+            self.drops_per_buffer_cap = cap;
+            self.state = None;
+        }
+    }
+}

@@ -1,0 +1,138 @@
+//! Sky pass: the physically based sky (from the sky-view LUT), the sun disk
+//! and the open sea at the horizon.
+//!
+//! Drawn first, as a full-screen triangle at the far plane; under reverse-Z
+//! its depth test passes only where nothing nearer has been drawn, so it also
+//! works behind a caller's own geometry.
+
+use crate::core::targets::{DEPTH_FORMAT, HDR_FORMAT};
+use crate::shader::{self, WgslFile};
+use bytemuck::{Pod, Zeroable};
+
+const SKY_WGSL: WgslFile = WgslFile {
+    name: "passes/sky/sky.wgsl",
+    source: include_str!("sky.wgsl"),
+};
+
+/// The composed WGSL of this pass.
+pub fn shader_source() -> String {
+    shader::compose(&[SKY_WGSL])
+}
+
+/// Linear limb-darkening coefficient of the sun in the visible, u ≈ 0.6
+/// (Neckel & Labs, Solar Physics 153, 1994, at 550 nm).
+pub const SOLAR_LIMB_DARKENING_U: f32 = 0.6;
+
+/// Settings of the sky pass.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SkySettings {
+    /// Height of the open sea drawn below the horizon, m.
+    pub water_level_m: f32,
+    /// Diffuse albedo of deep water.
+    pub water_albedo: [f32; 3],
+}
+
+/// GPU layout of WGSL `SkyPassParams`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct SkyPassUniform {
+    /// Height of the open sea, m.
+    pub water_level_m: f32,
+    /// Limb-darkening coefficient.
+    pub limb_darkening_u: f32,
+    /// Padding to 16 bytes.
+    pub _padding: [f32; 2],
+    /// Diffuse albedo of deep water (w unused).
+    pub water_albedo: [f32; 4],
+}
+
+impl From<SkySettings> for SkyPassUniform {
+    fn from(s: SkySettings) -> Self {
+        let [r, g, b] = s.water_albedo;
+        Self {
+            water_level_m: s.water_level_m,
+            limb_darkening_u: SOLAR_LIMB_DARKENING_U,
+            _padding: [0.0; 2],
+            water_albedo: [r, g, b, 0.0],
+        }
+    }
+}
+
+/// GPU resources of the sky pass.
+#[derive(Debug)]
+pub struct SkyPass {
+    pipeline: wgpu::RenderPipeline,
+    params: crate::core::binding::UniformBinding<SkyPassUniform>,
+}
+
+impl SkyPass {
+    /// Creates the pipeline; `frame_layout` is the shared group-0 layout.
+    pub fn new(
+        device: &wgpu::Device,
+        frame_layout: &wgpu::BindGroupLayout,
+        atmosphere_layout: &wgpu::BindGroupLayout,
+    ) -> Self {
+        let params = crate::core::binding::UniformBinding::new(
+            device,
+            "sky params",
+            wgpu::ShaderStages::FRAGMENT,
+        );
+        let module = shader::create_module(device, "sky", &shader_source());
+        let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some("sky"),
+            bind_group_layouts: &[
+                Some(frame_layout),
+                Some(&params.layout),
+                Some(atmosphere_layout),
+            ],
+            immediate_size: 0,
+        });
+        let pipeline = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+            label: Some("sky"),
+            layout: Some(&layout),
+            vertex: wgpu::VertexState {
+                module: &module,
+                entry_point: Some("fullscreen_vertex"),
+                compilation_options: Default::default(),
+                buffers: &[],
+            },
+            primitive: wgpu::PrimitiveState::default(),
+            depth_stencil: Some(wgpu::DepthStencilState {
+                format: DEPTH_FORMAT,
+                depth_write_enabled: Some(false),
+                depth_compare: Some(wgpu::CompareFunction::GreaterEqual),
+                stencil: Default::default(),
+                bias: Default::default(),
+            }),
+            multisample: Default::default(),
+            fragment: Some(wgpu::FragmentState {
+                module: &module,
+                entry_point: Some("sky_fragment"),
+                compilation_options: Default::default(),
+                targets: &[Some(HDR_FORMAT.into())],
+            }),
+            multiview_mask: None,
+            cache: None,
+        });
+        Self { pipeline, params }
+    }
+
+    /// Uploads the settings.
+    pub fn prepare(&self, queue: &wgpu::Queue, settings: SkySettings) {
+        self.params.write(queue, &settings.into());
+    }
+
+    /// Records the pass into `pass`, which targets the HDR colour and the depth buffer.
+    pub fn draw(
+        &self,
+        pass: &mut wgpu::RenderPass<'_>,
+        frame: &wgpu::BindGroup,
+        atmosphere: &wgpu::BindGroup,
+    ) {
+        pass.set_pipeline(&self.pipeline);
+        pass.set_bind_group(0, frame, &[]);
+        pass.set_bind_group(1, &self.params.bind_group, &[]);
+        pass.set_bind_group(2, atmosphere, &[]);
+        pass.draw(0..3, 0..1);
+    }
+}

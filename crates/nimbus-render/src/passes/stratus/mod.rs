@@ -1,0 +1,207 @@
+//! Stratus pass: a stratiform cloud layer after Bouthors, Neyret & Lefebvre
+//! (2006), with ground–cloud radiosity.
+//!
+//! Per frame, on the GPU:
+//! 1. `thickness_field` (compute): the layer's thickness over a square window
+//!    around the camera, evaluated from the procedural field
+//!    ([`nimbus_physics::cloud_layer`]) at the frame's time, so the
+//!    wind-advected layer animates without uploads.
+//! 2. `radiosity_inputs` (compute): ρ_C, S_C and the shadowed sun light S_G^d
+//!    over the radiosity grid (texels as large as the layer is high, §5.3),
+//!    then the [`RadiosityPass`] iterations.
+//! 3. The terrain binds [`StratusPass::lookup_group`]: its sun light is
+//!    shadowed by T_C at the sun ray's crossing of the layer and its
+//!    indirect light is R_G.
+//! 4. `layer` (draw): a grid over the window displaced to the face the
+//!    camera sees, shaded per pixel by the analytic slab model (single,
+//!    double, 3+ scattering, the forward peak, sky and ground light) and
+//!    blended with alpha 1 − τ(H_v).
+//!
+//! The phase tables (P_S, P², P_F per RGB channel) come from
+//! [`CloudOpticsTables`], computed from the scene's droplet distribution and
+//! cached on disk ([`optics_cache_dir`]).
+
+pub mod radiosity;
+
+use crate::core::binding;
+use crate::core::targets::{DEPTH_FORMAT, HDR_FORMAT};
+use crate::passes::stratus::radiosity::{RadiosityError, RadiosityPass};
+use crate::scene::{Scene, StratusSettings};
+use crate::shader::{self, WgslFile};
+use bytemuck::{Pod, Zeroable};
+use nimbus_physics::optics::dsd::SizeDistribution;
+use nimbus_physics::optics::tables::{CloudOpticsParams, CloudOpticsTables};
+use nimbus_physics::terrain::Terrain;
+use nimbus_physics::transport::stratus::OneDimensionalTable;
+use std::path::PathBuf;
+use wgpu::util::DeviceExt;
+
+pub use crate::shader::{CLOUD_LAYER_FIELD as FIELD, CLOUD_LAYER_LOOKUP as LOOKUP};
+const LAYER_WGSL: WgslFile = WgslFile {
+    name: "passes/stratus/layer.wgsl",
+    source: include_str!("layer.wgsl"),
+};
+const COMPUTE_WGSL: WgslFile = WgslFile {
+    name: "passes/stratus/compute.wgsl",
+    source: include_str!("compute.wgsl"),
+};
+
+/// The files a drawing pass that reads the layer appends after
+/// [`shader::DRAWING_LIBRARIES`].
+pub const DRAWING_LIBRARIES: [WgslFile; 2] = [FIELD, LOOKUP];
+
+/// The composed WGSL of the layer's draw.
+pub fn layer_shader_source() -> String {
+    shader::compose(&[LAYER_WGSL])
+}
+
+/// The composed WGSL of the pass's compute shaders.
+pub fn compute_shader_source() -> String {
+    shader::compose(&[COMPUTE_WGSL])
+}
+
+pub use crate::scene::cloud_layer_field;
+
+mod grid;
+mod node;
+mod optics;
+mod prepare;
+mod resources;
+#[allow(unused_imports)]
+pub use grid::*;
+#[allow(unused_imports)]
+pub use node::*;
+#[allow(unused_imports)]
+pub use optics::*;
+#[allow(unused_imports)]
+pub use prepare::*;
+#[allow(unused_imports)]
+pub use resources::*;
+
+/// Texels of the P_S and P² tables over 0–180°.
+pub const PHASE_TEXELS: usize = 1024;
+/// Texels of the P_F table over 0–θ_f.
+pub const PEAK_TEXELS: usize = 256;
+/// Half-angle θ_f of the forward peak, degrees (Bouthors 2006, §4.1).
+pub const FORWARD_PEAK_DEG: f64 = 5.0;
+/// Largest radiosity grid, texels per side.
+pub const MAX_RADIOSITY_SIZE: u32 = 256;
+/// Smallest height of the layer above the ground used for the radiosity
+/// texel size, m.
+pub const MIN_RADIOSITY_TEXEL_M: f64 = 100.0;
+
+/// GPU layout of WGSL `Stratus` (`shader/cloud_layer_field.wgsl`); see it for each field.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct StratusUniform {
+    /// 1/feature size (1/m), edge threshold n_c, ramp width, thickest cells (m).
+    pub shape: [f32; 4],
+    /// Wind drift (x, z) m ([`Scene::cloud_drift_m`]), 1/evolution time (1/s), time (s).
+    pub motion: [f32; 4],
+    /// Mid-plane height (m), window side (m), window min corner (x, z) (m).
+    pub window: [f32; 4],
+    /// Extinction κ per channel (1/m), forward-peak half-angle θ_f (rad).
+    pub extinction: [f32; 4],
+    /// Forward-peak weight P_f per channel.
+    pub forward_fraction: [f32; 4],
+    /// Mean square angle of P_F per channel, rad².
+    pub forward_spread: [f32; 4],
+    /// 1-D model at the sun's zenith: b, c (1/m), κ_c (1/m), t.
+    pub slab: [f32; 4],
+    /// 1-D model: r, β.
+    pub slab_r_beta: [f32; 4],
+    /// Radiosity grid min corner (x, z) (m), texel size (m), mean ground height (m).
+    pub radiosity: [f32; 4],
+    /// Layer present (0/1), octaves, seed, thickness-window texels per side.
+    pub flags: [u32; 4],
+    /// P_S/P² texels, P_F texels, radiosity texels per side, both faces drawn (0/1).
+    pub sizes: [u32; 4],
+}
+
+/// What the GPU resources were built for; rebuilt when it changes.
+#[derive(Clone, Debug, PartialEq)]
+struct ResourceKey {
+    resolution: u32,
+    /// The layer's mid-plane height, m: with the terrain, it sets the radiosity grid.
+    mid_plane_m: Option<f64>,
+    optics: Option<CloudOpticsParams>,
+    terrain: Option<nimbus_physics::terrain::TerrainParams>,
+}
+
+/// GPU resources for one [`ResourceKey`].
+#[derive(Debug)]
+struct Resources {
+    key: ResourceKey,
+    /// The radiosity grid of the layer over the terrain (None without a layer).
+    grid: Option<RadiosityGrid>,
+    radiosity: RadiosityPass,
+    lookup_group: wgpu::BindGroup,
+    compute_group: wgpu::BindGroup,
+    thickness: wgpu::Texture,
+    indices: wgpu::Buffer,
+    index_count: u32,
+    /// Per-channel optics of the current tables: κ, P_f, ⟨θ²⟩ of P_F.
+    optics: Option<([f32; 3], [f32; 3], [f32; 3])>,
+}
+
+/// The stratus pass.
+#[derive(Debug)]
+pub struct StratusPass {
+    uniform: wgpu::Buffer,
+    lookup_layout: wgpu::BindGroupLayout,
+    compute_layout: wgpu::BindGroupLayout,
+    thickness_pipeline: wgpu::ComputePipeline,
+    inputs_pipeline: wgpu::ComputePipeline,
+    layer_pipeline: wgpu::RenderPipeline,
+    resources: Option<Resources>,
+    /// The scene's layer, when it has one.
+    settings: Option<StratusSettings>,
+    /// The uniform as last written.
+    current: StratusUniform,
+    /// The camera's height this frame, m.
+    camera_height_m: f64,
+}
+
+/// Errors of the pass.
+#[derive(Debug, thiserror::Error)]
+pub enum StratusError {
+    /// The radiosity grid could not be built.
+    #[error(transparent)]
+    Radiosity(#[from] RadiosityError),
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn radiosity_grid_covers_the_terrain_with_texels_the_layer_height() {
+        let terrain = nimbus_physics::terrain::generate(&nimbus_physics::terrain::TerrainParams {
+            resolution: 32,
+            ..Default::default()
+        });
+        let grid = RadiosityGrid::new(&terrain, 2500.0);
+        assert!(grid.size.is_power_of_two());
+        assert!(grid.size as f64 * grid.texel_m >= terrain.params.extent_m);
+        assert!((grid.texel_m - (2500.0 - grid.ground_height_m)).abs() < 1e-9);
+        let rho = grid.ground_reflectance(&terrain);
+        assert_eq!(rho.len(), (grid.size * grid.size) as usize);
+        assert!(rho.iter().flatten().all(|r| (0.0..=1.0).contains(r)));
+    }
+
+    #[test]
+    fn forward_peak_spread_of_a_gaussian_table() {
+        // A narrow Gaussian exp(−θ²/s²) has ⟨θ²⟩ = s² (small angles).
+        let s: f64 = 1.0f64.to_radians();
+        let texels = 256;
+        let table: Vec<f32> = (0..texels)
+            .flat_map(|i| {
+                let theta = i as f64 * 5f64.to_radians() / (texels - 1) as f64;
+                let v = (-(theta / s).powi(2)).exp() as f32;
+                [v, v, v]
+            })
+            .collect();
+        let m = forward_peak_mean_square_rad2(&table, 5.0);
+        assert!((m[0] as f64 / (s * s) - 1.0).abs() < 0.01, "{m:?}");
+    }
+}

@@ -1,0 +1,51 @@
+//! The encode step: the thickness window and radiosity compute, and the layer's draw.
+
+#[allow(unused_imports)]
+use super::*;
+
+impl StratusPass {
+    /// Records the compute work of the frame (thickness window, radiosity
+    /// inputs and iterations) into `pass`; nothing without a layer.
+    pub fn encode_compute(
+        &self,
+        pass: &mut wgpu::ComputePass<'_>,
+        frame: &wgpu::BindGroup,
+        atmosphere: &wgpu::BindGroup,
+    ) {
+        let (Some(resources), Some(settings)) = (&self.resources, &self.settings) else {
+            return;
+        };
+        let n = settings.resolution;
+        pass.set_bind_group(0, frame, &[]);
+        pass.set_bind_group(1, &resources.compute_group, &[]);
+        pass.set_bind_group(2, atmosphere, &[]);
+        pass.set_pipeline(&self.thickness_pipeline);
+        pass.dispatch_workgroups(n.div_ceil(8), n.div_ceil(8), 1);
+        let size = resources.radiosity.size();
+        pass.set_pipeline(&self.inputs_pipeline);
+        pass.dispatch_workgroups(size.div_ceil(8), size.div_ceil(8), 1);
+        resources
+            .radiosity
+            .encode_into(pass, settings.radiosity_iterations);
+    }
+
+    /// Records the layer's draw into `pass` (after the opaque passes, depth-tested).
+    pub fn draw(
+        &self,
+        pass: &mut wgpu::RenderPass<'_>,
+        frame: &wgpu::BindGroup,
+        atmosphere: &wgpu::BindGroup,
+        cloud_shadow: &wgpu::BindGroup,
+    ) {
+        let (Some(resources), Some(_)) = (&self.resources, &self.settings) else {
+            return;
+        };
+        pass.set_pipeline(&self.layer_pipeline);
+        pass.set_bind_group(0, frame, &[]);
+        pass.set_bind_group(1, cloud_shadow, &[]);
+        pass.set_bind_group(2, atmosphere, &[]);
+        pass.set_bind_group(3, &resources.lookup_group, &[]);
+        pass.set_index_buffer(resources.indices.slice(..), wgpu::IndexFormat::Uint32);
+        pass.draw_indexed(0..resources.index_count, 0, 0..self.face_count());
+    }
+}

@@ -1,0 +1,269 @@
+//! Per-frame preparation: the resources rebuilt when the layer, its optics or the terrain change, the uniform written.
+
+#[allow(unused_imports)]
+use super::*;
+
+impl StratusPass {
+    /// Layout of the group the passes that draw bind at index 3.
+    pub fn lookup_layout(&self) -> &wgpu::BindGroupLayout {
+        &self.lookup_layout
+    }
+
+    /// The group-3 bind group (valid after [`Self::prepare`]).
+    pub fn lookup_group(&self) -> Option<&wgpu::BindGroup> {
+        self.resources.as_ref().map(|r| &r.lookup_group)
+    }
+
+    /// The radiosity pass of the current grid.
+    pub fn radiosity(&self) -> Option<&RadiosityPass> {
+        self.resources.as_ref().map(|r| &r.radiosity)
+    }
+
+    /// The thickness window (R32Float, m), written by the frame's compute.
+    pub fn thickness_texture(&self) -> Option<&wgpu::Texture> {
+        self.resources.as_ref().map(|r| &r.thickness)
+    }
+
+    /// The uniform as last written.
+    pub fn uniform(&self) -> &StratusUniform {
+        &self.current
+    }
+
+    /// Faces to draw: the one towards the camera, and the other too while
+    /// the camera is level with the layer (within half the thickest cell of
+    /// its mid-plane, plus a margin), where slopes of both face it.
+    pub(super) fn face_count(&self) -> u32 {
+        let Some(settings) = &self.settings else {
+            return 0;
+        };
+        let mid = self.current.window[0] as f64;
+        let reach = 0.5 * settings.thickness_m + 50.0;
+        if (self.camera_height_m - mid).abs() <= reach {
+            2
+        } else {
+            1
+        }
+    }
+
+    /// Whether the scene has a layer to draw.
+    pub fn enabled(&self) -> bool {
+        self.settings.is_some()
+    }
+
+    /// Builds what changed and writes the frame's uniform: the layer's
+    /// field at `time_s`, the window around the camera, the 1-D model at
+    /// the sun's zenith angle.
+    pub fn prepare(
+        &mut self,
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        scene: &Scene,
+        terrain: &Terrain,
+        time_s: f32,
+    ) -> Result<(), StratusError> {
+        self.settings = scene.stratus.clone();
+        self.camera_height_m = scene.camera.position_m[1];
+        let settings = self.settings.clone();
+        let mid_plane_m = settings
+            .as_ref()
+            .map(|s| s.base_m + 0.5 * s.thickness_m)
+            .unwrap_or(0.0);
+        let key = ResourceKey {
+            // Without a layer, the smallest resources keep the bindings valid.
+            resolution: settings.as_ref().map_or(16, |s| s.resolution),
+            mid_plane_m: settings.as_ref().map(|_| mid_plane_m),
+            optics: settings.as_ref().map(optics_params),
+            terrain: settings.as_ref().map(|_| terrain.params.clone()),
+        };
+        if self.resources.as_ref().map(|r| &r.key) != Some(&key) {
+            self.resources = Some(self.build(device, queue, key, terrain)?);
+        }
+        let Some(resources) = &self.resources else {
+            return Ok(());
+        };
+        let Some(settings) = settings else {
+            self.current = StratusUniform::default();
+            queue.write_buffer(&self.uniform, 0, bytemuck::bytes_of(&self.current));
+            return Ok(());
+        };
+        let field = cloud_layer_field(scene, &settings);
+        let drift = scene.cloud_drift_m(f64::from(time_s));
+        let (threshold, ramp) = field.threshold_and_ramp();
+        // Window: `extent_m` square around the camera, its corner snapped to
+        // whole texels so that the grid does not swim as the camera moves.
+        let n = settings.resolution;
+        let texel = settings.extent_m / n as f64;
+        let camera = scene.camera.position_m;
+        let corner =
+            [camera[0], camera[2]].map(|c| ((c - 0.5 * settings.extent_m) / texel).floor() * texel);
+        let sun = scene.sun.direction();
+        let sun_zenith_deg = sun[1].clamp(-1.0, 1.0).acos().to_degrees();
+        let table = OneDimensionalTable::bouthors_2006();
+        let p = table.at(sun_zenith_deg);
+        let beta = table.beta;
+        let grid = resources.grid.unwrap_or(RadiosityGrid {
+            size: 8,
+            texel_m: 1.0,
+            ground_height_m: 0.0,
+        });
+        let origin = grid.origin_m();
+        let (extinction, forward, spread) = resources.optics.unwrap_or_default();
+        let clamp_inf = |x: f64| x.clamp(-1e30, 1e30) as f32;
+        self.current = StratusUniform {
+            shape: [
+                (1.0 / settings.feature_size_m) as f32,
+                clamp_inf(threshold),
+                ramp as f32,
+                settings.thickness_m as f32,
+            ],
+            motion: [
+                drift[0] as f32,
+                drift[1] as f32,
+                (1.0 / settings.evolution_time_s) as f32,
+                time_s,
+            ],
+            window: [
+                mid_plane_m as f32,
+                settings.extent_m as f32,
+                corner[0] as f32,
+                corner[1] as f32,
+            ],
+            extinction: [
+                extinction[0],
+                extinction[1],
+                extinction[2],
+                FORWARD_PEAK_DEG.to_radians() as f32,
+            ],
+            forward_fraction: [forward[0], forward[1], forward[2], 0.0],
+            forward_spread: [spread[0], spread[1], spread[2], 0.0],
+            slab: [p.b as f32, p.c as f32, p.kappa_c as f32, p.t as f32],
+            slab_r_beta: [p.r as f32, beta as f32, 0.0, 0.0],
+            radiosity: [
+                origin[0] as f32,
+                origin[1] as f32,
+                grid.texel_m as f32,
+                grid.ground_height_m as f32,
+            ],
+            flags: [1, field.fractal().octaves, settings.seed, n],
+            sizes: [PHASE_TEXELS as u32, PEAK_TEXELS as u32, grid.size, 0],
+        };
+        self.current.sizes[3] = u32::from(self.face_count() == 2);
+        queue.write_buffer(&self.uniform, 0, bytemuck::bytes_of(&self.current));
+        Ok(())
+    }
+
+    pub(super) fn build(
+        &self,
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        key: ResourceKey,
+        terrain: &Terrain,
+    ) -> Result<Resources, StratusError> {
+        let n = key.resolution;
+        let thickness = device.create_texture(&wgpu::TextureDescriptor {
+            label: Some("stratus thickness"),
+            size: wgpu::Extent3d {
+                width: n,
+                height: n,
+                depth_or_array_layers: 1,
+            },
+            mip_level_count: 1,
+            sample_count: 1,
+            dimension: wgpu::TextureDimension::D2,
+            format: wgpu::TextureFormat::R32Float,
+            usage: wgpu::TextureUsages::TEXTURE_BINDING
+                | wgpu::TextureUsages::STORAGE_BINDING
+                | wgpu::TextureUsages::COPY_SRC,
+            view_formats: &[],
+        });
+        let thickness_view = thickness.create_view(&Default::default());
+        // The grid sums the terrain's heights: built here, when its inputs
+        // change, not every frame.
+        let grid = key
+            .mid_plane_m
+            .map(|mid_plane_m| RadiosityGrid::new(terrain, mid_plane_m));
+        let radiosity_size = grid.map_or(8, |g| g.size);
+        let radiosity = RadiosityPass::new(device, radiosity_size)?;
+        if let Some(grid) = &grid {
+            let rho: Vec<[f32; 4]> = grid
+                .ground_reflectance(terrain)
+                .iter()
+                .map(|r| [r[0], r[1], r[2], 0.0])
+                .collect();
+            queue.write_buffer(
+                radiosity.input_buffers().ground_reflectance,
+                0,
+                bytemuck::cast_slice(&rho),
+            );
+        }
+        let (phase, optics) = match &key.optics {
+            Some(params) => {
+                let tables = load_optics(params);
+                let mut texels: Vec<[f32; 4]> = Vec::new();
+                for table in [
+                    &tables.peak_removed,
+                    &tables.double_scattering,
+                    &tables.forward_peak,
+                ] {
+                    texels.extend(table.chunks(3).map(|c| [c[0], c[1], c[2], 0.0]));
+                }
+                let spread = forward_peak_mean_square_rad2(&tables.forward_peak, FORWARD_PEAK_DEG);
+                (
+                    texels,
+                    Some((tables.extinction_per_m, tables.forward_fraction, spread)),
+                )
+            }
+            None => (vec![[0.0; 4]; 2 * PHASE_TEXELS + PEAK_TEXELS], None),
+        };
+        let phase_buffer = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("stratus phase tables"),
+            contents: bytemuck::cast_slice(&phase),
+            usage: wgpu::BufferUsages::STORAGE,
+        });
+        let inputs = radiosity.input_buffers();
+        let view = || wgpu::BindingResource::TextureView(&thickness_view);
+        let lookup_group = binding::sequential_bind_group(
+            device,
+            "stratus lookup",
+            &self.lookup_layout,
+            vec![
+                self.uniform.as_entire_binding(),
+                view(),
+                phase_buffer.as_entire_binding(),
+                inputs.ground_received.as_entire_binding(),
+                inputs.cloud_received.as_entire_binding(),
+            ],
+        );
+        let compute_group = binding::sequential_bind_group(
+            device,
+            "stratus compute",
+            &self.compute_layout,
+            vec![
+                self.uniform.as_entire_binding(),
+                view(),
+                inputs.cloud_reflectance.as_entire_binding(),
+                inputs.ground_extra.as_entire_binding(),
+                inputs.ground_received.as_entire_binding(),
+                inputs.cloud_received.as_entire_binding(),
+                inputs.cloud_emitted.as_entire_binding(),
+            ],
+        );
+        let indices = crate::core::mesh::grid_indices(n);
+        let index_buffer = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("stratus grid indices"),
+            contents: bytemuck::cast_slice(&indices),
+            usage: wgpu::BufferUsages::INDEX,
+        });
+        Ok(Resources {
+            key,
+            grid,
+            radiosity,
+            lookup_group,
+            compute_group,
+            thickness,
+            indices: index_buffer,
+            index_count: indices.len() as u32,
+            optics,
+        })
+    }
+}

@@ -1,0 +1,383 @@
+//! Terrain pass: uploads the procedural heightfield (from
+//! [`nimbus_physics::terrain`]) as a mesh plus its albedo map, and draws it
+//! lit by the sun and sky.
+//!
+//! The albedo map ([`TerrainPass::albedo_view`]) is bound at group 1 with
+//! the cloud shadow map beside it (bindings 8 and 9); the stratus layer's
+//! radiosity reads the ground's reflectance from the terrain on the CPU
+//! (`RadiosityGrid::ground_reflectance`), and the rain stops on the
+//! terrain's triangles ([`TerrainPass::occluder_geometry`]), not on the map.
+
+use crate::core::binding;
+use crate::core::limits::{self, LimitError};
+use crate::core::targets::{DEPTH_FORMAT, HDR_FORMAT};
+use crate::frame::cloud_shadow::CloudShadowMap;
+use crate::frame::occluders::OccluderGeometry;
+use crate::shader::{self, WgslFile};
+use bytemuck::{Pod, Zeroable};
+use nimbus_physics::terrain::{self, Terrain, TerrainParams};
+use wgpu::util::DeviceExt;
+
+const TERRAIN_WGSL: WgslFile = WgslFile {
+    name: "passes/terrain/terrain.wgsl",
+    source: include_str!("terrain.wgsl"),
+};
+
+/// The composed WGSL of this pass.
+pub fn shader_source() -> String {
+    shader::compose(&[TERRAIN_WGSL])
+}
+
+/// One mesh vertex (WGSL `TerrainVertex`).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
+pub struct TerrainVertex {
+    /// World position, m.
+    pub position_m: [f32; 3],
+    /// Unit surface normal.
+    pub normal: [f32; 3],
+    /// Albedo-map coordinate (texel centre of the vertex).
+    pub uv: [f32; 2],
+}
+
+const VERTEX_ATTRIBUTES: [wgpu::VertexAttribute; 3] =
+    wgpu::vertex_attr_array![0 => Float32x3, 1 => Float32x3, 2 => Float32x2];
+
+// The occluder consumers read the position at the start of each vertex.
+const _: () = assert!(std::mem::offset_of!(TerrainVertex, position_m) == 0);
+
+/// Builds the triangle mesh of a terrain: one vertex per grid point, two
+/// triangles per cell, counter-clockwise seen from above.
+pub fn build_mesh(terrain: &Terrain) -> (Vec<TerrainVertex>, Vec<u32>) {
+    let n = terrain.vertices_per_side();
+    let mut vertices = Vec::with_capacity(n * n);
+    for j in 0..n {
+        for i in 0..n {
+            let (x, z) = terrain.vertex_xz_m(i, j);
+            let k = j * n + i;
+            vertices.push(TerrainVertex {
+                position_m: [x as f32, terrain.surface_height_m[k], z as f32],
+                normal: terrain.surface_normal[k],
+                uv: [(i as f32 + 0.5) / n as f32, (j as f32 + 0.5) / n as f32],
+            });
+        }
+    }
+    let indices = grid_indices(n as u32);
+    (vertices, indices)
+}
+
+pub use crate::core::mesh::grid_indices;
+
+/// GPU resources of the terrain for one set of parameters.
+#[derive(Debug)]
+struct TerrainMesh {
+    params: TerrainParams,
+    /// The CPU terrain, kept to recompute the sun visibility when the sun moves.
+    terrain: Terrain,
+    vertices: wgpu::Buffer,
+    indices: wgpu::Buffer,
+    index_count: u32,
+    albedo: wgpu::Texture,
+    albedo_view: wgpu::TextureView,
+    sun_visibility: wgpu::Texture,
+    /// Sun direction the visibility map was computed for.
+    sun_direction: Option<[f64; 3]>,
+    bind_group: wgpu::BindGroup,
+}
+
+/// The terrain pass.
+#[derive(Debug)]
+pub struct TerrainPass {
+    pipeline: wgpu::RenderPipeline,
+    group_layout: wgpu::BindGroupLayout,
+    sampler: wgpu::Sampler,
+    mesh: Option<TerrainMesh>,
+    /// Incremented whenever the mesh is rebuilt (the rain redraws its shadow map).
+    generation: u64,
+}
+
+impl TerrainPass {
+    /// Creates the pipeline; the mesh is built by [`Self::prepare`].
+    pub fn new(
+        device: &wgpu::Device,
+        frame_layout: &wgpu::BindGroupLayout,
+        atmosphere_layout: &wgpu::BindGroupLayout,
+        stratus_layout: &wgpu::BindGroupLayout,
+    ) -> Self {
+        let [shadow_uniform, shadow_map] =
+            CloudShadowMap::layout_entries(wgpu::ShaderStages::FRAGMENT);
+        let group_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("terrain albedo"),
+            entries: &[
+                binding::texture_2d_entry(0, true),
+                binding::filtering_sampler_entry(1),
+                binding::texture_2d_entry(2, true),
+                shadow_uniform,
+                shadow_map,
+            ],
+        });
+        let sampler = device.create_sampler(&wgpu::SamplerDescriptor {
+            label: Some("terrain albedo"),
+            mag_filter: wgpu::FilterMode::Linear,
+            min_filter: wgpu::FilterMode::Linear,
+            ..Default::default()
+        });
+        let module = shader::create_module(device, "terrain", &shader_source());
+        let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some("terrain"),
+            bind_group_layouts: &[
+                Some(frame_layout),
+                Some(&group_layout),
+                Some(atmosphere_layout),
+                Some(stratus_layout),
+            ],
+            immediate_size: 0,
+        });
+        let pipeline = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+            label: Some("terrain"),
+            layout: Some(&layout),
+            vertex: wgpu::VertexState {
+                module: &module,
+                entry_point: Some("terrain_vertex"),
+                compilation_options: Default::default(),
+                buffers: &[Some(wgpu::VertexBufferLayout {
+                    array_stride: std::mem::size_of::<TerrainVertex>() as u64,
+                    step_mode: wgpu::VertexStepMode::Vertex,
+                    attributes: &VERTEX_ATTRIBUTES,
+                })],
+            },
+            primitive: wgpu::PrimitiveState {
+                cull_mode: Some(wgpu::Face::Back),
+                ..Default::default()
+            },
+            depth_stencil: Some(wgpu::DepthStencilState {
+                format: DEPTH_FORMAT,
+                depth_write_enabled: Some(true),
+                depth_compare: Some(wgpu::CompareFunction::Greater),
+                stencil: Default::default(),
+                bias: Default::default(),
+            }),
+            multisample: Default::default(),
+            fragment: Some(wgpu::FragmentState {
+                module: &module,
+                entry_point: Some("terrain_fragment"),
+                compilation_options: Default::default(),
+                targets: &[Some(HDR_FORMAT.into())],
+            }),
+            multiview_mask: None,
+            cache: None,
+        });
+        Self {
+            pipeline,
+            group_layout,
+            sampler,
+            mesh: None,
+            generation: 0,
+        }
+    }
+
+    /// Generates and uploads the terrain when its parameters changed.
+    ///
+    /// The mesh's buffer sizes are checked against the device's limit first.
+    pub fn prepare(
+        &mut self,
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        params: &TerrainParams,
+        cloud_shadow: &CloudShadowMap,
+    ) -> Result<(), LimitError> {
+        if self.mesh.as_ref().is_some_and(|m| &m.params == params) {
+            return Ok(());
+        }
+        let side = params.resolution as u64 + 1;
+        let what = format!("terrain.resolution = {}", params.resolution);
+        let vertex_bytes = side * side * std::mem::size_of::<TerrainVertex>() as u64;
+        limits::check_buffer_size(device, &what, vertex_bytes)?;
+        limits::check_buffer_size(device, &what, (side - 1) * (side - 1) * 6 * 4)?;
+        let terrain = terrain::generate(params);
+        let (vertices, indices) = build_mesh(&terrain);
+        let vertex_buffer = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("terrain vertices"),
+            contents: bytemuck::cast_slice(&vertices),
+            usage: wgpu::BufferUsages::VERTEX,
+        });
+        let index_buffer = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("terrain indices"),
+            contents: bytemuck::cast_slice(&indices),
+            usage: wgpu::BufferUsages::INDEX,
+        });
+        let side = terrain.vertices_per_side() as u32;
+        let texels = terrain.albedo_rgba8();
+        let albedo = device.create_texture_with_data(
+            queue,
+            &wgpu::TextureDescriptor {
+                label: Some("terrain albedo"),
+                size: wgpu::Extent3d {
+                    width: side,
+                    height: side,
+                    depth_or_array_layers: 1,
+                },
+                mip_level_count: 1,
+                sample_count: 1,
+                dimension: wgpu::TextureDimension::D2,
+                format: wgpu::TextureFormat::Rgba8UnormSrgb,
+                usage: wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
+                view_formats: &[],
+            },
+            wgpu::util::TextureDataOrder::LayerMajor,
+            bytemuck::cast_slice(&texels),
+        );
+        let albedo_view = albedo.create_view(&Default::default());
+        let sun_visibility = device.create_texture(&wgpu::TextureDescriptor {
+            label: Some("terrain sun visibility"),
+            size: wgpu::Extent3d {
+                width: side,
+                height: side,
+                depth_or_array_layers: 1,
+            },
+            mip_level_count: 1,
+            sample_count: 1,
+            dimension: wgpu::TextureDimension::D2,
+            format: wgpu::TextureFormat::R8Unorm,
+            usage: wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
+            view_formats: &[],
+        });
+        let sun_visibility_view = sun_visibility.create_view(&Default::default());
+        let [shadow_uniform, shadow_map] = cloud_shadow.bind_group_entries();
+        let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("terrain albedo"),
+            layout: &self.group_layout,
+            entries: &[
+                shadow_uniform,
+                shadow_map,
+                wgpu::BindGroupEntry {
+                    binding: 0,
+                    resource: wgpu::BindingResource::TextureView(&albedo_view),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 1,
+                    resource: wgpu::BindingResource::Sampler(&self.sampler),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 2,
+                    resource: wgpu::BindingResource::TextureView(&sun_visibility_view),
+                },
+            ],
+        });
+        self.generation += 1;
+        self.mesh = Some(TerrainMesh {
+            params: params.clone(),
+            terrain,
+            vertices: vertex_buffer,
+            indices: index_buffer,
+            index_count: indices.len() as u32,
+            albedo,
+            albedo_view,
+            sun_visibility,
+            sun_direction: None,
+            bind_group,
+        });
+        Ok(())
+    }
+
+    /// Recomputes the sun-visibility map (terrain shadows) when the sun has
+    /// moved or the terrain was regenerated. Call after [`Self::prepare`].
+    pub fn prepare_sun(&mut self, queue: &wgpu::Queue, sun_direction: [f64; 3]) {
+        let Some(mesh) = &mut self.mesh else { return };
+        if mesh.sun_direction == Some(sun_direction) {
+            return;
+        }
+        let visibility = terrain::sun_visibility(&mesh.terrain, sun_direction);
+        let texels: Vec<u8> = visibility
+            .iter()
+            .map(|v| (v.clamp(0.0, 1.0) * 255.0).round() as u8)
+            .collect();
+        let side = mesh.terrain.vertices_per_side() as u32;
+        queue.write_texture(
+            mesh.sun_visibility.as_image_copy(),
+            &texels,
+            wgpu::TexelCopyBufferLayout {
+                offset: 0,
+                bytes_per_row: Some(side),
+                rows_per_image: Some(side),
+            },
+            wgpu::Extent3d {
+                width: side,
+                height: side,
+                depth_or_array_layers: 1,
+            },
+        );
+        mesh.sun_direction = Some(sun_direction);
+    }
+
+    /// The CPU terrain, once prepared.
+    pub fn terrain(&self) -> Option<&Terrain> {
+        self.mesh.as_ref().map(|m| &m.terrain)
+    }
+
+    /// The albedo map (RGB albedo, A water mask), once prepared.
+    pub fn albedo_view(&self) -> Option<&wgpu::TextureView> {
+        self.mesh.as_ref().map(|m| &m.albedo_view)
+    }
+
+    /// The albedo texture, once prepared.
+    pub fn albedo_texture(&self) -> Option<&wgpu::Texture> {
+        self.mesh.as_ref().map(|m| &m.albedo)
+    }
+
+    /// Counts the mesh's rebuilds.
+    pub fn generation(&self) -> u64 {
+        self.generation
+    }
+
+    /// The terrain's triangles for occlusion maps (world position at offset
+    /// 0 of each vertex, `u32` indices), once prepared.
+    pub fn occluder_geometry(&self) -> Option<OccluderGeometry<'_>> {
+        self.mesh.as_ref().map(|m| OccluderGeometry {
+            vertices: &m.vertices,
+            indices: &m.indices,
+            index_count: m.index_count,
+            vertex_stride: std::mem::size_of::<TerrainVertex>() as u64,
+        })
+    }
+
+    /// Records the draw into `pass`.
+    pub fn draw(
+        &self,
+        pass: &mut wgpu::RenderPass<'_>,
+        frame: &wgpu::BindGroup,
+        atmosphere: &wgpu::BindGroup,
+        stratus: &wgpu::BindGroup,
+    ) {
+        let Some(mesh) = &self.mesh else { return };
+        pass.set_pipeline(&self.pipeline);
+        pass.set_bind_group(0, frame, &[]);
+        pass.set_bind_group(1, &mesh.bind_group, &[]);
+        pass.set_bind_group(2, atmosphere, &[]);
+        pass.set_bind_group(3, stratus, &[]);
+        pass.set_vertex_buffer(0, mesh.vertices.slice(..));
+        pass.set_index_buffer(mesh.indices.slice(..), wgpu::IndexFormat::Uint32);
+        pass.draw_indexed(0..mesh.index_count, 0, 0..1);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn mesh_triangles_face_up() {
+        let t = terrain::generate(&TerrainParams {
+            resolution: 16,
+            height_scale_m: 0.0,
+            ..TerrainParams::default()
+        });
+        let (v, idx) = build_mesh(&t);
+        assert_eq!(idx.len(), 16 * 16 * 6);
+        for tri in idx.chunks(3) {
+            let p = |k: u32| glam::Vec3::from_array(v[k as usize].position_m);
+            let normal = (p(tri[1]) - p(tri[0])).cross(p(tri[2]) - p(tri[0]));
+            assert!(normal.y > 0.0, "triangle {tri:?} faces down");
+        }
+    }
+}

@@ -1,0 +1,335 @@
+//! Recording a frame: the passes in their order.
+
+use super::{FrameTargets, PassId, PassSet, Renderer, TargetLoad};
+use crate::core::targets::{FAR_DEPTH, Target};
+use std::sync::atomic::Ordering;
+
+impl Renderer {
+    /// Records the frame: atmosphere LUTs, sky, terrain, tone mapping. Call
+    /// [`Self::prepare`] first.
+    pub fn encode(&self, encoder: &mut wgpu::CommandEncoder, targets: &FrameTargets<'_>) {
+        let Some(hdr) = &self.hdr else { return };
+        let mut run = PassSet::all();
+        // 1. Atmosphere: LUTs, aerial perspective and lighting inputs, where their inputs changed.
+        let atmosphere_run =
+            self.atmosphere
+                .encode(encoder, &self.frame.bind_group, self.timer.as_ref(), 0);
+        for (id, ran) in PassId::ATMOSPHERE.into_iter().zip(atmosphere_run) {
+            if !ran {
+                run.remove(id);
+            }
+        }
+        let atmosphere = self.atmosphere.lookup_bind_group();
+        let (color_load, depth_load) = match targets.load {
+            TargetLoad::Clear => (
+                wgpu::LoadOp::Clear(wgpu::Color::BLACK),
+                wgpu::LoadOp::Clear(FAR_DEPTH),
+            ),
+            TargetLoad::Keep => (wgpu::LoadOp::Load, wgpu::LoadOp::Load),
+        };
+        let frame = &self.frame.bind_group;
+        let Some(stratus) = self.stratus.lookup_group() else {
+            return;
+        };
+        // 2. The stratus layer's thickness field and ground–cloud radiosity.
+        if self.stratus.enabled() {
+            let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                label: Some("stratus lighting"),
+                timestamp_writes: self
+                    .timer
+                    .as_ref()
+                    .map(|t| t.compute_pass_writes(PassId::StratusLighting.timer_index())),
+            });
+            self.stratus.encode_compute(&mut pass, frame, atmosphere);
+        } else {
+            run.remove(PassId::StratusLighting);
+            run.remove(PassId::Stratus);
+        }
+        // 3. The cumulus shadow map (cleared to "no cloud" when there is none).
+        self.cumulus.encode_shadow(
+            encoder,
+            frame,
+            &self.cloud_shadow,
+            self.timer
+                .as_ref()
+                .map(|t| (t.query_set(), PassId::CumulusShadow.timer_index())),
+        );
+        if !self.cumulus.shadow_enabled() {
+            run.remove(PassId::CumulusShadow);
+        }
+        // 3b. The rain: its shadow map when needed, the steps since the last
+        // frame, and the list of drops in view.
+        let rain = self.rain.enabled();
+        if rain {
+            self.rain.encode_simulation(
+                encoder,
+                frame,
+                &self.occluders(),
+                self.timer
+                    .as_ref()
+                    .map(|t| t.compute_pass_writes(PassId::RainSimulation.timer_index())),
+            );
+        } else {
+            for id in [PassId::RainSimulation, PassId::Rain] {
+                run.remove(id);
+            }
+        }
+        if !self.rain.mist_enabled() {
+            run.remove(PassId::RainMist);
+        }
+        let cumulus = self.cumulus.enabled();
+        if !cumulus {
+            for id in [
+                PassId::Cumulus,
+                PassId::CumulusFringes,
+                PassId::CumulusComposite,
+            ] {
+                run.remove(id);
+            }
+        }
+        if !self.objects.enabled() {
+            run.remove(PassId::Objects);
+        }
+        self.passes_run.store(run.bits(), Ordering::Relaxed);
+        // 4. Sky, sun and open sea, at the far plane.
+        {
+            let mut pass = self.hdr_pass(
+                encoder,
+                "sky",
+                PassId::Sky,
+                hdr,
+                targets.depth,
+                color_load,
+                depth_load,
+            );
+            self.sky.draw(&mut pass, frame, atmosphere);
+        }
+        // 5. Terrain, depth-tested.
+        {
+            let mut pass = self.hdr_pass(
+                encoder,
+                "terrain",
+                PassId::Terrain,
+                hdr,
+                targets.depth,
+                wgpu::LoadOp::Load,
+                wgpu::LoadOp::Load,
+            );
+            self.terrain.draw(&mut pass, frame, atmosphere, stratus);
+        }
+        // 5b. Static objects (boxes, glTF meshes), depth-tested like the terrain.
+        if self.objects.enabled() {
+            let mut pass = self.hdr_pass(
+                encoder,
+                "objects",
+                PassId::Objects,
+                hdr,
+                targets.depth,
+                wgpu::LoadOp::Load,
+                wgpu::LoadOp::Load,
+            );
+            self.objects.draw(&mut pass, frame, atmosphere, stratus);
+        }
+        // 5c. For the cloud-opacity layer: the background replaced by a
+        // known constant (the depth kept), so that the clouds' transmittance
+        // can be read from two frames (see `headless::HeadlessRenderer::render_layers`).
+        if let Some(value) = self.background_override {
+            encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+                label: Some("background override"),
+                color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+                    view: &hdr.view,
+                    depth_slice: None,
+                    resolve_target: None,
+                    ops: wgpu::Operations {
+                        load: wgpu::LoadOp::Clear(wgpu::Color {
+                            r: f64::from(value),
+                            g: f64::from(value),
+                            b: f64::from(value),
+                            a: 0.0,
+                        }),
+                        store: wgpu::StoreOp::Store,
+                    },
+                })],
+                depth_stencil_attachment: None,
+                timestamp_writes: None,
+                occlusion_query_set: None,
+                multiview_mask: None,
+            });
+        }
+        // 6. Cumulus: opaque bodies (depth written), then the fringes'
+        // order-independent accumulation against that depth.
+        if cumulus {
+            {
+                let mut pass = self.hdr_pass(
+                    encoder,
+                    "cumulus",
+                    PassId::Cumulus,
+                    hdr,
+                    targets.depth,
+                    wgpu::LoadOp::Load,
+                    wgpu::LoadOp::Load,
+                );
+                self.cumulus
+                    .draw_opaque(&mut pass, frame, atmosphere, stratus);
+            }
+            self.cumulus.encode_fringes(
+                encoder,
+                targets.depth,
+                [frame, atmosphere, stratus],
+                self.timer
+                    .as_ref()
+                    .map(|t| t.pass_writes(PassId::CumulusFringes.timer_index())),
+            );
+        }
+        // 7. The stratus layer, blended over sky, terrain and cumulus bodies, depth-tested.
+        if self.stratus.enabled() {
+            let mut pass = self.hdr_pass(
+                encoder,
+                "stratus",
+                PassId::Stratus,
+                hdr,
+                targets.depth,
+                wgpu::LoadOp::Load,
+                wgpu::LoadOp::Load,
+            );
+            self.stratus.draw(
+                &mut pass,
+                frame,
+                atmosphere,
+                self.cloud_shadow.lookup_group(),
+            );
+        }
+        // 8. The cumulus fringes over everything behind them.
+        if cumulus {
+            let mut pass = self.overlay_pass(
+                encoder,
+                "cumulus composite",
+                PassId::CumulusComposite,
+                hdr,
+                None,
+            );
+            self.cumulus.draw_composite(&mut pass);
+        }
+        // 8b. Rain mist beyond the rain box, over everything (reads the depth).
+        if self.rain.mist_enabled() {
+            let mut pass = self.overlay_pass(encoder, "rain mist", PassId::RainMist, hdr, None);
+            self.rain
+                .draw_mist(&mut pass, targets.depth, [frame, atmosphere, stratus]);
+        }
+        // 8c. Rain streaks and splashes, depth-tested against a read-only
+        // depth that they also read, to fade where they meet surfaces.
+        if rain {
+            let mut pass =
+                self.overlay_pass(encoder, "rain", PassId::Rain, hdr, Some(targets.depth));
+            self.rain
+                .draw(&mut pass, targets.depth, [frame, atmosphere, stratus]);
+        }
+        // 9. Exposure: meter the frame (automatic exposure) or pass the manual EV through.
+        {
+            let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                label: Some("exposure"),
+                timestamp_writes: self
+                    .timer
+                    .as_ref()
+                    .map(|t| t.compute_pass_writes(PassId::Exposure.timer_index())),
+            });
+            self.exposure.encode(&mut pass, frame);
+        }
+        // 10. Tone map into the caller's output.
+        {
+            let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+                label: Some("tonemap"),
+                color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+                    view: targets.output,
+                    depth_slice: None,
+                    resolve_target: None,
+                    ops: wgpu::Operations {
+                        load: wgpu::LoadOp::Clear(wgpu::Color::BLACK),
+                        store: wgpu::StoreOp::Store,
+                    },
+                })],
+                depth_stencil_attachment: None,
+                timestamp_writes: self
+                    .timer
+                    .as_ref()
+                    .map(|t| t.pass_writes(PassId::Tonemap.timer_index())),
+                occlusion_query_set: None,
+                multiview_mask: None,
+            });
+            self.tonemap.draw(&mut pass);
+        }
+        if let Some(timer) = &self.timer {
+            timer.resolve(encoder);
+        }
+    }
+
+    /// A pass drawing over the HDR target as it is (colour loaded and kept),
+    /// with the depth attached read-only when given.
+    fn overlay_pass<'e>(
+        &self,
+        encoder: &'e mut wgpu::CommandEncoder,
+        label: &str,
+        id: PassId,
+        hdr: &Target,
+        read_only_depth: Option<&wgpu::TextureView>,
+    ) -> wgpu::RenderPass<'e> {
+        encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+            label: Some(label),
+            color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+                view: &hdr.view,
+                depth_slice: None,
+                resolve_target: None,
+                ops: wgpu::Operations {
+                    load: wgpu::LoadOp::Load,
+                    store: wgpu::StoreOp::Store,
+                },
+            })],
+            depth_stencil_attachment: read_only_depth.map(|view| {
+                wgpu::RenderPassDepthStencilAttachment {
+                    view,
+                    depth_ops: None,
+                    stencil_ops: None,
+                }
+            }),
+            timestamp_writes: self.timer.as_ref().map(|t| t.pass_writes(id.timer_index())),
+            occlusion_query_set: None,
+            multiview_mask: None,
+        })
+    }
+
+    #[allow(clippy::too_many_arguments)]
+    fn hdr_pass<'e>(
+        &self,
+        encoder: &'e mut wgpu::CommandEncoder,
+        label: &str,
+        id: PassId,
+        hdr: &Target,
+        depth: &wgpu::TextureView,
+        color_load: wgpu::LoadOp<wgpu::Color>,
+        depth_load: wgpu::LoadOp<f32>,
+    ) -> wgpu::RenderPass<'e> {
+        encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+            label: Some(label),
+            color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+                view: &hdr.view,
+                depth_slice: None,
+                resolve_target: None,
+                ops: wgpu::Operations {
+                    load: color_load,
+                    store: wgpu::StoreOp::Store,
+                },
+            })],
+            depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
+                view: depth,
+                depth_ops: Some(wgpu::Operations {
+                    load: depth_load,
+                    store: wgpu::StoreOp::Store,
+                }),
+                stencil_ops: None,
+            }),
+            timestamp_writes: self.timer.as_ref().map(|t| t.pass_writes(id.timer_index())),
+            occlusion_query_set: None,
+            multiview_mask: None,
+        })
+    }
+}

@@ -1,0 +1,423 @@
+//! The renderer: owns the passes and runs them in the frame's order.
+//!
+//! The frame's pass order lives in [`Renderer::encode`] and nowhere else:
+//! the atmosphere's LUTs and lighting inputs (when their inputs changed),
+//! the stratus layer's field and radiosity, the cumulus shadow map, sky,
+//! terrain, the static objects, the cumulus bodies and fringes, the stratus layer, the cumulus
+//! fringes' composite, exposure, then tone mapping into the caller's output
+//! target. Every pass writes GPU timestamps when the device supports them.
+
+mod encode;
+mod pass_id;
+mod registry;
+
+pub use pass_id::{PASS_NAMES, PassId, PassSet};
+pub use registry::{all_modules, map_error_positions};
+
+use crate::core::limits::{self, LimitError};
+use crate::core::targets::{HDR_FORMAT, Target};
+use crate::core::timing::GpuTimer;
+use crate::frame::cloud_shadow::CloudShadowMap;
+use crate::frame::{FrameBinding, FrameUniform};
+use crate::passes::atmosphere::AtmospherePass;
+use crate::passes::cumulus::CumulusPass;
+use crate::passes::exposure::ExposurePass;
+use crate::passes::objects::ObjectsPass;
+use crate::passes::rain::RainPass;
+use crate::passes::sky::{SkyPass, SkySettings};
+use crate::passes::stratus::StratusPass;
+use crate::passes::terrain::TerrainPass;
+use crate::passes::tonemap::TonemapPass;
+use crate::scene::Scene;
+use std::sync::atomic::{AtomicU32, Ordering};
+
+/// How the renderer is set up.
+#[derive(Clone, Copy, Debug)]
+pub struct RendererDescriptor {
+    /// Format of the caller's output target (any renderable colour format;
+    /// 8-bit unorm formats get sRGB encoding and dithering in the shader).
+    pub output_format: wgpu::TextureFormat,
+    /// Write per-pass GPU timestamps when the device supports them.
+    pub timestamps: bool,
+}
+
+/// Whether a frame starts from cleared targets or keeps what the caller drew.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum TargetLoad {
+    /// Clear the HDR target and the depth buffer (to the far plane, 0 under reverse-Z).
+    #[default]
+    Clear,
+    /// Keep the caller's depth (and anything drawn into [`Renderer::hdr_view`]):
+    /// the sky fills only pixels still at the far plane and the terrain is depth-tested.
+    Keep,
+}
+
+/// The caller's targets for one frame.
+#[derive(Clone, Copy, Debug)]
+pub struct FrameTargets<'a> {
+    /// Output colour view, of the descriptor's `output_format` and the prepared size.
+    pub output: &'a wgpu::TextureView,
+    /// Depth view, [`crate::core::targets::DEPTH_FORMAT`], same size; reverse-Z (1 near, 0 far).
+    pub depth: &'a wgpu::TextureView,
+    /// Clear or keep the previous contents.
+    pub load: TargetLoad,
+}
+
+/// Why a frame cannot be prepared.
+#[derive(Debug, thiserror::Error)]
+pub enum RenderError {
+    /// The image or a buffer exceeds the device's limits.
+    #[error(transparent)]
+    Limit(#[from] LimitError),
+    /// The stratus layer's resources could not be built.
+    #[error(transparent)]
+    Stratus(#[from] crate::passes::stratus::StratusError),
+    /// The cumulus shapes could not be made.
+    #[error(transparent)]
+    Cumulus(#[from] crate::passes::cumulus::CumulusError),
+    /// The static objects' geometry could not be built.
+    #[error(transparent)]
+    Objects(#[from] crate::passes::objects::ObjectsError),
+    /// The rain cannot be simulated on this device.
+    #[error(transparent)]
+    Rain(#[from] crate::passes::rain::RainError),
+    /// A shader or pipeline failed validation (WGSL read from disk by
+    /// [`crate::shader::set_source_dir`] that does not compile).
+    #[error("the renderer's shaders do not compile: {0}")]
+    Shaders(String),
+}
+
+/// The nimbus renderer: owns the passes and the frame-wide resources and
+/// records a frame in [`Renderer::encode`].
+#[derive(Debug)]
+pub struct Renderer {
+    device: wgpu::Device,
+    queue: wgpu::Queue,
+    frame: FrameBinding,
+    atmosphere: AtmospherePass,
+    exposure: ExposurePass,
+    sky: SkyPass,
+    terrain: TerrainPass,
+    objects: ObjectsPass,
+    stratus: StratusPass,
+    cloud_shadow: CloudShadowMap,
+    cumulus: CumulusPass,
+    rain: RainPass,
+    tonemap: TonemapPass,
+    hdr: Option<Target>,
+    timer: Option<GpuTimer>,
+    /// Pre-exposed value the background (sky, terrain, objects) is replaced
+    /// with before the clouds are drawn, if any ([`Self::set_background_override`]).
+    background_override: Option<f32>,
+    /// Which passes the last [`Renderer::encode`] recorded ([`PassSet`] bits).
+    passes_run: AtomicU32,
+}
+
+impl Renderer {
+    /// Creates the passes on the caller's device.
+    pub fn new(
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        descriptor: &RendererDescriptor,
+    ) -> Self {
+        let frame = FrameBinding::new(
+            device,
+            "frame uniform",
+            wgpu::ShaderStages::VERTEX_FRAGMENT | wgpu::ShaderStages::COMPUTE,
+        );
+        let atmosphere = AtmospherePass::new(device, &frame.layout);
+        let sky = SkyPass::new(device, &frame.layout, atmosphere.lookup_layout());
+        let cloud_shadow = CloudShadowMap::new(device, queue);
+        let stratus = StratusPass::new(
+            device,
+            &frame.layout,
+            atmosphere.lookup_layout(),
+            cloud_shadow.lookup_layout(),
+        );
+        let terrain = TerrainPass::new(
+            device,
+            &frame.layout,
+            atmosphere.lookup_layout(),
+            stratus.lookup_layout(),
+        );
+        let objects = ObjectsPass::new(
+            device,
+            &frame.layout,
+            atmosphere.lookup_layout(),
+            stratus.lookup_layout(),
+        );
+        let cumulus = CumulusPass::new(
+            device,
+            &frame.layout,
+            atmosphere.lookup_layout(),
+            stratus.lookup_layout(),
+            &cloud_shadow,
+        );
+        let rain = RainPass::new(
+            device,
+            &frame.layout,
+            atmosphere.lookup_layout(),
+            stratus.lookup_layout(),
+        );
+        let tonemap = TonemapPass::new(device, queue, descriptor.output_format);
+        let exposure = ExposurePass::new(device, &frame.layout);
+        let timer = if descriptor.timestamps {
+            GpuTimer::new(device, queue, PASS_NAMES.len() as u32)
+        } else {
+            None
+        };
+        Self {
+            device: device.clone(),
+            queue: queue.clone(),
+            frame,
+            atmosphere,
+            exposure,
+            sky,
+            terrain,
+            objects,
+            stratus,
+            cloud_shadow,
+            cumulus,
+            rain,
+            tonemap,
+            hdr: None,
+            timer,
+            background_override: None,
+            passes_run: AtomicU32::new(0),
+        }
+    }
+
+    /// Replaces, from the next [`Self::encode`] on, what the sky, terrain
+    /// and objects drew by a constant grey of this pre-exposed value (the
+    /// depth they wrote is kept) before the clouds are drawn over it; `None`
+    /// draws the frame normally. Two frames with different values give the
+    /// clouds' transmittance of each pixel (the cloud passes blend linearly
+    /// over what is behind them); used for the `cloud.A` layer of EXR output.
+    pub fn set_background_override(&mut self, pre_exposed: Option<f32>) {
+        self.background_override = pre_exposed;
+    }
+
+    /// Like [`Self::new`], but catches validation errors of the shaders and
+    /// pipelines instead of leaving them to the device's error handler: for
+    /// shader development, where the WGSL comes from disk
+    /// ([`crate::shader::set_source_dir`]) and may not compile.
+    pub fn try_new(
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        descriptor: &RendererDescriptor,
+    ) -> Result<Self, RenderError> {
+        let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
+        let renderer = Self::new(device, queue, descriptor);
+        match pollster::block_on(scope.pop()) {
+            None => Ok(renderer),
+            Some(error) => Err(RenderError::Shaders(map_error_positions(
+                &error.to_string(),
+            ))),
+        }
+    }
+
+    /// Whether per-pass GPU timestamps are recorded.
+    pub fn has_timestamps(&self) -> bool {
+        self.timer.is_some()
+    }
+
+    /// Checks an image size against the device's limits.
+    pub fn check_size(device: &wgpu::Device, width: u32, height: u32) -> Result<(), RenderError> {
+        Ok(limits::check_image_size(device, width, height)?)
+    }
+
+    /// Checks that a buffer of `bytes` fits the device's limit.
+    pub fn check_buffer_size(
+        device: &wgpu::Device,
+        what: &str,
+        bytes: u64,
+    ) -> Result<(), RenderError> {
+        Ok(limits::check_buffer_size(device, what, bytes)?)
+    }
+
+    /// Updates everything a frame needs: the frame uniform, the atmosphere
+    /// and the terrain (recomputed only when their inputs change), and the
+    /// HDR target (recreated on resize).
+    pub fn prepare(
+        &mut self,
+        scene: &Scene,
+        width: u32,
+        height: u32,
+        time_s: f32,
+    ) -> Result<(), RenderError> {
+        let camera = crate::frame::Camera::from_settings(&scene.camera, width, height);
+        self.prepare_with_camera(scene, &camera, width, height, time_s)
+    }
+
+    /// [`Self::prepare`] with a camera of the caller's instead of the
+    /// scene's (its pose and field of view; the exposure stays the scene's):
+    /// e.g. the six faces of a panorama.
+    pub fn prepare_with_camera(
+        &mut self,
+        scene: &Scene,
+        camera: &crate::frame::Camera,
+        width: u32,
+        height: u32,
+        time_s: f32,
+    ) -> Result<(), RenderError> {
+        Self::check_size(&self.device, width, height)?;
+        if self.hdr.as_ref().map(Target::size) != Some((width, height)) {
+            let hdr = Target::new(
+                &self.device,
+                "hdr colour",
+                HDR_FORMAT,
+                width,
+                height,
+                wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_SRC,
+            );
+            self.exposure
+                .set_input(&self.device, &hdr.view, self.atmosphere.lighting_buffer());
+            self.tonemap
+                .set_input(&self.device, &hdr.view, self.exposure.state_buffer());
+            self.hdr = Some(hdr);
+        }
+        let frame = FrameUniform::with_camera(scene, camera, width, height, time_s);
+        self.frame.write(&self.queue, &frame);
+        self.atmosphere
+            .prepare(&self.queue, &scene.atmosphere, &frame);
+        self.sky.prepare(
+            &self.queue,
+            SkySettings {
+                water_level_m: scene.terrain.water_level_m as f32,
+                water_albedo: scene.terrain.albedo.water,
+            },
+        );
+        self.terrain.prepare(
+            &self.device,
+            &self.queue,
+            &scene.terrain,
+            &self.cloud_shadow,
+        )?;
+        self.terrain.prepare_sun(&self.queue, scene.sun.direction());
+        self.objects
+            .prepare(&self.device, &self.queue, scene, &self.cloud_shadow)?;
+        if let Some(terrain) = self.terrain.terrain() {
+            self.stratus
+                .prepare(&self.device, &self.queue, scene, terrain, time_s)?;
+        }
+        self.cumulus.prepare(
+            &self.device,
+            &self.queue,
+            scene,
+            &frame,
+            &self.cloud_shadow,
+            width,
+            height,
+        )?;
+        let occluders = self.occluders();
+        let strides: Vec<u64> = occluders.iter().map(|g| g.vertex_stride).collect();
+        let generation = (self.objects.generation(), self.terrain.generation());
+        let footprints = self.cumulus.footprints_m();
+        self.rain.prepare(
+            &self.device,
+            &self.queue,
+            scene,
+            camera,
+            time_s,
+            &footprints,
+            generation,
+            &strides,
+        )?;
+        Ok(())
+    }
+
+    /// What stops the rain: the terrain and the static objects.
+    fn occluders(&self) -> Vec<crate::frame::occluders::OccluderGeometry<'_>> {
+        [
+            self.terrain.occluder_geometry(),
+            self.objects.occluder_geometry(),
+        ]
+        .into_iter()
+        .flatten()
+        .collect()
+    }
+
+    /// After the frame's submission: waits for it and returns each pass's GPU
+    /// time in ms, in [`PASS_NAMES`] order, `None` for passes the frame did
+    /// not need (their inputs were unchanged). `None` overall without
+    /// timestamp support.
+    pub fn read_pass_times_ms(&self) -> Option<Vec<Option<f64>>> {
+        let times = self
+            .timer
+            .as_ref()
+            .and_then(|t| t.read_ms(&self.device).ok())?;
+        let run = PassSet::from_bits(self.passes_run.load(Ordering::Relaxed));
+        Some(
+            times
+                .into_iter()
+                .zip(PassId::ALL)
+                .map(|(t, id)| run.contains(id).then_some(t))
+                .collect(),
+        )
+    }
+
+    /// Makes the next frame recompute every atmosphere LUT (for benchmarks).
+    pub fn invalidate_atmosphere(&self) {
+        self.atmosphere.invalidate();
+    }
+
+    /// The exposure pass (its state buffer holds the applied EV100).
+    pub fn exposure(&self) -> &ExposurePass {
+        &self.exposure
+    }
+
+    /// The atmosphere pass (LUTs and lighting inputs).
+    pub fn atmosphere(&self) -> &AtmospherePass {
+        &self.atmosphere
+    }
+
+    /// The HDR colour target (pre-exposed linear radiance), once prepared.
+    pub fn hdr_target(&self) -> Option<&Target> {
+        self.hdr.as_ref()
+    }
+
+    /// The cumulus pass.
+    pub fn cumulus(&self) -> &CumulusPass {
+        &self.cumulus
+    }
+
+    /// The cloud shadow map.
+    pub fn cloud_shadow(&self) -> &CloudShadowMap {
+        &self.cloud_shadow
+    }
+
+    /// The stratus pass (its radiosity and uniform).
+    pub fn stratus(&self) -> &StratusPass {
+        &self.stratus
+    }
+
+    /// The rain pass.
+    pub fn rain(&self) -> &RainPass {
+        &self.rain
+    }
+
+    /// The rain pass, to change how it lays out its buffers.
+    pub fn rain_mut(&mut self) -> &mut RainPass {
+        &mut self.rain
+    }
+
+    /// The static objects' pass (their occluder geometry and bounds).
+    pub fn objects(&self) -> &ObjectsPass {
+        &self.objects
+    }
+
+    /// The terrain pass (its occluder geometry).
+    pub fn terrain(&self) -> &TerrainPass {
+        &self.terrain
+    }
+
+    /// The terrain's albedo map (RGB albedo, A water mask), once prepared.
+    pub fn terrain_albedo_view(&self) -> Option<&wgpu::TextureView> {
+        self.terrain.albedo_view()
+    }
+
+    /// The terrain's albedo texture, once prepared.
+    pub fn terrain_albedo_texture(&self) -> Option<&wgpu::Texture> {
+        self.terrain.albedo_texture()
+    }
+}

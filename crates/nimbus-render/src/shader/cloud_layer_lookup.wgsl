@@ -1,0 +1,223 @@
+// import shader/cloud_layer_field.wgsl
+// What the passes that draw need of the stratiform layer (group 3): its
+// thickness window, its optical tables, the radiosity result, and the
+// layer's shadow and indirect light on the ground. Needs common.wgsl,
+// the atmosphere lookups and shader/cloud_layer_field.wgsl.
+
+@group(3) @binding(0) var<uniform> stratus: Stratus;
+// Thickness of the layer, m, over the window around the camera (R32Float,
+// texel centres at corner + (i + ½) · side / n).
+@group(3) @binding(1) var stratus_thickness: texture_2d<f32>;
+// Phase functions, RGB per texel, sr⁻¹: P_S over 0–180° (sizes.x texels),
+// then P² over 0–180° (sizes.x), then P_F over 0–θ_f (sizes.y).
+@group(3) @binding(2) var<storage, read> stratus_phase: array<vec4<f32>>;
+// Radiosity result (Bouthors 2006, §5): R_G, the ground's indirect
+// irradiance, and R_C, the irradiance the cloud base gets from the ground,
+// W·m⁻², over the radiosity grid (row-major, z rows).
+@group(3) @binding(3) var<storage, read> radiosity_ground: array<vec4<f32>>;
+@group(3) @binding(4) var<storage, read> radiosity_cloud: array<vec4<f32>>;
+
+fn stratus_enabled() -> bool {
+    return stratus.flags.x != 0u;
+}
+
+// Thickness at world (x, z): bilinear from the window, the field itself
+// beyond it (shadows and reflections reach far with a low sun).
+fn stratus_thickness_at(xz: vec2<f32>) -> f32 {
+    let n = i32(stratus.flags.w);
+    let p = (xz - stratus.window.zw) / stratus.window.y * f32(n) - 0.5;
+    if (any(p < vec2<f32>(0.0)) || any(p > vec2<f32>(f32(n - 1)))) {
+        return layer_thickness_m(stratus, xz);
+    }
+    let p0 = floor(p);
+    let f = p - p0;
+    let i0 = clamp(vec2<i32>(p0), vec2<i32>(0), vec2<i32>(n - 1));
+    let i1 = clamp(vec2<i32>(p0) + 1, vec2<i32>(0), vec2<i32>(n - 1));
+    let a = textureLoad(stratus_thickness, i0, 0).r;
+    let b = textureLoad(stratus_thickness, vec2<i32>(i1.x, i0.y), 0).r;
+    let c = textureLoad(stratus_thickness, vec2<i32>(i0.x, i1.y), 0).r;
+    let d = textureLoad(stratus_thickness, i1, 0).r;
+    return mix(mix(a, b, f.x), mix(c, d, f.x), f.y);
+}
+
+// The march of stratus_view_path_m (twins of nimbus_physics::cloud_layer's
+// VIEW_PATH_STEPS, VIEW_PATH_STEP_GROWTH and VIEW_PATH_REFINEMENTS).
+const STRATUS_VIEW_PATH_STEPS: u32 = 12u;
+const STRATUS_VIEW_PATH_STEP_GROWTH: f32 = 1.5;
+const STRATUS_VIEW_PATH_REFINEMENTS: u32 = 5u;
+
+// Signed distance inside the layer, h/2 − |y − y_mid|, of the point at
+// `position_m`, with `offset_m` added to the thickness.
+fn stratus_inside_m(position_m: vec3<f32>, offset_m: f32) -> f32 {
+    return 0.5 * (stratus_thickness_at(position_m.xz) + offset_m) - abs(position_m.y - stratus.window.x);
+}
+
+// Length, m, of the straight path from `start_m` (where a ray enters the
+// layer) along the unit `direction` until it first leaves the layer: the
+// cloud's thickness along the ray, marched through the thickness window
+// with `offset_m` added to it. GPU twin of
+// nimbus_physics::cloud_layer::path_inside_layer_m (which explains why:
+// the slab's H/μ_v fails on the clouds' sides).
+fn stratus_view_path_m(start_m: vec3<f32>, direction: vec3<f32>, offset_m: f32, max_length_m: f32) -> f32 {
+    let growth = STRATUS_VIEW_PATH_STEP_GROWTH;
+    var step = max_length_m * (growth - 1.0) / (pow(growth, f32(STRATUS_VIEW_PATH_STEPS)) - 1.0);
+    var s = 0.0;
+    var g = max(stratus_inside_m(start_m, offset_m), 0.0);
+    for (var i = 0u; i < STRATUS_VIEW_PATH_STEPS; i = i + 1u) {
+        let next_s = min(s + step, max_length_m);
+        let next_g = stratus_inside_m(start_m + direction * next_s, offset_m);
+        if (next_g <= 0.0) {
+            var a = s;
+            var ga = g;
+            var b = next_s;
+            var gb = next_g;
+            for (var k = 0u; k < STRATUS_VIEW_PATH_REFINEMENTS; k = k + 1u) {
+                let c = 0.5 * (a + b);
+                let gc = stratus_inside_m(start_m + direction * c, offset_m);
+                if (gc > 0.0) {
+                    a = c;
+                    ga = gc;
+                } else {
+                    b = c;
+                    gb = gc;
+                }
+            }
+            let fraction = select(0.0, ga / (ga - gb), ga > gb);
+            return a + (b - a) * fraction;
+        }
+        s = next_s;
+        g = next_g;
+        step = step * growth;
+    }
+    return max_length_m;
+}
+
+// The fade of the drawn layer towards the edge of its window (1 inside the
+// inner four fifths, 0 at the edge and beyond): what the camera sees of the
+// layer, and so what water reflects.
+fn stratus_window_fade(xz: vec2<f32>) -> f32 {
+    let centre = stratus.window.zw + 0.5 * stratus.window.y;
+    let r = length(xz - centre) / (0.5 * stratus.window.y);
+    return 1.0 - smoothstep(0.8, 1.0, r);
+}
+
+// Linear interpolation in a uniformly sampled table of `count` texels
+// starting at `offset`, at fraction x in [0, 1] of its range.
+fn stratus_table(offset: u32, count: u32, x: f32) -> vec3<f32> {
+    let p = clamp(x, 0.0, 1.0) * f32(count - 1u);
+    let i = min(u32(p), count - 2u);
+    let f = p - f32(i);
+    return mix(stratus_phase[offset + i].rgb, stratus_phase[offset + i + 1u].rgb, f);
+}
+
+// P_S, P² and P_F at scattering angle theta (rad), sr⁻¹.
+fn stratus_peak_removed(theta: f32) -> vec3<f32> {
+    return stratus_table(0u, stratus.sizes.x, theta / PI);
+}
+fn stratus_double(theta: f32) -> vec3<f32> {
+    return stratus_table(stratus.sizes.x, stratus.sizes.x, theta / PI);
+}
+fn stratus_forward_peak(theta: f32) -> vec3<f32> {
+    if (theta >= stratus.extinction.w) {
+        return vec3<f32>(0.0);
+    }
+    return stratus_table(2u * stratus.sizes.x, stratus.sizes.y, theta / stratus.extinction.w);
+}
+
+// Bilinear sample of a radiosity field at world (x, z), texel centres,
+// clamped at the edge (the convention of the radiosity pass).
+fn stratus_radiosity_sample(ground: bool, xz: vec2<f32>) -> vec3<f32> {
+    let n = i32(stratus.sizes.z);
+    let p = (xz - stratus.radiosity.xy) / stratus.radiosity.z - 0.5;
+    let p0 = floor(p);
+    let f = p - p0;
+    let i0 = clamp(vec2<i32>(p0), vec2<i32>(0), vec2<i32>(n - 1));
+    let i1 = clamp(vec2<i32>(p0) + 1, vec2<i32>(0), vec2<i32>(n - 1));
+    let k00 = u32(i0.y * n + i0.x);
+    let k10 = u32(i0.y * n + i1.x);
+    let k01 = u32(i1.y * n + i0.x);
+    let k11 = u32(i1.y * n + i1.x);
+    var a: vec3<f32>;
+    var b: vec3<f32>;
+    var c: vec3<f32>;
+    var d: vec3<f32>;
+    if (ground) {
+        a = radiosity_ground[k00].rgb;
+        b = radiosity_ground[k10].rgb;
+        c = radiosity_ground[k01].rgb;
+        d = radiosity_ground[k11].rgb;
+    } else {
+        a = radiosity_cloud[k00].rgb;
+        b = radiosity_cloud[k10].rgb;
+        c = radiosity_cloud[k01].rgb;
+        d = radiosity_cloud[k11].rgb;
+    }
+    return mix(mix(a, b, f.x), mix(c, d, f.x), f.y);
+}
+
+// Where the ray from `position_m` towards the sun crosses the layer's
+// mid-plane. This is the geometrically correct parallax offset,
+// (h_mid − y) tan θ_l along the sun's azimuth; Bouthors 2006 (§5.1) writes
+// h·sin θ_l, which is short by the factor cos θ_l (a 2 km error for a layer
+// 2 km up under a sun 45° high).
+fn stratus_sun_crossing(position_m: vec3<f32>) -> vec2<f32> {
+    let l = frame.sun_direction;
+    let rise = stratus.window.x - position_m.y;
+    return position_m.xz + l.xz * (rise / max(l.y, 1e-3));
+}
+
+// Fraction of the sun's light that reaches `position_m` through the layer
+// as a directional beam (T₀ + T₁ + T₂ = T_C), per channel: the layer's
+// shadow. 1 without a layer, above it or with the sun below the horizon.
+fn stratus_sun_transmittance(position_m: vec3<f32>) -> vec3<f32> {
+    let l = frame.sun_direction;
+    if (!stratus_enabled() || l.y <= 0.0 || position_m.y >= stratus.window.x) {
+        return vec3<f32>(1.0);
+    }
+    let h = stratus_thickness_at(stratus_sun_crossing(position_m));
+    return slab_directional_transmittance(stratus, h, l.y);
+}
+
+// Indirect irradiance on ground of unit normal n at `position_m`: R_G from
+// the radiosity (sky through the layer, the layer's diffuse light and the
+// ground–cloud inter-reflections, for a horizontal receiver), carried to
+// the slope by the clear sky's ratio of tilted to horizontal irradiance.
+// `clear` is the clear-sky irradiance on n; returned as is without a layer
+// or above it.
+fn stratus_ground_irradiance(position_m: vec3<f32>, n: vec3<f32>, clear: vec3<f32>) -> vec3<f32> {
+    if (!stratus_enabled() || position_m.y >= stratus.window.x) {
+        return clear;
+    }
+    let up = sh_irradiance(lighting, vec3<f32>(0.0, 1.0, 0.0));
+    let tilt = clear / max(up, vec3<f32>(1e-6));
+    return stratus_radiosity_sample(true, position_m.xz) * tilt;
+}
+
+// Share of the aerial perspective's in-scattered light that is the sun's
+// single scattering, which the layer's shadow removes (the rest, light of
+// the sky scattered again, is left as is). An estimate: in clear daytime air
+// near the ground single scattering of sunlight carries most of the
+// in-scattered light, and nearly all of it towards the sun (the aureole).
+const STRATUS_SUN_SHARE_OF_INSCATTER: f32 = 0.75;
+
+// The aerial perspective between the camera and `position_m` with the air
+// under the layer in its shadow: the sun's share of the in-scattered light is
+// scaled by the mean of the layer's directional transmittance at the path's
+// two ends (without it, looking towards a sun hidden by the layer would show
+// the aureole of sunlit air in front of the cloud).
+fn stratus_aerial_perspective(position_m: vec3<f32>) -> vec4<f32> {
+    let ap = aerial_perspective(position_m);
+    if (!stratus_enabled()) {
+        return ap;
+    }
+    let shade = 0.5 * (stratus_sun_transmittance(frame.camera_position_m) + stratus_sun_transmittance(position_m));
+    let scale = mix(vec3<f32>(1.0), shade, STRATUS_SUN_SHARE_OF_INSCATTER);
+    return vec4<f32>(ap.rgb * scale, ap.a);
+}
+
+// Radiance leaving a world point as seen from the camera, through air
+// shadowed by the layer.
+fn stratus_apply_aerial_perspective(radiance: vec3<f32>, position_m: vec3<f32>) -> vec3<f32> {
+    let ap = stratus_aerial_perspective(position_m);
+    return radiance * ap.a + ap.rgb;
+}
