@@ -209,7 +209,6 @@ fn gpu_view_path_matches_the_cpu_march() {
     let time_s = 42.0;
     h.render_frame(&scene, 32, 18, time_s).expect("frame");
     let (uniform, window) = thickness_window(&h);
-    let stratus = h.renderer.stratus();
     let n = uniform.flags[3] as usize;
     let side_m = uniform.window[1] as f64;
     let corner = [uniform.window[2] as f64, uniform.window[3] as f64];
@@ -289,8 +288,8 @@ fn gpu_view_path_matches_the_cpu_march() {
             outputs_per_item: 1,
             extra: &[common::ExtraGroup {
                 index: 3,
-                layout: stratus.lookup_layout(),
-                group: stratus.lookup_group().expect("group"),
+                layout: h.renderer.frame_resources().cloud_lighting.layout(),
+                group: h.renderer.frame_resources().cloud_lighting.bind_group(),
             }],
         },
     );

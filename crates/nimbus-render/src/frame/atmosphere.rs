@@ -1,9 +1,20 @@
-//! What the whole frame reads of the atmosphere besides its lookup
-//! textures: the lighting inputs the atmosphere's lighting pass writes (sun,
-//! sky and ground irradiance, the environment's spherical harmonics,
-//! exposure) and the sun's irradiance above the atmosphere.
+//! What the whole frame reads of the atmosphere: the lookup tables the
+//! atmosphere pass computes (transmittance, multiple scattering, sky view,
+//! aerial perspective; Hillaire 2020), the atmosphere's uniform, the lighting
+//! inputs the atmosphere's lighting step writes (sun, sky and ground
+//! irradiance, the environment's spherical harmonics, exposure) and the
+//! sun's irradiance above the atmosphere.
+//!
+//! [`AtmosphereLookups`] owns these GPU resources; the atmosphere pass writes
+//! them, every drawing pass reads them through group 2
+//! (`shader/atmosphere_lookup.wgsl`).
 
+use crate::core::binding::{buffer_entry, sampler_entry, sequential_bind_group, texture_entry};
 use bytemuck::{Pod, Zeroable};
+use nimbus_physics::atmosphere::{
+    AERIAL_PERSPECTIVE_SIZE, AtmosphereParams, MULTIPLE_SCATTERING_LUT_SIZE, SKY_VIEW_LUT_SIZE,
+    TRANSMITTANCE_LUT_SIZE,
+};
 use nimbus_physics::photometry::MAX_LUMINOUS_EFFICACY_LM_PER_W;
 use nimbus_physics::sky::SOLAR_ILLUMINANCE_CONSTANT_LUX;
 
@@ -29,4 +40,217 @@ pub struct LightingUniform {
     pub ground_radiance: [f32; 4],
     /// x: pre-exposure of the drawing passes; y: incident-light EV100 at the camera.
     pub exposure: [f32; 4],
+}
+
+/// GPU layout of WGSL `Atmosphere`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct AtmosphereUniform {
+    /// Rayleigh scattering at sea level, m⁻¹.
+    pub rayleigh_scattering: [f32; 3],
+    /// Planet radius, m.
+    pub bottom_radius_m: f32,
+    /// Aerosol scattering at sea level, m⁻¹.
+    pub mie_scattering: [f32; 3],
+    /// Top of the atmosphere, m.
+    pub top_radius_m: f32,
+    /// Aerosol extinction at sea level, m⁻¹.
+    pub mie_extinction: [f32; 3],
+    /// Rayleigh scale height, m.
+    pub rayleigh_scale_height_m: f32,
+    /// Ozone absorption at the peak, m⁻¹.
+    pub ozone_absorption: [f32; 3],
+    /// Aerosol scale height, m.
+    pub mie_scale_height_m: f32,
+    /// Ground albedo.
+    pub ground_albedo: [f32; 3],
+    /// Aerosol asymmetry g.
+    pub mie_asymmetry: f32,
+    /// Solar irradiance at the top of the atmosphere, W·m⁻².
+    pub sun_irradiance_top: [f32; 3],
+    /// Ozone peak altitude, m.
+    pub ozone_peak_altitude_m: f32,
+    /// Ozone half width, m.
+    pub ozone_half_width_m: f32,
+    /// Padding.
+    pub _padding0: f32,
+    /// Padding.
+    pub _padding1: f32,
+    /// Padding.
+    pub _padding2: f32,
+}
+
+impl From<&AtmosphereParams> for AtmosphereUniform {
+    fn from(p: &AtmosphereParams) -> Self {
+        let v = |a: [f64; 3]| a.map(|x| x as f32);
+        Self {
+            rayleigh_scattering: v(p.rayleigh_scattering_per_m),
+            bottom_radius_m: p.bottom_radius_m as f32,
+            mie_scattering: v(p.aerosol_scattering_per_m()),
+            top_radius_m: p.top_radius_m as f32,
+            mie_extinction: v(p.aerosol_extinction_per_m()),
+            rayleigh_scale_height_m: p.rayleigh_scale_height_m as f32,
+            ozone_absorption: v(p.ozone_absorption_per_m),
+            mie_scale_height_m: p.aerosol_scale_height_m as f32,
+            ground_albedo: v(p.ground_albedo),
+            mie_asymmetry: p.aerosol_asymmetry as f32,
+            sun_irradiance_top: solar_irradiance_top(),
+            ozone_peak_altitude_m: p.ozone_peak_altitude_m as f32,
+            ozone_half_width_m: p.ozone_half_width_m as f32,
+            _padding0: 0.0,
+            _padding1: 0.0,
+            _padding2: 0.0,
+        }
+    }
+}
+
+/// The atmosphere's GPU resources that the whole frame reads: the LUTs, the
+/// atmosphere uniform and the lighting inputs, with the group-2 lookup
+/// layout and bind group of the drawing passes. Created once by the
+/// renderer; the atmosphere pass writes every one of them.
+#[derive(Debug)]
+pub struct AtmosphereLookups {
+    /// The atmosphere's parameters (WGSL `Atmosphere`, [`AtmosphereUniform`]).
+    pub uniform: wgpu::Buffer,
+    /// Transmittance to the top of the atmosphere (`TRANSMITTANCE_LUT_SIZE`, RGBA16F).
+    pub transmittance: wgpu::Texture,
+    /// Second and higher orders of scattering (`MULTIPLE_SCATTERING_LUT_SIZE`, RGBA16F).
+    pub multiple_scattering: wgpu::Texture,
+    /// Sky radiance around the camera (`SKY_VIEW_LUT_SIZE`, RGBA16F).
+    pub sky_view: wgpu::Texture,
+    /// In-scattering and transmittance along the view (`AERIAL_PERSPECTIVE_SIZE`, 3-D, RGBA16F).
+    pub aerial_perspective: wgpu::Texture,
+    /// The lighting inputs ([`LightingUniform`], storage).
+    pub lighting: wgpu::Buffer,
+    /// Bilinear, clamped sampler of the LUTs.
+    pub sampler: wgpu::Sampler,
+    layout: wgpu::BindGroupLayout,
+    bind_group: wgpu::BindGroup,
+}
+
+fn lut_texture(
+    device: &wgpu::Device,
+    label: &str,
+    size: [u32; 3],
+    dimension: wgpu::TextureDimension,
+) -> wgpu::Texture {
+    device.create_texture(&wgpu::TextureDescriptor {
+        label: Some(label),
+        size: wgpu::Extent3d {
+            width: size[0],
+            height: size[1],
+            depth_or_array_layers: size[2],
+        },
+        mip_level_count: 1,
+        sample_count: 1,
+        dimension,
+        format: wgpu::TextureFormat::Rgba16Float,
+        usage: wgpu::TextureUsages::STORAGE_BINDING
+            | wgpu::TextureUsages::TEXTURE_BINDING
+            | wgpu::TextureUsages::COPY_SRC,
+        view_formats: &[],
+    })
+}
+
+impl AtmosphereLookups {
+    /// Creates the LUTs (uninitialised until the atmosphere pass runs), the
+    /// uniform and lighting buffers, and the lookup group.
+    pub fn new(device: &wgpu::Device) -> Self {
+        use wgpu::TextureDimension::{D2, D3};
+        use wgpu::TextureViewDimension as Dim;
+        let uniform_size = std::mem::size_of::<AtmosphereUniform>() as u64;
+        let lighting_size = std::mem::size_of::<LightingUniform>() as u64;
+        let uniform = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("atmosphere uniform"),
+            size: uniform_size,
+            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        let lighting = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("lighting inputs"),
+            size: lighting_size,
+            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+            mapped_at_creation: false,
+        });
+        let [tw, th] = TRANSMITTANCE_LUT_SIZE;
+        let [mw, mh] = MULTIPLE_SCATTERING_LUT_SIZE;
+        let [sw, sh] = SKY_VIEW_LUT_SIZE;
+        let [aw, ah, ad] = AERIAL_PERSPECTIVE_SIZE;
+        let transmittance = lut_texture(device, "transmittance LUT", [tw, th, 1], D2);
+        let multiple_scattering = lut_texture(device, "multiple-scattering LUT", [mw, mh, 1], D2);
+        let sky_view = lut_texture(device, "sky-view LUT", [sw, sh, 1], D2);
+        let aerial_perspective = lut_texture(device, "aerial-perspective volume", [aw, ah, ad], D3);
+        let sampler = device.create_sampler(&wgpu::SamplerDescriptor {
+            label: Some("atmosphere LUTs"),
+            mag_filter: wgpu::FilterMode::Linear,
+            min_filter: wgpu::FilterMode::Linear,
+            ..Default::default()
+        });
+        let stages = wgpu::ShaderStages::VERTEX_FRAGMENT | wgpu::ShaderStages::COMPUTE;
+        let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("atmosphere lookup"),
+            entries: &[
+                buffer_entry(0, wgpu::BufferBindingType::Uniform, uniform_size, stages),
+                sampler_entry(1, stages),
+                texture_entry(2, Dim::D2, true, stages),
+                texture_entry(3, Dim::D2, true, stages),
+                texture_entry(4, Dim::D3, true, stages),
+                buffer_entry(
+                    5,
+                    wgpu::BufferBindingType::Storage { read_only: true },
+                    lighting_size,
+                    stages,
+                ),
+            ],
+        });
+        let view = |t: &wgpu::Texture| t.create_view(&Default::default());
+        let (transmittance_view, sky_view_view, aerial_view) = (
+            view(&transmittance),
+            view(&sky_view),
+            view(&aerial_perspective),
+        );
+        let bind_group = sequential_bind_group(
+            device,
+            "atmosphere lookup",
+            &layout,
+            vec![
+                uniform.as_entire_binding(),
+                wgpu::BindingResource::Sampler(&sampler),
+                wgpu::BindingResource::TextureView(&transmittance_view),
+                wgpu::BindingResource::TextureView(&sky_view_view),
+                wgpu::BindingResource::TextureView(&aerial_view),
+                lighting.as_entire_binding(),
+            ],
+        );
+        Self {
+            uniform,
+            transmittance,
+            multiple_scattering,
+            sky_view,
+            aerial_perspective,
+            lighting,
+            sampler,
+            layout,
+            bind_group,
+        }
+    }
+
+    /// Layout of the group-2 lookups (`shader/atmosphere_lookup.wgsl`).
+    pub fn layout(&self) -> &wgpu::BindGroupLayout {
+        &self.layout
+    }
+
+    /// The group-2 lookups.
+    pub fn bind_group(&self) -> &wgpu::BindGroup {
+        &self.bind_group
+    }
+
+    /// Writes the atmosphere's parameters.
+    pub fn write_params(&self, queue: &wgpu::Queue, params: &AtmosphereParams) {
+        queue.write_buffer(
+            &self.uniform,
+            0,
+            bytemuck::bytes_of(&AtmosphereUniform::from(params)),
+        );
+    }
 }

@@ -1,6 +1,8 @@
 //! The cloud shadow map: what the cumulus pass draws and every pass lit by
-//! the sun reads (terrain, objects, the stratus layer, the cumulus bodies).
-//! WGSL: `shader/cloud_shadow_uniform.wgsl`, `shader/cloud_shadow_lookup.wgsl`.
+//! the sun reads (terrain, objects, the stratus layer, the cumulus bodies)
+//! at group 3, bindings 8 and 9, beside the stratus layer's lighting
+//! ([`crate::frame::cloud_lighting`]). WGSL: `shader/cloud_shadow_uniform.wgsl`,
+//! `shader/cloud_shadow_lookup.wgsl`.
 
 use crate::core::binding;
 use crate::core::targets::DEPTH_FORMAT;
@@ -22,17 +24,17 @@ pub struct CloudShadowUniform {
 }
 
 /// The cloud shadow map: a two-layer depth texture (nearest and farthest
-/// cloud core along the sun's light) and its uniform. Created once by the
-/// renderer; the cumulus pass draws it, the passes lit by the sun bind it
-/// at group 1, bindings 8 and 9.
+/// cloud core along the sun's light) and its uniform. Owned by the frame's
+/// [`crate::frame::cloud_lighting::CloudLighting`]; the cumulus pass draws
+/// it, the passes lit by the sun bind it at group 3, bindings 8 and 9.
 #[derive(Debug)]
 pub struct CloudShadowMap {
     texture: wgpu::Texture,
     array_view: wgpu::TextureView,
     layer_views: [wgpu::TextureView; 2],
     uniform: wgpu::Buffer,
-    lookup_layout: wgpu::BindGroupLayout,
-    lookup_group: wgpu::BindGroup,
+    uniform_layout: wgpu::BindGroupLayout,
+    uniform_group: wgpu::BindGroup,
 }
 
 impl CloudShadowMap {
@@ -70,21 +72,23 @@ impl CloudShadowMap {
             contents: bytemuck::bytes_of(&CloudShadowUniform::default()),
             usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
         });
-        let lookup_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("cloud shadow lookup"),
-            entries: &Self::layout_entries(wgpu::ShaderStages::FRAGMENT),
+        let [uniform_entry, _] = Self::layout_entries(wgpu::ShaderStages::VERTEX_FRAGMENT);
+        let uniform_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("cloud shadow uniform"),
+            entries: &[uniform_entry],
         });
+        let [uniform_binding, _] = shadow_entries(&uniform, &array_view);
         let map = Self {
-            lookup_group: device.create_bind_group(&wgpu::BindGroupDescriptor {
-                label: Some("cloud shadow lookup"),
-                layout: &lookup_layout,
-                entries: &shadow_entries(&uniform, &array_view),
+            uniform_group: device.create_bind_group(&wgpu::BindGroupDescriptor {
+                label: Some("cloud shadow uniform"),
+                layout: &uniform_layout,
+                entries: &[uniform_binding],
             }),
             texture,
             array_view,
             layer_views,
             uniform,
-            lookup_layout,
+            uniform_layout,
         };
         map.write(queue, &CloudShadowUniform::default());
         map
@@ -116,14 +120,15 @@ impl CloudShadowMap {
         shadow_entries(&self.uniform, &self.array_view)
     }
 
-    /// A group holding only the lookup (for passes with no group 1 of their own).
-    pub fn lookup_layout(&self) -> &wgpu::BindGroupLayout {
-        &self.lookup_layout
+    /// A group 3 holding only the uniform (binding 8), for the pass that
+    /// draws the map: it cannot bind the map it renders into.
+    pub fn uniform_layout(&self) -> &wgpu::BindGroupLayout {
+        &self.uniform_layout
     }
 
-    /// The group of [`Self::lookup_layout`].
-    pub fn lookup_group(&self) -> &wgpu::BindGroup {
-        &self.lookup_group
+    /// The group of [`Self::uniform_layout`].
+    pub fn uniform_group(&self) -> &wgpu::BindGroup {
+        &self.uniform_group
     }
 
     /// The depth texture (layer 0 nearest core, layer 1 farthest).

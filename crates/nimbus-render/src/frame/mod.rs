@@ -1,10 +1,20 @@
-//! The per-frame uniform shared by every pass (WGSL `Frame` in
-//! `shader/common.wgsl`): camera transforms, sun direction, exposure and
-//! time; and the camera model that produces the transforms.
+//! The frame: the per-frame uniform shared by every pass (WGSL `Frame` in
+//! `shader/common.wgsl`: camera transforms, sun direction, exposure and
+//! time), the camera model that produces the transforms, and every
+//! frame-wide resource ([`FrameResources`]: atmosphere lookups, cloud
+//! lighting, cloud shadow map; [`occluders`]), handed to the passes as
+//! [`FrameLayouts`] and [`FrameBindings`].
 
 pub mod atmosphere;
+mod bindings;
+pub mod cloud_lighting;
 pub mod cloud_shadow;
 pub mod occluders;
+
+pub use bindings::{
+    ATMOSPHERE_GROUP, CLOUD_LIGHTING_GROUP, FRAME_GROUP, FrameBindings, FrameLayouts,
+    FrameResources, PASS_GROUP,
+};
 
 use crate::scene::{CameraSettings, Scene};
 use bytemuck::{Pod, Zeroable};

@@ -297,7 +297,7 @@ impl HeadlessRenderer {
     /// The radiance a pre-exposed value of the last frame stands for.
     fn pre_exposed_to_radiance(&self, pre_exposed: f32) -> Result<f32, HeadlessError> {
         let lighting: crate::passes::atmosphere::LightingUniform =
-            self.read_buffer(self.renderer.atmosphere().lighting_buffer())?;
+            self.read_buffer(&self.renderer.frame_resources().atmosphere.lighting)?;
         Ok(pre_exposed / lighting.exposure[0])
     }
 

@@ -226,7 +226,7 @@ impl HeadlessRenderer {
         let halves: &[half::f16] = bytemuck::cast_slice(&bytes);
         // The drawing passes wrote radiance times the frame's pre-exposure.
         let lighting: crate::passes::atmosphere::LightingUniform =
-            self.read_buffer(self.renderer.atmosphere().lighting_buffer())?;
+            self.read_buffer(&self.renderer.frame_resources().atmosphere.lighting)?;
         let inverse_exposure = 1.0 / lighting.exposure[0];
         let pixels = halves
             .chunks_exact(4)

@@ -5,31 +5,29 @@ use crate::core::targets::{FAR_DEPTH, Target};
 use std::sync::atomic::Ordering;
 
 impl Renderer {
-    /// Records the frame: atmosphere LUTs, sky, terrain, tone mapping. Call
-    /// [`Self::prepare`] first.
+    /// Records the frame: the atmosphere's LUTs, the clouds' lighting and
+    /// shadows, the rain's simulation, then sky, terrain, objects, clouds,
+    /// mist and rain into the HDR target, exposure and tone mapping into the
+    /// caller's output. Call [`Self::prepare`] first.
     pub fn encode(&self, encoder: &mut wgpu::CommandEncoder, targets: &FrameTargets<'_>) {
         let Some(hdr) = &self.hdr else { return };
         let mut run = PassSet::all();
+        let frame = self.frame.bindings();
         // 1. Atmosphere: LUTs, aerial perspective and lighting inputs, where their inputs changed.
-        let atmosphere_run =
-            self.atmosphere
-                .encode(encoder, &self.frame.bind_group, self.timer.as_ref(), 0);
+        let atmosphere_run = self
+            .atmosphere
+            .encode(encoder, frame.frame, self.timer.as_ref(), 0);
         for (id, ran) in PassId::ATMOSPHERE.into_iter().zip(atmosphere_run) {
             if !ran {
                 run.remove(id);
             }
         }
-        let atmosphere = self.atmosphere.lookup_bind_group();
         let (color_load, depth_load) = match targets.load {
             TargetLoad::Clear => (
                 wgpu::LoadOp::Clear(wgpu::Color::BLACK),
                 wgpu::LoadOp::Clear(FAR_DEPTH),
             ),
             TargetLoad::Keep => (wgpu::LoadOp::Load, wgpu::LoadOp::Load),
-        };
-        let frame = &self.frame.bind_group;
-        let Some(stratus) = self.stratus.lookup_group() else {
-            return;
         };
         // 2. The stratus layer's thickness field and ground–cloud radiosity.
         if self.stratus.enabled() {
@@ -40,7 +38,7 @@ impl Renderer {
                     .as_ref()
                     .map(|t| t.compute_pass_writes(PassId::StratusLighting.timer_index())),
             });
-            self.stratus.encode_compute(&mut pass, frame, atmosphere);
+            self.stratus.encode_compute(&mut pass, &frame);
         } else {
             run.remove(PassId::StratusLighting);
             run.remove(PassId::Stratus);
@@ -48,8 +46,8 @@ impl Renderer {
         // 3. The cumulus shadow map (cleared to "no cloud" when there is none).
         self.cumulus.encode_shadow(
             encoder,
-            frame,
-            &self.cloud_shadow,
+            &frame,
+            self.frame.cloud_lighting.shadow(),
             self.timer
                 .as_ref()
                 .map(|t| (t.query_set(), PassId::CumulusShadow.timer_index())),
@@ -63,7 +61,7 @@ impl Renderer {
         if rain {
             self.rain.encode_simulation(
                 encoder,
-                frame,
+                &frame,
                 &self.occluders(),
                 self.timer
                     .as_ref()
@@ -102,7 +100,7 @@ impl Renderer {
                 color_load,
                 depth_load,
             );
-            self.sky.draw(&mut pass, frame, atmosphere);
+            self.sky.draw(&mut pass, &frame);
         }
         // 5. Terrain, depth-tested.
         {
@@ -115,7 +113,7 @@ impl Renderer {
                 wgpu::LoadOp::Load,
                 wgpu::LoadOp::Load,
             );
-            self.terrain.draw(&mut pass, frame, atmosphere, stratus);
+            self.terrain.draw(&mut pass, &frame);
         }
         // 5b. Static objects (boxes, glTF meshes), depth-tested like the terrain.
         if self.objects.enabled() {
@@ -128,7 +126,7 @@ impl Renderer {
                 wgpu::LoadOp::Load,
                 wgpu::LoadOp::Load,
             );
-            self.objects.draw(&mut pass, frame, atmosphere, stratus);
+            self.objects.draw(&mut pass, &frame);
         }
         // 5c. For the cloud-opacity layer: the background replaced by a
         // known constant (the depth kept), so that the clouds' transmittance
@@ -169,13 +167,12 @@ impl Renderer {
                     wgpu::LoadOp::Load,
                     wgpu::LoadOp::Load,
                 );
-                self.cumulus
-                    .draw_opaque(&mut pass, frame, atmosphere, stratus);
+                self.cumulus.draw_opaque(&mut pass, &frame);
             }
             self.cumulus.encode_fringes(
                 encoder,
                 targets.depth,
-                [frame, atmosphere, stratus],
+                &frame,
                 self.timer
                     .as_ref()
                     .map(|t| t.pass_writes(PassId::CumulusFringes.timer_index())),
@@ -192,12 +189,7 @@ impl Renderer {
                 wgpu::LoadOp::Load,
                 wgpu::LoadOp::Load,
             );
-            self.stratus.draw(
-                &mut pass,
-                frame,
-                atmosphere,
-                self.cloud_shadow.lookup_group(),
-            );
+            self.stratus.draw(&mut pass, &frame);
         }
         // 8. The cumulus fringes over everything behind them.
         if cumulus {
@@ -213,16 +205,14 @@ impl Renderer {
         // 8b. Rain mist beyond the rain box, over everything (reads the depth).
         if self.rain.mist_enabled() {
             let mut pass = self.overlay_pass(encoder, "rain mist", PassId::RainMist, hdr, None);
-            self.rain
-                .draw_mist(&mut pass, targets.depth, [frame, atmosphere, stratus]);
+            self.rain.draw_mist(&mut pass, targets.depth, &frame);
         }
         // 8c. Rain streaks and splashes, depth-tested against a read-only
         // depth that they also read, to fade where they meet surfaces.
         if rain {
             let mut pass =
                 self.overlay_pass(encoder, "rain", PassId::Rain, hdr, Some(targets.depth));
-            self.rain
-                .draw(&mut pass, targets.depth, [frame, atmosphere, stratus]);
+            self.rain.draw(&mut pass, targets.depth, &frame);
         }
         // 9. Exposure: meter the frame (automatic exposure) or pass the manual EV through.
         {
@@ -233,7 +223,7 @@ impl Renderer {
                     .as_ref()
                     .map(|t| t.compute_pass_writes(PassId::Exposure.timer_index())),
             });
-            self.exposure.encode(&mut pass, frame);
+            self.exposure.encode(&mut pass, frame.frame);
         }
         // 10. Tone map into the caller's output.
         {

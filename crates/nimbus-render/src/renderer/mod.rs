@@ -18,7 +18,7 @@ use crate::core::limits::{self, LimitError};
 use crate::core::targets::{HDR_FORMAT, Target};
 use crate::core::timing::GpuTimer;
 use crate::frame::cloud_shadow::CloudShadowMap;
-use crate::frame::{FrameBinding, FrameUniform};
+use crate::frame::{FrameResources, FrameUniform};
 use crate::passes::atmosphere::AtmospherePass;
 use crate::passes::cumulus::CumulusPass;
 use crate::passes::exposure::ExposurePass;
@@ -93,14 +93,14 @@ pub enum RenderError {
 pub struct Renderer {
     device: wgpu::Device,
     queue: wgpu::Queue,
-    frame: FrameBinding,
+    /// Every frame-wide resource: frame uniform, atmosphere lookups, cloud lighting.
+    frame: FrameResources,
     atmosphere: AtmospherePass,
     exposure: ExposurePass,
     sky: SkyPass,
     terrain: TerrainPass,
     objects: ObjectsPass,
     stratus: StratusPass,
-    cloud_shadow: CloudShadowMap,
     cumulus: CumulusPass,
     rain: RainPass,
     tonemap: TonemapPass,
@@ -120,47 +120,17 @@ impl Renderer {
         queue: &wgpu::Queue,
         descriptor: &RendererDescriptor,
     ) -> Self {
-        let frame = FrameBinding::new(
-            device,
-            "frame uniform",
-            wgpu::ShaderStages::VERTEX_FRAGMENT | wgpu::ShaderStages::COMPUTE,
-        );
-        let atmosphere = AtmospherePass::new(device, &frame.layout);
-        let sky = SkyPass::new(device, &frame.layout, atmosphere.lookup_layout());
-        let cloud_shadow = CloudShadowMap::new(device, queue);
-        let stratus = StratusPass::new(
-            device,
-            &frame.layout,
-            atmosphere.lookup_layout(),
-            cloud_shadow.lookup_layout(),
-        );
-        let terrain = TerrainPass::new(
-            device,
-            &frame.layout,
-            atmosphere.lookup_layout(),
-            stratus.lookup_layout(),
-        );
-        let objects = ObjectsPass::new(
-            device,
-            &frame.layout,
-            atmosphere.lookup_layout(),
-            stratus.lookup_layout(),
-        );
-        let cumulus = CumulusPass::new(
-            device,
-            &frame.layout,
-            atmosphere.lookup_layout(),
-            stratus.lookup_layout(),
-            &cloud_shadow,
-        );
-        let rain = RainPass::new(
-            device,
-            &frame.layout,
-            atmosphere.lookup_layout(),
-            stratus.lookup_layout(),
-        );
+        let frame = FrameResources::new(device, queue);
+        let layouts = frame.layouts();
+        let atmosphere = AtmospherePass::new(device, &layouts, &frame.atmosphere);
+        let sky = SkyPass::new(device, &layouts);
+        let stratus = StratusPass::new(device, &layouts, &frame.cloud_lighting);
+        let terrain = TerrainPass::new(device, &layouts);
+        let objects = ObjectsPass::new(device, &layouts);
+        let cumulus = CumulusPass::new(device, &layouts, frame.cloud_lighting.shadow());
+        let rain = RainPass::new(device, &layouts);
         let tonemap = TonemapPass::new(device, queue, descriptor.output_format);
-        let exposure = ExposurePass::new(device, &frame.layout);
+        let exposure = ExposurePass::new(device, layouts.frame);
         let timer = if descriptor.timestamps {
             GpuTimer::new(device, queue, PASS_NAMES.len() as u32)
         } else {
@@ -176,7 +146,6 @@ impl Renderer {
             terrain,
             objects,
             stratus,
-            cloud_shadow,
             cumulus,
             rain,
             tonemap,
@@ -271,13 +240,13 @@ impl Renderer {
                 wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_SRC,
             );
             self.exposure
-                .set_input(&self.device, &hdr.view, self.atmosphere.lighting_buffer());
+                .set_input(&self.device, &hdr.view, &self.frame.atmosphere.lighting);
             self.tonemap
                 .set_input(&self.device, &hdr.view, self.exposure.state_buffer());
             self.hdr = Some(hdr);
         }
         let frame = FrameUniform::with_camera(scene, camera, width, height, time_s);
-        self.frame.write(&self.queue, &frame);
+        self.frame.write_uniform(&self.queue, &frame);
         self.atmosphere
             .prepare(&self.queue, &scene.atmosphere, &frame);
         self.sky.prepare(
@@ -287,25 +256,26 @@ impl Renderer {
                 water_albedo: scene.terrain.albedo.water,
             },
         );
-        self.terrain.prepare(
-            &self.device,
-            &self.queue,
-            &scene.terrain,
-            &self.cloud_shadow,
-        )?;
+        self.terrain
+            .prepare(&self.device, &self.queue, &scene.terrain)?;
         self.terrain.prepare_sun(&self.queue, scene.sun.direction());
-        self.objects
-            .prepare(&self.device, &self.queue, scene, &self.cloud_shadow)?;
+        self.objects.prepare(&self.device, &self.queue, scene)?;
         if let Some(terrain) = self.terrain.terrain() {
-            self.stratus
-                .prepare(&self.device, &self.queue, scene, terrain, time_s)?;
+            self.stratus.prepare(
+                &self.device,
+                &self.queue,
+                scene,
+                terrain,
+                time_s,
+                &mut self.frame.cloud_lighting,
+            )?;
         }
         self.cumulus.prepare(
             &self.device,
             &self.queue,
             scene,
             &frame,
-            &self.cloud_shadow,
+            self.frame.cloud_lighting.shadow(),
             width,
             height,
         )?;
@@ -383,7 +353,13 @@ impl Renderer {
 
     /// The cloud shadow map.
     pub fn cloud_shadow(&self) -> &CloudShadowMap {
-        &self.cloud_shadow
+        self.frame.cloud_lighting.shadow()
+    }
+
+    /// The frame-wide resources (frame uniform, atmosphere lookups, cloud
+    /// lighting), e.g. for a caller's pipelines that read them.
+    pub fn frame_resources(&self) -> &FrameResources {
+        &self.frame
     }
 
     /// The stratus pass (its radiosity and uniform).

@@ -1,6 +1,6 @@
 // import shader/common.wgsl
-// The cloud shadow map's transform and parameters (group 1, binding 8 in
-// every pass that reads or draws the map). Needs nothing.
+// The cloud shadow map's transform and parameters (group 3, binding 8 in
+// every pass that reads or draws the map; frame/cloud_lighting.rs).
 
 struct CloudShadow {
     // Shadow-map clip space from world space: orthographic along the sun's
@@ -12,4 +12,4 @@ struct CloudShadow {
     flags: vec4<u32>,
 }
 
-@group(1) @binding(8) var<uniform> cloud_shadow: CloudShadow;
+@group(3) @binding(8) var<uniform> cloud_shadow: CloudShadow;

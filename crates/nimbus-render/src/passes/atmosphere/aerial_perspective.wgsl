@@ -1,15 +1,10 @@
-// import shader/atmosphere.wgsl
+// import passes/atmosphere/bindings.wgsl
 // Aerial-perspective volume (Hillaire 2020, §5.4): for each froxel of the
 // camera frustum, the light scattered towards the camera between it and the
 // camera (RGB, W·sr⁻¹·m⁻²) and the mean transmittance (A). Depth slices are
-// quadratic in distance up to 128 km; each froxel marches 16 steps. Needs
-// common.wgsl and atmosphere.wgsl.
+// quadratic in distance up to 128 km; each froxel marches 16 steps.
 
-@group(1) @binding(0) var<uniform> atmosphere: Atmosphere;
-@group(1) @binding(1) var lut_sampler: sampler;
-@group(1) @binding(2) var transmittance_lut: texture_2d<f32>;
-@group(1) @binding(3) var multiple_scattering_lut: texture_2d<f32>;
-@group(1) @binding(4) var aerial_perspective_out: texture_storage_3d<rgba16float, write>;
+@group(1) @binding(8) var aerial_perspective_out: texture_storage_3d<rgba16float, write>;
 
 const AERIAL_PERSPECTIVE_STEPS: u32 = 16u;
 

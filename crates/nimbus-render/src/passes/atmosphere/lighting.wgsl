@@ -1,4 +1,4 @@
-// import shader/atmosphere.wgsl
+// import passes/atmosphere/bindings.wgsl
 // import shader/lighting_types.wgsl
 // Lighting inputs of the cloud, terrain and rain passes, from the sky-view
 // and transmittance LUTs, in one storage buffer (`Lighting`):
@@ -12,13 +12,8 @@
 //   atmosphere's ground albedo lit by that sun and sky.
 // One workgroup of 64 invocations integrates 1024 Fibonacci directions.
 // Mirrors nimbus_physics::sh and the CPU reference in the render tests.
-// Needs common.wgsl, atmosphere.wgsl and lighting_types.wgsl.
 
-@group(1) @binding(0) var<uniform> atmosphere: Atmosphere;
-@group(1) @binding(1) var lut_sampler: sampler;
-@group(1) @binding(2) var transmittance_lut: texture_2d<f32>;
-@group(1) @binding(3) var sky_view_lut: texture_2d<f32>;
-@group(1) @binding(4) var<storage, read_write> lighting_out: Lighting;
+@group(1) @binding(8) var<storage, read_write> lighting_out: Lighting;
 
 const LIGHTING_DIRECTIONS: u32 = 1024u;
 const LIGHTING_THREADS: u32 = 64u;

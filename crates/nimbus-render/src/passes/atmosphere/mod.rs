@@ -4,26 +4,31 @@
 //! (recomputed when the camera or the sun moves). The CPU reference of every
 //! integral is `nimbus_physics::atmosphere`.
 //!
-//! Later passes bind [`AtmospherePass::lookup_bind_group`] at group 2 and
-//! import `shader/atmosphere_lookup.wgsl` to read the sky radiance, the
-//! sun's transmittance, the aerial perspective and the [`LightingUniform`].
+//! The LUTs, the atmosphere uniform and the lighting buffer belong to the
+//! frame ([`AtmosphereLookups`]); this pass writes them. Later passes bind
+//! them at group 2 ([`crate::frame::FrameBindings`]) and import
+//! `shader/atmosphere_lookup.wgsl` to read the sky radiance, the sun's
+//! transmittance, the aerial perspective and the [`LightingUniform`].
 
-use crate::core::binding::{
-    buffer_entry, sampler_entry, sequential_bind_group, storage_texture_entry, texture_entry,
-};
+use crate::core::binding::{buffer_entry, sampler_entry, storage_texture_entry, texture_entry};
 use crate::core::timing::GpuTimer;
 use crate::shader::{self, WgslFile};
-use bytemuck::{Pod, Zeroable};
 use nimbus_physics::atmosphere::{
     AERIAL_PERSPECTIVE_SIZE, AtmosphereParams, MULTIPLE_SCATTERING_LUT_SIZE, SKY_VIEW_LUT_SIZE,
     TRANSMITTANCE_LUT_SIZE,
 };
 use std::sync::atomic::{AtomicBool, Ordering};
 
-pub use crate::frame::atmosphere::{LightingUniform, solar_irradiance_top};
+pub use crate::frame::atmosphere::{
+    AtmosphereLookups, AtmosphereUniform, LightingUniform, solar_irradiance_top,
+};
 
 pub use crate::shader::{ATMOSPHERE, ATMOSPHERE_LOOKUP as LOOKUP, LIGHTING_TYPES};
 
+const BINDINGS_WGSL: WgslFile = WgslFile {
+    name: "passes/atmosphere/bindings.wgsl",
+    source: include_str!("bindings.wgsl"),
+};
 const TRANSMITTANCE_WGSL: WgslFile = WgslFile {
     name: "passes/atmosphere/transmittance.wgsl",
     source: include_str!("transmittance.wgsl"),
@@ -47,7 +52,7 @@ const LIGHTING_WGSL: WgslFile = WgslFile {
 
 /// Composed WGSL of each compute pass, by name.
 pub fn shader_sources() -> Vec<(&'static str, String)> {
-    let with = |file| shader::compose(&[file]);
+    let with = |file| shader::compose(&[BINDINGS_WGSL, file]);
     vec![
         ("atmosphere/transmittance", with(TRANSMITTANCE_WGSL)),
         (
@@ -59,70 +64,8 @@ pub fn shader_sources() -> Vec<(&'static str, String)> {
             "atmosphere/aerial_perspective",
             with(AERIAL_PERSPECTIVE_WGSL),
         ),
-        ("atmosphere/lighting", shader::compose(&[LIGHTING_WGSL])),
+        ("atmosphere/lighting", with(LIGHTING_WGSL)),
     ]
-}
-
-/// GPU layout of WGSL `Atmosphere`.
-#[repr(C)]
-#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
-pub struct AtmosphereUniform {
-    /// Rayleigh scattering at sea level, m⁻¹.
-    pub rayleigh_scattering: [f32; 3],
-    /// Planet radius, m.
-    pub bottom_radius_m: f32,
-    /// Aerosol scattering at sea level, m⁻¹.
-    pub mie_scattering: [f32; 3],
-    /// Top of the atmosphere, m.
-    pub top_radius_m: f32,
-    /// Aerosol extinction at sea level, m⁻¹.
-    pub mie_extinction: [f32; 3],
-    /// Rayleigh scale height, m.
-    pub rayleigh_scale_height_m: f32,
-    /// Ozone absorption at the peak, m⁻¹.
-    pub ozone_absorption: [f32; 3],
-    /// Aerosol scale height, m.
-    pub mie_scale_height_m: f32,
-    /// Ground albedo.
-    pub ground_albedo: [f32; 3],
-    /// Aerosol asymmetry g.
-    pub mie_asymmetry: f32,
-    /// Solar irradiance at the top of the atmosphere, W·m⁻².
-    pub sun_irradiance_top: [f32; 3],
-    /// Ozone peak altitude, m.
-    pub ozone_peak_altitude_m: f32,
-    /// Ozone half width, m.
-    pub ozone_half_width_m: f32,
-    /// Padding.
-    pub _padding0: f32,
-    /// Padding.
-    pub _padding1: f32,
-    /// Padding.
-    pub _padding2: f32,
-}
-
-impl From<&AtmosphereParams> for AtmosphereUniform {
-    fn from(p: &AtmosphereParams) -> Self {
-        let v = |a: [f64; 3]| a.map(|x| x as f32);
-        Self {
-            rayleigh_scattering: v(p.rayleigh_scattering_per_m),
-            bottom_radius_m: p.bottom_radius_m as f32,
-            mie_scattering: v(p.aerosol_scattering_per_m()),
-            top_radius_m: p.top_radius_m as f32,
-            mie_extinction: v(p.aerosol_extinction_per_m()),
-            rayleigh_scale_height_m: p.rayleigh_scale_height_m as f32,
-            ozone_absorption: v(p.ozone_absorption_per_m),
-            mie_scale_height_m: p.aerosol_scale_height_m as f32,
-            ground_albedo: v(p.ground_albedo),
-            mie_asymmetry: p.aerosol_asymmetry as f32,
-            sun_irradiance_top: solar_irradiance_top(),
-            ozone_peak_altitude_m: p.ozone_peak_altitude_m as f32,
-            ozone_half_width_m: p.ozone_half_width_m as f32,
-            _padding0: 0.0,
-            _padding1: 0.0,
-            _padding2: 0.0,
-        }
-    }
 }
 
 /// Names of the atmosphere's passes, in the order they run.
@@ -143,17 +86,13 @@ struct ComputeStep {
 /// What the view-dependent passes depend on: the frame uniform without its time.
 type ViewKey = crate::frame::FrameUniform;
 
-/// GPU resources of the atmosphere.
+/// The atmosphere pass: the compute steps that fill the frame's
+/// [`AtmosphereLookups`] (which it writes but does not own).
 pub struct AtmospherePass {
     uniform: wgpu::Buffer,
-    transmittance: wgpu::Texture,
-    multiple_scattering: wgpu::Texture,
-    sky_view: wgpu::Texture,
-    aerial_perspective: wgpu::Texture,
+    textures: [wgpu::Texture; 4],
     lighting: wgpu::Buffer,
     steps: [ComputeStep; 5],
-    lookup_layout: wgpu::BindGroupLayout,
-    lookup_bind_group: wgpu::BindGroup,
     params: Option<AtmosphereParams>,
     view: Option<ViewKey>,
     luts_pending: AtomicBool,
@@ -168,108 +107,99 @@ impl std::fmt::Debug for AtmospherePass {
     }
 }
 
-fn lut_texture(
-    device: &wgpu::Device,
-    label: &str,
-    size: [u32; 3],
-    dimension: wgpu::TextureDimension,
-) -> wgpu::Texture {
-    device.create_texture(&wgpu::TextureDescriptor {
-        label: Some(label),
-        size: wgpu::Extent3d {
-            width: size[0],
-            height: size[1],
-            depth_or_array_layers: size[2],
-        },
-        mip_level_count: 1,
-        sample_count: 1,
-        dimension,
-        format: wgpu::TextureFormat::Rgba16Float,
-        usage: wgpu::TextureUsages::STORAGE_BINDING
-            | wgpu::TextureUsages::TEXTURE_BINDING
-            | wgpu::TextureUsages::COPY_SRC,
-        view_formats: &[],
-    })
-}
-
-/// A bind-group resource for each entry kind used here.
+/// A bind-group resource of a step's group 1.
 enum Resource<'a> {
     Buffer(&'a wgpu::Buffer),
     Sampler(&'a wgpu::Sampler),
     View(wgpu::TextureView),
 }
 
+/// Group-1 bindings of `passes/atmosphere/bindings.wgsl` (inputs) and of
+/// each step's output.
+mod slot {
+    pub const ATMOSPHERE: u32 = 0;
+    pub const SAMPLER: u32 = 1;
+    pub const TRANSMITTANCE: u32 = 2;
+    pub const MULTIPLE_SCATTERING: u32 = 3;
+    pub const SKY_VIEW: u32 = 4;
+    pub const OUTPUT: u32 = 8;
+}
+
 impl AtmospherePass {
-    /// Creates the LUTs, the lighting buffer and the compute pipelines.
-    pub fn new(device: &wgpu::Device, frame_layout: &wgpu::BindGroupLayout) -> Self {
-        use wgpu::TextureDimension::{D2, D3};
+    /// Creates the compute pipelines that write `lookups`.
+    pub fn new(
+        device: &wgpu::Device,
+        frame: &crate::frame::FrameLayouts<'_>,
+        lookups: &AtmosphereLookups,
+    ) -> Self {
         use wgpu::TextureViewDimension as Dim;
         let uniform_size = std::mem::size_of::<AtmosphereUniform>() as u64;
         let lighting_size = std::mem::size_of::<LightingUniform>() as u64;
-        let uniform = device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("atmosphere uniform"),
-            size: uniform_size,
-            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
-            mapped_at_creation: false,
-        });
-        let lighting = device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("lighting inputs"),
-            size: lighting_size,
-            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
-            mapped_at_creation: false,
-        });
-        let [tw, th] = TRANSMITTANCE_LUT_SIZE;
-        let [mw, mh] = MULTIPLE_SCATTERING_LUT_SIZE;
-        let [sw, sh] = SKY_VIEW_LUT_SIZE;
-        let [aw, ah, ad] = AERIAL_PERSPECTIVE_SIZE;
-        let transmittance = lut_texture(device, "transmittance LUT", [tw, th, 1], D2);
-        let multiple_scattering = lut_texture(device, "multiple-scattering LUT", [mw, mh, 1], D2);
-        let sky_view = lut_texture(device, "sky-view LUT", [sw, sh, 1], D2);
-        let aerial_perspective = lut_texture(device, "aerial-perspective volume", [aw, ah, ad], D3);
-        let sampler = device.create_sampler(&wgpu::SamplerDescriptor {
-            label: Some("atmosphere LUTs"),
-            mag_filter: wgpu::FilterMode::Linear,
-            min_filter: wgpu::FilterMode::Linear,
-            ..Default::default()
-        });
         let view = |t: &wgpu::Texture| t.create_view(&Default::default());
         let compute = wgpu::ShaderStages::COMPUTE;
-        let uniform_entry =
-            buffer_entry(0, wgpu::BufferBindingType::Uniform, uniform_size, compute);
+        let sampled = |binding, texture: &wgpu::Texture| {
+            (
+                texture_entry(binding, Dim::D2, true, compute),
+                Resource::View(view(texture)),
+            )
+        };
+        let atmosphere = || {
+            (
+                buffer_entry(
+                    slot::ATMOSPHERE,
+                    wgpu::BufferBindingType::Uniform,
+                    uniform_size,
+                    compute,
+                ),
+                Resource::Buffer(&lookups.uniform),
+            )
+        };
+        let sampler = || {
+            (
+                sampler_entry(slot::SAMPLER, compute),
+                Resource::Sampler(&lookups.sampler),
+            )
+        };
+        let written = |texture: &wgpu::Texture, dimension| {
+            (
+                storage_texture_entry(slot::OUTPUT, dimension),
+                Resource::View(view(texture)),
+            )
+        };
 
-        // Each compute step: its WGSL, layout entries and resources for group 1.
+        // Each compute step: its WGSL, and its group 1 as (layout entry,
+        // resource) pairs of the bindings its entry point uses.
         let make = |name: &str,
                     file: WgslFile,
                     entry: &str,
-                    entries: Vec<wgpu::BindGroupLayoutEntry>,
-                    resources: Vec<Resource<'_>>,
+                    bindings: Vec<(wgpu::BindGroupLayoutEntry, Resource<'_>)>,
                     workgroups: [u32; 3]| {
+            let (entries, resources): (Vec<_>, Vec<_>) = bindings.into_iter().unzip();
             let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
                 label: Some(name),
                 entries: &entries,
             });
-            let bind_group = sequential_bind_group(
-                device,
-                name,
-                &layout,
-                resources
+            let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+                label: Some(name),
+                layout: &layout,
+                entries: &entries
                     .iter()
-                    .map(|r| match r {
-                        Resource::Buffer(b) => b.as_entire_binding(),
-                        Resource::Sampler(s) => wgpu::BindingResource::Sampler(s),
-                        Resource::View(v) => wgpu::BindingResource::TextureView(v),
+                    .zip(&resources)
+                    .map(|(entry, resource)| wgpu::BindGroupEntry {
+                        binding: entry.binding,
+                        resource: match resource {
+                            Resource::Buffer(b) => b.as_entire_binding(),
+                            Resource::Sampler(s) => wgpu::BindingResource::Sampler(s),
+                            Resource::View(v) => wgpu::BindingResource::TextureView(v),
+                        },
                     })
-                    .collect(),
-            );
-            let source = if entry == "lighting_main" {
-                shader::compose(&[shader::COMMON, ATMOSPHERE, LIGHTING_TYPES, file])
-            } else {
-                shader::compose(&[shader::COMMON, ATMOSPHERE, file])
-            };
-            let module = shader::create_module(device, name, &source);
+                    .collect::<Vec<_>>(),
+            });
+            let module =
+                shader::create_module(device, name, &shader::compose(&[BINDINGS_WGSL, file]));
             let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
                 label: Some(name),
-                bind_group_layouts: &[Some(frame_layout), Some(&layout)],
+                bind_group_layouts: &[Some(frame.frame), Some(&layout)],
                 immediate_size: 0,
             });
             let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
@@ -287,16 +217,16 @@ impl AtmospherePass {
             }
         };
 
+        let [tw, th] = TRANSMITTANCE_LUT_SIZE;
+        let [mw, mh] = MULTIPLE_SCATTERING_LUT_SIZE;
+        let [sw, sh] = SKY_VIEW_LUT_SIZE;
+        let [aw, ah, ad] = AERIAL_PERSPECTIVE_SIZE;
         let steps = [
             make(
                 "transmittance",
                 TRANSMITTANCE_WGSL,
                 "transmittance_main",
-                vec![uniform_entry, storage_texture_entry(1, Dim::D2)],
-                vec![
-                    Resource::Buffer(&uniform),
-                    Resource::View(view(&transmittance)),
-                ],
+                vec![atmosphere(), written(&lookups.transmittance, Dim::D2)],
                 [tw.div_ceil(8), th.div_ceil(8), 1],
             ),
             make(
@@ -304,16 +234,10 @@ impl AtmospherePass {
                 MULTIPLE_SCATTERING_WGSL,
                 "multiple_scattering_main",
                 vec![
-                    uniform_entry,
-                    sampler_entry(1, compute),
-                    texture_entry(2, Dim::D2, true, compute),
-                    storage_texture_entry(3, Dim::D2),
-                ],
-                vec![
-                    Resource::Buffer(&uniform),
-                    Resource::Sampler(&sampler),
-                    Resource::View(view(&transmittance)),
-                    Resource::View(view(&multiple_scattering)),
+                    atmosphere(),
+                    sampler(),
+                    sampled(slot::TRANSMITTANCE, &lookups.transmittance),
+                    written(&lookups.multiple_scattering, Dim::D2),
                 ],
                 [mw.div_ceil(8), mh.div_ceil(8), 1],
             ),
@@ -322,18 +246,11 @@ impl AtmospherePass {
                 SKY_VIEW_WGSL,
                 "sky_view_main",
                 vec![
-                    uniform_entry,
-                    sampler_entry(1, compute),
-                    texture_entry(2, Dim::D2, true, compute),
-                    texture_entry(3, Dim::D2, true, compute),
-                    storage_texture_entry(4, Dim::D2),
-                ],
-                vec![
-                    Resource::Buffer(&uniform),
-                    Resource::Sampler(&sampler),
-                    Resource::View(view(&transmittance)),
-                    Resource::View(view(&multiple_scattering)),
-                    Resource::View(view(&sky_view)),
+                    atmosphere(),
+                    sampler(),
+                    sampled(slot::TRANSMITTANCE, &lookups.transmittance),
+                    sampled(slot::MULTIPLE_SCATTERING, &lookups.multiple_scattering),
+                    written(&lookups.sky_view, Dim::D2),
                 ],
                 [sw.div_ceil(8), sh.div_ceil(8), 1],
             ),
@@ -342,18 +259,11 @@ impl AtmospherePass {
                 AERIAL_PERSPECTIVE_WGSL,
                 "aerial_perspective_main",
                 vec![
-                    uniform_entry,
-                    sampler_entry(1, compute),
-                    texture_entry(2, Dim::D2, true, compute),
-                    texture_entry(3, Dim::D2, true, compute),
-                    storage_texture_entry(4, Dim::D3),
-                ],
-                vec![
-                    Resource::Buffer(&uniform),
-                    Resource::Sampler(&sampler),
-                    Resource::View(view(&transmittance)),
-                    Resource::View(view(&multiple_scattering)),
-                    Resource::View(view(&aerial_perspective)),
+                    atmosphere(),
+                    sampler(),
+                    sampled(slot::TRANSMITTANCE, &lookups.transmittance),
+                    sampled(slot::MULTIPLE_SCATTERING, &lookups.multiple_scattering),
+                    written(&lookups.aerial_perspective, Dim::D3),
                 ],
                 [aw.div_ceil(4), ah.div_ceil(4), ad.div_ceil(4)],
             ),
@@ -362,86 +272,33 @@ impl AtmospherePass {
                 LIGHTING_WGSL,
                 "lighting_main",
                 vec![
-                    uniform_entry,
-                    sampler_entry(1, compute),
-                    texture_entry(2, Dim::D2, true, compute),
-                    texture_entry(3, Dim::D2, true, compute),
-                    buffer_entry(
-                        4,
-                        wgpu::BufferBindingType::Storage { read_only: false },
-                        lighting_size,
-                        compute,
+                    atmosphere(),
+                    sampler(),
+                    sampled(slot::TRANSMITTANCE, &lookups.transmittance),
+                    sampled(slot::SKY_VIEW, &lookups.sky_view),
+                    (
+                        buffer_entry(
+                            slot::OUTPUT,
+                            wgpu::BufferBindingType::Storage { read_only: false },
+                            lighting_size,
+                            compute,
+                        ),
+                        Resource::Buffer(&lookups.lighting),
                     ),
-                ],
-                vec![
-                    Resource::Buffer(&uniform),
-                    Resource::Sampler(&sampler),
-                    Resource::View(view(&transmittance)),
-                    Resource::View(view(&sky_view)),
-                    Resource::Buffer(&lighting),
                 ],
                 [1, 1, 1],
             ),
         ];
-
-        let fragment =
-            wgpu::ShaderStages::FRAGMENT | wgpu::ShaderStages::VERTEX | wgpu::ShaderStages::COMPUTE;
-        let lookup_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("atmosphere lookup"),
-            entries: &[
-                buffer_entry(0, wgpu::BufferBindingType::Uniform, uniform_size, fragment),
-                sampler_entry(1, fragment),
-                texture_entry(2, Dim::D2, true, fragment),
-                texture_entry(3, Dim::D2, true, fragment),
-                texture_entry(4, Dim::D3, true, fragment),
-                buffer_entry(
-                    5,
-                    wgpu::BufferBindingType::Storage { read_only: true },
-                    lighting_size,
-                    fragment,
-                ),
-            ],
-        });
-        let lookup_bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("atmosphere lookup"),
-            layout: &lookup_layout,
-            entries: &[
-                wgpu::BindGroupEntry {
-                    binding: 0,
-                    resource: uniform.as_entire_binding(),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 1,
-                    resource: wgpu::BindingResource::Sampler(&sampler),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 2,
-                    resource: wgpu::BindingResource::TextureView(&view(&transmittance)),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 3,
-                    resource: wgpu::BindingResource::TextureView(&view(&sky_view)),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 4,
-                    resource: wgpu::BindingResource::TextureView(&view(&aerial_perspective)),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 5,
-                    resource: lighting.as_entire_binding(),
-                },
-            ],
-        });
         Self {
-            uniform,
-            transmittance,
-            multiple_scattering,
-            sky_view,
-            aerial_perspective,
-            lighting,
+            uniform: lookups.uniform.clone(),
+            textures: [
+                lookups.transmittance.clone(),
+                lookups.multiple_scattering.clone(),
+                lookups.sky_view.clone(),
+                lookups.aerial_perspective.clone(),
+            ],
+            lighting: lookups.lighting.clone(),
             steps,
-            lookup_layout,
-            lookup_bind_group,
             params: None,
             view: None,
             luts_pending: AtomicBool::new(true),
@@ -513,25 +370,11 @@ impl AtmospherePass {
         run
     }
 
-    /// Layout of the group-2 lookups of drawing passes.
-    pub fn lookup_layout(&self) -> &wgpu::BindGroupLayout {
-        &self.lookup_layout
-    }
-
-    /// The group-2 lookups of drawing passes.
-    pub fn lookup_bind_group(&self) -> &wgpu::BindGroup {
-        &self.lookup_bind_group
-    }
-
     /// The LUT textures, for tests and tools: transmittance, multiple
     /// scattering, sky view, aerial perspective.
     pub fn textures(&self) -> [&wgpu::Texture; 4] {
-        [
-            &self.transmittance,
-            &self.multiple_scattering,
-            &self.sky_view,
-            &self.aerial_perspective,
-        ]
+        let [t, m, s, a] = &self.textures;
+        [t, m, s, a]
     }
 
     /// The lighting-inputs buffer ([`LightingUniform`]).

@@ -1,12 +1,9 @@
-// import shader/atmosphere.wgsl
+// import passes/atmosphere/bindings.wgsl
 // Multiple-scattering LUT Ψ_ms(r, μ_s): Hillaire 2020, eqs. 5–10, with 64
 // Fibonacci directions and 20 steps each; mirrors
-// AtmosphereTables::multiple_scattering_psi. Needs common.wgsl and atmosphere.wgsl.
+// AtmosphereTables::multiple_scattering_psi.
 
-@group(1) @binding(0) var<uniform> atmosphere: Atmosphere;
-@group(1) @binding(1) var lut_sampler: sampler;
-@group(1) @binding(2) var transmittance_lut: texture_2d<f32>;
-@group(1) @binding(3) var multiple_scattering_out: texture_storage_2d<rgba16float, write>;
+@group(1) @binding(8) var multiple_scattering_out: texture_storage_2d<rgba16float, write>;
 
 const DIRECTIONS: u32 = 64u;
 const STEPS: u32 = 20u;

@@ -1,13 +1,9 @@
-// import shader/atmosphere.wgsl
+// import passes/atmosphere/bindings.wgsl
 // Sky-view LUT (Hillaire 2020, §5.3): sky radiance around the camera over
 // (azimuth from the sun, view zenith), 32 quadratic steps per texel; stored
-// in W·sr⁻¹·m⁻² (times the solar irradiance). Needs common.wgsl and atmosphere.wgsl.
+// in W·sr⁻¹·m⁻² (times the solar irradiance).
 
-@group(1) @binding(0) var<uniform> atmosphere: Atmosphere;
-@group(1) @binding(1) var lut_sampler: sampler;
-@group(1) @binding(2) var transmittance_lut: texture_2d<f32>;
-@group(1) @binding(3) var multiple_scattering_lut: texture_2d<f32>;
-@group(1) @binding(4) var sky_view_out: texture_storage_2d<rgba16float, write>;
+@group(1) @binding(8) var sky_view_out: texture_storage_2d<rgba16float, write>;
 
 const SKY_VIEW_STEPS: u32 = 32u;
 

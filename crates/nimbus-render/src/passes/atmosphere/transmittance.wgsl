@@ -1,10 +1,9 @@
-// import shader/atmosphere.wgsl
+// import passes/atmosphere/bindings.wgsl
 // Transmittance LUT (Bruneton 2017 parametrisation): transmittance from
 // (r, μ) to the top of the atmosphere by Simpson's rule with 256 intervals;
-// mirrors AtmosphereParams::optical_depth. Needs common.wgsl and atmosphere.wgsl.
+// mirrors AtmosphereParams::optical_depth.
 
-@group(1) @binding(0) var<uniform> atmosphere: Atmosphere;
-@group(1) @binding(1) var transmittance_out: texture_storage_2d<rgba16float, write>;
+@group(1) @binding(8) var transmittance_out: texture_storage_2d<rgba16float, write>;
 
 const TRANSMITTANCE_STEPS: u32 = 256u;
 

@@ -24,8 +24,10 @@ pub mod variants;
 
 use crate::core::binding;
 use crate::core::targets::{DEPTH_FORMAT, HDR_FORMAT};
-use crate::frame::FrameUniform;
 pub use crate::frame::cloud_shadow::{CloudShadowMap, CloudShadowUniform, SHADOW_MAP_SIZE};
+use crate::frame::{
+    CLOUD_LIGHTING_GROUP, FRAME_GROUP, FrameBindings, FrameLayouts, FrameUniform, PASS_GROUP,
+};
 use crate::scene::{CumulusSettings, Scene};
 use crate::shader::{self, WgslFile};
 use bytemuck::{Pod, Zeroable};
@@ -60,7 +62,7 @@ const COMPOSITE_WGSL: WgslFile = WgslFile {
 };
 
 /// What a pass that is shadowed by the clouds composes (after the drawing
-/// libraries): the shadow uniform and lookup, group 1 bindings 8 and 9.
+/// libraries): the shadow uniform and lookup, group 3 bindings 8 and 9.
 pub const SHADOW_LIBRARIES: [WgslFile; 2] = [SHADOW_UNIFORM, SHADOW_LOOKUP];
 
 /// The composed WGSL of the camera's passes.
@@ -168,8 +170,8 @@ struct FieldKey {
 #[derive(Debug)]
 pub struct CumulusPass {
     uniform: wgpu::Buffer,
+    /// Group 1: the cumulus uniform (the bodies, the fringes and the shadow map).
     group: wgpu::BindGroup,
-    shadow_group: wgpu::BindGroup,
     shadow_pipelines: [wgpu::RenderPipeline; 2],
     opaque_pipeline: wgpu::RenderPipeline,
     fringe_pipeline: wgpu::RenderPipeline,

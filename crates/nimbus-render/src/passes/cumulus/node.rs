@@ -55,7 +55,7 @@ impl CumulusPass {
     pub fn encode_shadow(
         &self,
         encoder: &mut wgpu::CommandEncoder,
-        frame: &wgpu::BindGroup,
+        frame: &FrameBindings<'_>,
         shadow_map: &CloudShadowMap,
         timestamps: Option<(&wgpu::QuerySet, u32)>,
     ) {
@@ -86,25 +86,17 @@ impl CumulusPass {
                 continue;
             }
             pass.set_pipeline(pipeline);
-            pass.set_bind_group(0, frame, &[]);
-            pass.set_bind_group(1, &self.shadow_group, &[]);
+            pass.set_bind_group(FRAME_GROUP, frame.frame, &[]);
+            pass.set_bind_group(PASS_GROUP, &self.group, &[]);
+            pass.set_bind_group(CLOUD_LIGHTING_GROUP, shadow_map.uniform_group(), &[]);
             self.record(&mut pass, &self.shadow_draws);
         }
     }
 
     /// Records the opaque bodies into a pass on the HDR target and depth.
-    pub fn draw_opaque(
-        &self,
-        pass: &mut wgpu::RenderPass<'_>,
-        frame: &wgpu::BindGroup,
-        atmosphere: &wgpu::BindGroup,
-        stratus: &wgpu::BindGroup,
-    ) {
+    pub fn draw_opaque(&self, pass: &mut wgpu::RenderPass<'_>, frame: &FrameBindings<'_>) {
         pass.set_pipeline(&self.opaque_pipeline);
-        pass.set_bind_group(0, frame, &[]);
-        pass.set_bind_group(1, &self.group, &[]);
-        pass.set_bind_group(2, atmosphere, &[]);
-        pass.set_bind_group(3, stratus, &[]);
+        frame.set_on_render_pass(pass, Some(&self.group));
         self.record(pass, &self.draws);
     }
 
@@ -113,11 +105,10 @@ impl CumulusPass {
         &self,
         encoder: &mut wgpu::CommandEncoder,
         depth: &wgpu::TextureView,
-        groups: [&wgpu::BindGroup; 3],
+        frame: &FrameBindings<'_>,
         timestamp_writes: Option<wgpu::RenderPassTimestampWrites<'_>>,
     ) {
         let Some(fringe) = &self.fringe else { return };
-        let [frame, atmosphere, stratus] = groups;
         let attachment = |view, clear: f64| {
             Some(wgpu::RenderPassColorAttachment {
                 view,
@@ -150,10 +141,7 @@ impl CumulusPass {
             multiview_mask: None,
         });
         pass.set_pipeline(&self.fringe_pipeline);
-        pass.set_bind_group(0, frame, &[]);
-        pass.set_bind_group(1, &self.group, &[]);
-        pass.set_bind_group(2, atmosphere, &[]);
-        pass.set_bind_group(3, stratus, &[]);
+        frame.set_on_render_pass(&mut pass, Some(&self.group));
         self.record(&mut pass, &self.draws);
     }
 

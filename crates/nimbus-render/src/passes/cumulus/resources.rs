@@ -20,9 +20,7 @@ impl CumulusPass {
     /// Creates the pipelines; shapes and the field are made by [`Self::prepare`].
     pub fn new(
         device: &wgpu::Device,
-        frame_layout: &wgpu::BindGroupLayout,
-        atmosphere_layout: &wgpu::BindGroupLayout,
-        stratus_layout: &wgpu::BindGroupLayout,
+        frame: &FrameLayouts<'_>,
         shadow_map: &CloudShadowMap,
     ) -> Self {
         let uniform_size = std::mem::size_of::<CumulusUniform>() as u64;
@@ -33,53 +31,30 @@ impl CumulusPass {
             mapped_at_creation: false,
         });
         let draw_stages = wgpu::ShaderStages::VERTEX_FRAGMENT;
-        let [shadow_uniform_entry, shadow_map_entry] = CloudShadowMap::layout_entries(draw_stages);
         let group_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("cumulus"),
-            entries: &[
-                binding::uniform_layout_entry(0, draw_stages, uniform_size),
-                shadow_uniform_entry,
-                shadow_map_entry,
-            ],
+            entries: &[binding::uniform_layout_entry(0, draw_stages, uniform_size)],
         });
-        let shadow_group_layout =
-            device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-                label: Some("cumulus shadow"),
-                entries: &[
-                    binding::uniform_layout_entry(0, draw_stages, uniform_size),
-                    shadow_uniform_entry,
-                ],
-            });
-        let [shadow_uniform, shadow_texture] = shadow_map.bind_group_entries();
         let group = device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("cumulus"),
             layout: &group_layout,
-            entries: &[
-                wgpu::BindGroupEntry {
-                    binding: 0,
-                    resource: uniform.as_entire_binding(),
-                },
-                shadow_uniform.clone(),
-                shadow_texture,
-            ],
-        });
-        let shadow_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("cumulus shadow"),
-            layout: &shadow_group_layout,
-            entries: &[
-                wgpu::BindGroupEntry {
-                    binding: 0,
-                    resource: uniform.as_entire_binding(),
-                },
-                shadow_uniform,
-            ],
+            entries: &[wgpu::BindGroupEntry {
+                binding: 0,
+                resource: uniform.as_entire_binding(),
+            }],
         });
 
         let shadow_module =
             shader::create_module(device, "cumulus shadow", &shadow_shader_source());
+        // The map is drawn here, so group 3 holds only its uniform.
         let shadow_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
             label: Some("cumulus shadow"),
-            bind_group_layouts: &[Some(frame_layout), Some(&shadow_group_layout)],
+            bind_group_layouts: &[
+                Some(frame.frame),
+                Some(&group_layout),
+                None,
+                Some(shadow_map.uniform_layout()),
+            ],
             immediate_size: 0,
         });
         let buffers = vertex_layouts().map(Some);
@@ -112,16 +87,7 @@ impl CumulusPass {
         ];
 
         let module = shader::create_module(device, "cumulus", &draw_shader_source());
-        let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-            label: Some("cumulus"),
-            bind_group_layouts: &[
-                Some(frame_layout),
-                Some(&group_layout),
-                Some(atmosphere_layout),
-                Some(stratus_layout),
-            ],
-            immediate_size: 0,
-        });
+        let layout = frame.pipeline_layout(device, "cumulus", Some(&group_layout));
         let draw_pipeline =
             |label: &str,
              entry: &str,
@@ -248,7 +214,6 @@ impl CumulusPass {
         Self {
             uniform,
             group,
-            shadow_group,
             shadow_pipelines,
             opaque_pipeline,
             fringe_pipeline,

@@ -6,8 +6,9 @@
 //! their paths resolve against) changes, or a file read for it is
 //! rewritten (its [`crate::scene::FileStamp`]); [`ObjectsPass::generation`] counts
 //! the rebuilds so that consumers of [`ObjectsPass::occluder_geometry`]
-//! (the rain's occlusion map) know when to redraw. The cumulus shadow map
-//! is bound at group 1, bindings 8 and 9, as for the terrain.
+//! (the rain's occlusion map) know when to redraw. The pass has no group 1:
+//! the cloud shadow map and the layer's lighting come from the frame's
+//! group 3, as for the terrain.
 
 pub use crate::scene::gltf as gltf_mesh;
 pub use crate::scene::object_geometry as geometry;
@@ -17,8 +18,8 @@ pub use gltf_mesh::{GltfError, GltfMesh, load_gltf};
 
 use crate::core::limits;
 use crate::core::targets::{DEPTH_FORMAT, HDR_FORMAT};
-use crate::frame::cloud_shadow::CloudShadowMap;
 use crate::frame::occluders::OccluderGeometry;
+use crate::frame::{FrameBindings, FrameLayouts};
 use crate::scene::{FileStamp, Scene, SceneObject};
 use crate::shader::{self, WgslFile};
 use std::path::PathBuf;
@@ -73,9 +74,6 @@ impl BuiltFrom {
 #[derive(Debug)]
 pub struct ObjectsPass {
     pipeline: wgpu::RenderPipeline,
-    group_layout: wgpu::BindGroupLayout,
-    /// Group 1: the cumulus shadow map (created at the first prepare).
-    bind_group: Option<wgpu::BindGroup>,
     built_from: Option<BuiltFrom>,
     geometry: Option<GpuGeometry>,
     generation: u64,
@@ -83,27 +81,10 @@ pub struct ObjectsPass {
 
 impl ObjectsPass {
     /// Creates the pipeline; the geometry is built by [`Self::prepare`].
-    pub fn new(
-        device: &wgpu::Device,
-        frame_layout: &wgpu::BindGroupLayout,
-        atmosphere_layout: &wgpu::BindGroupLayout,
-        stratus_layout: &wgpu::BindGroupLayout,
-    ) -> Self {
-        let group_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("objects cloud shadow"),
-            entries: &CloudShadowMap::layout_entries(wgpu::ShaderStages::FRAGMENT),
-        });
+    pub fn new(device: &wgpu::Device, frame: &FrameLayouts<'_>) -> Self {
         let module = shader::create_module(device, "objects", &shader_source());
-        let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-            label: Some("objects"),
-            bind_group_layouts: &[
-                Some(frame_layout),
-                Some(&group_layout),
-                Some(atmosphere_layout),
-                Some(stratus_layout),
-            ],
-            immediate_size: 0,
-        });
+        // No group 1: the objects need only the frame's groups.
+        let layout = frame.pipeline_layout(device, "objects", None);
         let pipeline = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
             label: Some("objects"),
             layout: Some(&layout),
@@ -142,8 +123,6 @@ impl ObjectsPass {
         });
         Self {
             pipeline,
-            group_layout,
-            bind_group: None,
             built_from: None,
             geometry: None,
             generation: 0,
@@ -159,15 +138,7 @@ impl ObjectsPass {
         device: &wgpu::Device,
         queue: &wgpu::Queue,
         scene: &Scene,
-        cloud_shadow: &CloudShadowMap,
     ) -> Result<(), ObjectsError> {
-        if self.bind_group.is_none() {
-            self.bind_group = Some(device.create_bind_group(&wgpu::BindGroupDescriptor {
-                label: Some("objects cloud shadow"),
-                layout: &self.group_layout,
-                entries: &cloud_shadow.bind_group_entries(),
-            }));
-        }
         let unchanged = self.built_from.as_ref().is_some_and(|b| b.matches(scene));
         if unchanged {
             return Ok(());
@@ -252,21 +223,12 @@ impl ObjectsPass {
     }
 
     /// Records the draw into `pass` (nothing without objects).
-    pub fn draw(
-        &self,
-        pass: &mut wgpu::RenderPass<'_>,
-        frame: &wgpu::BindGroup,
-        atmosphere: &wgpu::BindGroup,
-        stratus: &wgpu::BindGroup,
-    ) {
-        let (Some(geometry), Some(group)) = (&self.geometry, &self.bind_group) else {
+    pub fn draw(&self, pass: &mut wgpu::RenderPass<'_>, frame: &FrameBindings<'_>) {
+        let Some(geometry) = &self.geometry else {
             return;
         };
         pass.set_pipeline(&self.pipeline);
-        pass.set_bind_group(0, frame, &[]);
-        pass.set_bind_group(1, group, &[]);
-        pass.set_bind_group(2, atmosphere, &[]);
-        pass.set_bind_group(3, stratus, &[]);
+        frame.set_on_render_pass(pass, None);
         pass.set_vertex_buffer(0, geometry.vertices.slice(..));
         pass.set_index_buffer(geometry.indices.slice(..), wgpu::IndexFormat::Uint32);
         pass.draw_indexed(0..geometry.index_count, 0, 0..1);

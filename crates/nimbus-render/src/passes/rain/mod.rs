@@ -15,8 +15,8 @@
 use crate::core::binding::{self, buffer_entry, uniform_layout_entry};
 use crate::core::limits::{self, LimitError};
 use crate::core::targets::{DEPTH_FORMAT, HDR_FORMAT};
-use crate::frame::Camera;
 use crate::frame::occluders::OccluderGeometry;
+use crate::frame::{Camera, FRAME_GROUP, FrameBindings, FrameLayouts, PASS_GROUP};
 use crate::scene::{FileStamp, RainBoxKind, RainSettings, Scene};
 use crate::shader::{self, WgslFile};
 use bytemuck::{Pod, Zeroable};

@@ -9,7 +9,7 @@ impl RainPass {
     pub fn encode_simulation(
         &self,
         encoder: &mut wgpu::CommandEncoder,
-        frame: &wgpu::BindGroup,
+        frame: &FrameBindings<'_>,
         occluders: &[OccluderGeometry<'_>],
         timestamps: Option<wgpu::ComputePassTimestampWrites<'_>>,
     ) {
@@ -58,7 +58,7 @@ impl RainPass {
             .filter(|&(_, groups)| groups > 0)
             .collect();
         pass.set_pipeline(&self.simulate);
-        pass.set_bind_group(0, frame, &[]);
+        pass.set_bind_group(FRAME_GROUP, frame.frame, &[]);
         for i in 0..self.plan.steps.len() {
             for &(segment, groups) in &groups {
                 pass.set_bind_group(
@@ -70,7 +70,7 @@ impl RainPass {
             }
         }
         pass.set_pipeline(&self.cull);
-        pass.set_bind_group(0, frame, &[]);
+        pass.set_bind_group(FRAME_GROUP, frame.frame, &[]);
         for &(segment, groups) in &groups {
             pass.set_bind_group(1, &segment.visibility_group, &[]);
             pass.dispatch_workgroups(groups, 1, 1);
@@ -105,20 +105,19 @@ impl RainPass {
         &self,
         pass: &mut wgpu::RenderPass<'_>,
         depth: &wgpu::TextureView,
-        [frame, atmosphere, stratus]: [&wgpu::BindGroup; 3],
+        frame: &FrameBindings<'_>,
     ) {
         let Some(state) = &self.state else {
             return;
         };
-        pass.set_bind_group(0, frame, &[]);
-        pass.set_bind_group(2, atmosphere, &[]);
-        pass.set_bind_group(3, stratus, &[]);
+        // Group 1 differs per drops' buffer, set below.
+        frame.set_on_render_pass(pass, None);
         pass.set_pipeline(&self.streaks);
         for (index, segment) in state.drops.segments.iter().enumerate() {
             if index > 0 && segment.dispatched(state.dispatched) == 0 {
                 break;
             }
-            pass.set_bind_group(1, &self.draw_group(state, segment, depth), &[]);
+            pass.set_bind_group(PASS_GROUP, &self.draw_group(state, segment, depth), &[]);
             pass.draw_indirect(
                 &state.drops.draw_args,
                 index as u64 * state.drops.draw_args_stride,
@@ -138,7 +137,7 @@ impl RainPass {
         &self,
         pass: &mut wgpu::RenderPass<'_>,
         depth: &wgpu::TextureView,
-        [frame, atmosphere, stratus]: [&wgpu::BindGroup; 3],
+        frame: &FrameBindings<'_>,
     ) {
         let Some(state) = &self.state else { return };
         let group = binding::sequential_bind_group(
@@ -152,10 +151,7 @@ impl RainPass {
             ],
         );
         pass.set_pipeline(&self.mist);
-        pass.set_bind_group(0, frame, &[]);
-        pass.set_bind_group(1, &group, &[]);
-        pass.set_bind_group(2, atmosphere, &[]);
-        pass.set_bind_group(3, stratus, &[]);
+        frame.set_on_render_pass(pass, Some(&group));
         pass.draw(0..3, 0..1);
     }
 }

@@ -103,12 +103,7 @@ pub(super) fn draw_pipeline(
 
 impl RainPass {
     /// Creates the pipelines; buffers are made by [`Self::prepare`] when a scene has rain.
-    pub fn new(
-        device: &wgpu::Device,
-        frame_layout: &wgpu::BindGroupLayout,
-        atmosphere_layout: &wgpu::BindGroupLayout,
-        stratus_layout: &wgpu::BindGroupLayout,
-    ) -> Self {
+    pub fn new(device: &wgpu::Device, frame: &FrameLayouts<'_>) -> Self {
         use wgpu::BufferBindingType::{Storage, Uniform};
         let compute = wgpu::ShaderStages::COMPUTE;
         let draw = wgpu::ShaderStages::VERTEX_FRAGMENT;
@@ -184,29 +179,20 @@ impl RainPass {
             "rain simulation",
             simulation_shader_source(),
             "simulate",
-            &[Some(frame_layout), Some(&simulation_layout)],
+            &[Some(frame.frame), Some(&simulation_layout)],
         );
         let cull = compute_pipeline(
             device,
             "rain visibility",
             visibility_shader_source(),
             "cull",
-            &[Some(frame_layout), Some(&visibility_layout)],
+            &[Some(frame.frame), Some(&visibility_layout)],
         );
         let streaks_module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
             label: Some("rain streaks"),
             source: wgpu::ShaderSource::Wgsl(streaks_shader_source().into()),
         });
-        let draw_pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-            label: Some("rain draw"),
-            bind_group_layouts: &[
-                Some(frame_layout),
-                Some(&draw_layout),
-                Some(atmosphere_layout),
-                Some(stratus_layout),
-            ],
-            immediate_size: 0,
-        });
+        let draw_pipeline_layout = frame.pipeline_layout(device, "rain draw", Some(&draw_layout));
         let streaks = draw_pipeline(
             device,
             "rain streaks",
@@ -231,16 +217,7 @@ impl RainPass {
             label: Some("rain mist"),
             source: wgpu::ShaderSource::Wgsl(mist_shader_source().into()),
         });
-        let mist_pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-            label: Some("rain mist"),
-            bind_group_layouts: &[
-                Some(frame_layout),
-                Some(&mist_layout),
-                Some(atmosphere_layout),
-                Some(stratus_layout),
-            ],
-            immediate_size: 0,
-        });
+        let mist_pipeline_layout = frame.pipeline_layout(device, "rain mist", Some(&mist_layout));
         let mist = draw_pipeline(
             device,
             "rain mist",

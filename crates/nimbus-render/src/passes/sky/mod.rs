@@ -6,6 +6,7 @@
 //! works behind a caller's own geometry.
 
 use crate::core::targets::{DEPTH_FORMAT, HDR_FORMAT};
+use crate::frame::{FrameBindings, FrameLayouts};
 use crate::shader::{self, WgslFile};
 use bytemuck::{Pod, Zeroable};
 
@@ -66,27 +67,15 @@ pub struct SkyPass {
 }
 
 impl SkyPass {
-    /// Creates the pipeline; `frame_layout` is the shared group-0 layout.
-    pub fn new(
-        device: &wgpu::Device,
-        frame_layout: &wgpu::BindGroupLayout,
-        atmosphere_layout: &wgpu::BindGroupLayout,
-    ) -> Self {
+    /// Creates the pipeline on the frame's groups and its own group 1.
+    pub fn new(device: &wgpu::Device, frame: &FrameLayouts<'_>) -> Self {
         let params = crate::core::binding::UniformBinding::new(
             device,
             "sky params",
             wgpu::ShaderStages::FRAGMENT,
         );
         let module = shader::create_module(device, "sky", &shader_source());
-        let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-            label: Some("sky"),
-            bind_group_layouts: &[
-                Some(frame_layout),
-                Some(&params.layout),
-                Some(atmosphere_layout),
-            ],
-            immediate_size: 0,
-        });
+        let layout = frame.pipeline_layout(device, "sky", Some(&params.layout));
         let pipeline = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
             label: Some("sky"),
             layout: Some(&layout),
@@ -123,16 +112,9 @@ impl SkyPass {
     }
 
     /// Records the pass into `pass`, which targets the HDR colour and the depth buffer.
-    pub fn draw(
-        &self,
-        pass: &mut wgpu::RenderPass<'_>,
-        frame: &wgpu::BindGroup,
-        atmosphere: &wgpu::BindGroup,
-    ) {
+    pub fn draw(&self, pass: &mut wgpu::RenderPass<'_>, frame: &FrameBindings<'_>) {
         pass.set_pipeline(&self.pipeline);
-        pass.set_bind_group(0, frame, &[]);
-        pass.set_bind_group(1, &self.params.bind_group, &[]);
-        pass.set_bind_group(2, atmosphere, &[]);
+        frame.set_on_render_pass(pass, Some(&self.params.bind_group));
         pass.draw(0..3, 0..1);
     }
 }

@@ -1,7 +1,7 @@
 //! The radiosity grid of the layer over the terrain and the ground's reflectance on it (Bouthors et al. 2006, §5.3).
 
-#[allow(unused_imports)]
-use super::*;
+use super::{MAX_RADIOSITY_SIZE, MIN_RADIOSITY_TEXEL_M};
+use nimbus_physics::terrain::Terrain;
 
 /// The radiosity grid of a layer over a terrain: square texels as large as
 /// the layer is high above the mean ground (§5.3), a power of two of them

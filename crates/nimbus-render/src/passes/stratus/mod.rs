@@ -9,9 +9,10 @@
 //! 2. `radiosity_inputs` (compute): ρ_C, S_C and the shadowed sun light S_G^d
 //!    over the radiosity grid (texels as large as the layer is high, §5.3),
 //!    then the [`RadiosityPass`] iterations.
-//! 3. The terrain binds [`StratusPass::lookup_group`]: its sun light is
-//!    shadowed by T_C at the sun ray's crossing of the layer and its
-//!    indirect light is R_G.
+//! 3. The drawing passes read the layer through the frame's group 3
+//!    ([`crate::frame::cloud_lighting`], whose layer-sized parts this pass
+//!    hands in): the terrain's sun light is shadowed by T_C at the sun ray's
+//!    crossing of the layer and its indirect light is R_G.
 //! 4. `layer` (draw): a grid over the window displaced to the face the
 //!    camera sees, shaded per pixel by the analytic slab model (single,
 //!    double, 3+ scattering, the forward peak, sky and ground light) and
@@ -23,18 +24,12 @@
 
 pub mod radiosity;
 
-use crate::core::binding;
-use crate::core::targets::{DEPTH_FORMAT, HDR_FORMAT};
 use crate::passes::stratus::radiosity::{RadiosityError, RadiosityPass};
-use crate::scene::{Scene, StratusSettings};
+use crate::scene::StratusSettings;
 use crate::shader::{self, WgslFile};
-use bytemuck::{Pod, Zeroable};
-use nimbus_physics::optics::dsd::SizeDistribution;
-use nimbus_physics::optics::tables::{CloudOpticsParams, CloudOpticsTables};
-use nimbus_physics::terrain::Terrain;
-use nimbus_physics::transport::stratus::OneDimensionalTable;
-use std::path::PathBuf;
-use wgpu::util::DeviceExt;
+use nimbus_physics::optics::tables::CloudOpticsParams;
+
+pub use crate::frame::cloud_lighting::{PEAK_TEXELS, PHASE_TEXELS, StratusUniform};
 
 pub use crate::shader::{CLOUD_LAYER_FIELD as FIELD, CLOUD_LAYER_LOOKUP as LOOKUP};
 const LAYER_WGSL: WgslFile = WgslFile {
@@ -67,21 +62,10 @@ mod node;
 mod optics;
 mod prepare;
 mod resources;
-#[allow(unused_imports)]
-pub use grid::*;
-#[allow(unused_imports)]
-pub use node::*;
-#[allow(unused_imports)]
-pub use optics::*;
-#[allow(unused_imports)]
-pub use prepare::*;
-#[allow(unused_imports)]
-pub use resources::*;
 
-/// Texels of the P_S and P² tables over 0–180°.
-pub const PHASE_TEXELS: usize = 1024;
-/// Texels of the P_F table over 0–θ_f.
-pub const PEAK_TEXELS: usize = 256;
+pub use grid::RadiosityGrid;
+pub use optics::{forward_peak_mean_square_rad2, load_optics, optics_cache_dir, optics_params};
+
 /// Half-angle θ_f of the forward peak, degrees (Bouthors 2006, §4.1).
 pub const FORWARD_PEAK_DEG: f64 = 5.0;
 /// Largest radiosity grid, texels per side.
@@ -89,34 +73,6 @@ pub const MAX_RADIOSITY_SIZE: u32 = 256;
 /// Smallest height of the layer above the ground used for the radiosity
 /// texel size, m.
 pub const MIN_RADIOSITY_TEXEL_M: f64 = 100.0;
-
-/// GPU layout of WGSL `Stratus` (`shader/cloud_layer_field.wgsl`); see it for each field.
-#[repr(C)]
-#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
-pub struct StratusUniform {
-    /// 1/feature size (1/m), edge threshold n_c, ramp width, thickest cells (m).
-    pub shape: [f32; 4],
-    /// Wind drift (x, z) m ([`Scene::cloud_drift_m`]), 1/evolution time (1/s), time (s).
-    pub motion: [f32; 4],
-    /// Mid-plane height (m), window side (m), window min corner (x, z) (m).
-    pub window: [f32; 4],
-    /// Extinction κ per channel (1/m), forward-peak half-angle θ_f (rad).
-    pub extinction: [f32; 4],
-    /// Forward-peak weight P_f per channel.
-    pub forward_fraction: [f32; 4],
-    /// Mean square angle of P_F per channel, rad².
-    pub forward_spread: [f32; 4],
-    /// 1-D model at the sun's zenith: b, c (1/m), κ_c (1/m), t.
-    pub slab: [f32; 4],
-    /// 1-D model: r, β.
-    pub slab_r_beta: [f32; 4],
-    /// Radiosity grid min corner (x, z) (m), texel size (m), mean ground height (m).
-    pub radiosity: [f32; 4],
-    /// Layer present (0/1), octaves, seed, thickness-window texels per side.
-    pub flags: [u32; 4],
-    /// P_S/P² texels, P_F texels, radiosity texels per side, both faces drawn (0/1).
-    pub sizes: [u32; 4],
-}
 
 /// What the GPU resources were built for; rebuilt when it changes.
 #[derive(Clone, Debug, PartialEq)]
@@ -135,7 +91,6 @@ struct Resources {
     /// The radiosity grid of the layer over the terrain (None without a layer).
     grid: Option<RadiosityGrid>,
     radiosity: RadiosityPass,
-    lookup_group: wgpu::BindGroup,
     compute_group: wgpu::BindGroup,
     thickness: wgpu::Texture,
     indices: wgpu::Buffer,
@@ -147,8 +102,8 @@ struct Resources {
 /// The stratus pass.
 #[derive(Debug)]
 pub struct StratusPass {
+    /// The layer's uniform, owned by the frame's cloud lighting.
     uniform: wgpu::Buffer,
-    lookup_layout: wgpu::BindGroupLayout,
     compute_layout: wgpu::BindGroupLayout,
     thickness_pipeline: wgpu::ComputePipeline,
     inputs_pipeline: wgpu::ComputePipeline,
@@ -173,10 +128,11 @@ pub enum StratusError {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use nimbus_physics::terrain::{TerrainParams, generate};
 
     #[test]
     fn radiosity_grid_covers_the_terrain_with_texels_the_layer_height() {
-        let terrain = nimbus_physics::terrain::generate(&nimbus_physics::terrain::TerrainParams {
+        let terrain = generate(&TerrainParams {
             resolution: 32,
             ..Default::default()
         });

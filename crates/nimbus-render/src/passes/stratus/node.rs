@@ -1,24 +1,20 @@
 //! The encode step: the thickness window and radiosity compute, and the layer's draw.
 
-#[allow(unused_imports)]
-use super::*;
+use super::StratusPass;
+use crate::frame::FrameBindings;
 
 impl StratusPass {
     /// Records the compute work of the frame (thickness window, radiosity
     /// inputs and iterations) into `pass`; nothing without a layer.
-    pub fn encode_compute(
-        &self,
-        pass: &mut wgpu::ComputePass<'_>,
-        frame: &wgpu::BindGroup,
-        atmosphere: &wgpu::BindGroup,
-    ) {
+    pub fn encode_compute(&self, pass: &mut wgpu::ComputePass<'_>, frame: &FrameBindings<'_>) {
         let (Some(resources), Some(settings)) = (&self.resources, &self.settings) else {
             return;
         };
         let n = settings.resolution;
-        pass.set_bind_group(0, frame, &[]);
+        // Group 3 is not bound: this compute writes the layer's parts of it.
+        pass.set_bind_group(0, frame.frame, &[]);
         pass.set_bind_group(1, &resources.compute_group, &[]);
-        pass.set_bind_group(2, atmosphere, &[]);
+        pass.set_bind_group(2, frame.atmosphere, &[]);
         pass.set_pipeline(&self.thickness_pipeline);
         pass.dispatch_workgroups(n.div_ceil(8), n.div_ceil(8), 1);
         let size = resources.radiosity.size();
@@ -30,21 +26,12 @@ impl StratusPass {
     }
 
     /// Records the layer's draw into `pass` (after the opaque passes, depth-tested).
-    pub fn draw(
-        &self,
-        pass: &mut wgpu::RenderPass<'_>,
-        frame: &wgpu::BindGroup,
-        atmosphere: &wgpu::BindGroup,
-        cloud_shadow: &wgpu::BindGroup,
-    ) {
+    pub fn draw(&self, pass: &mut wgpu::RenderPass<'_>, frame: &FrameBindings<'_>) {
         let (Some(resources), Some(_)) = (&self.resources, &self.settings) else {
             return;
         };
         pass.set_pipeline(&self.layer_pipeline);
-        pass.set_bind_group(0, frame, &[]);
-        pass.set_bind_group(1, cloud_shadow, &[]);
-        pass.set_bind_group(2, atmosphere, &[]);
-        pass.set_bind_group(3, &resources.lookup_group, &[]);
+        frame.set_on_render_pass(pass, None);
         pass.set_index_buffer(resources.indices.slice(..), wgpu::IndexFormat::Uint32);
         pass.draw_indexed(0..resources.index_count, 0, 0..self.face_count());
     }

@@ -1,7 +1,10 @@
 //! The layer's optical tables (Mie phase functions and the fitted 1-D model, computed from the droplet distribution and cached on disk).
 
-#[allow(unused_imports)]
-use super::*;
+use super::{FORWARD_PEAK_DEG, PEAK_TEXELS, PHASE_TEXELS};
+use crate::scene::StratusSettings;
+use nimbus_physics::optics::dsd::SizeDistribution;
+use nimbus_physics::optics::tables::{CloudOpticsParams, CloudOpticsTables};
+use std::path::PathBuf;
 
 /// Where the optical tables are cached (see [`crate::core::cache::cache_dir`]).
 pub fn optics_cache_dir() -> PathBuf {
@@ -32,7 +35,7 @@ pub fn load_optics(params: &CloudOpticsParams) -> CloudOpticsTables {
 
 /// Mean square angle of a forward-peak table sampled uniformly over
 /// 0–θ_f (per channel, interleaved RGB), rad²: ∫ P θ² dΩ / ∫ P dΩ.
-pub(super) fn forward_peak_mean_square_rad2(peak: &[f32], forward_peak_deg: f64) -> [f32; 3] {
+pub fn forward_peak_mean_square_rad2(peak: &[f32], forward_peak_deg: f64) -> [f32; 3] {
     let texels = peak.len() / 3;
     let step = forward_peak_deg.to_radians() / (texels - 1) as f64;
     let mut out = [0.0f32; 3];

@@ -1,19 +1,18 @@
 //! Per-frame preparation: the resources rebuilt when the layer, its optics or the terrain change, the uniform written.
 
-#[allow(unused_imports)]
-use super::*;
+use super::optics::{forward_peak_mean_square_rad2, load_optics, optics_params};
+use super::{
+    FORWARD_PEAK_DEG, PEAK_TEXELS, PHASE_TEXELS, RadiosityGrid, ResourceKey, Resources,
+    StratusError, StratusPass, StratusUniform, cloud_layer_field,
+};
+use crate::frame::cloud_lighting::{CloudLayerResources, CloudLighting};
+use crate::passes::stratus::radiosity::RadiosityPass;
+use crate::scene::Scene;
+use nimbus_physics::terrain::Terrain;
+use nimbus_physics::transport::stratus::OneDimensionalTable;
+use wgpu::util::DeviceExt;
 
 impl StratusPass {
-    /// Layout of the group the passes that draw bind at index 3.
-    pub fn lookup_layout(&self) -> &wgpu::BindGroupLayout {
-        &self.lookup_layout
-    }
-
-    /// The group-3 bind group (valid after [`Self::prepare`]).
-    pub fn lookup_group(&self) -> Option<&wgpu::BindGroup> {
-        self.resources.as_ref().map(|r| &r.lookup_group)
-    }
-
     /// The radiosity pass of the current grid.
     pub fn radiosity(&self) -> Option<&RadiosityPass> {
         self.resources.as_ref().map(|r| &r.radiosity)
@@ -52,7 +51,8 @@ impl StratusPass {
 
     /// Builds what changed and writes the frame's uniform: the layer's
     /// field at `time_s`, the window around the camera, the 1-D model at
-    /// the sun's zenith angle.
+    /// the sun's zenith angle. What it builds is bound in the frame's
+    /// `cloud_lighting` (group 3), and its uniform and phase tables written there.
     pub fn prepare(
         &mut self,
         device: &wgpu::Device,
@@ -60,6 +60,7 @@ impl StratusPass {
         scene: &Scene,
         terrain: &Terrain,
         time_s: f32,
+        cloud_lighting: &mut CloudLighting,
     ) -> Result<(), StratusError> {
         self.settings = scene.stratus.clone();
         self.camera_height_m = scene.camera.position_m[1];
@@ -76,14 +77,28 @@ impl StratusPass {
             terrain: settings.as_ref().map(|_| terrain.params.clone()),
         };
         if self.resources.as_ref().map(|r| &r.key) != Some(&key) {
-            self.resources = Some(self.build(device, queue, key, terrain)?);
+            let (resources, phase_tables) = self.build(device, queue, key, terrain)?;
+            if let Some(texels) = phase_tables {
+                cloud_lighting.write_phase_tables(queue, &texels);
+            }
+            let thickness = resources.thickness.create_view(&Default::default());
+            let inputs = resources.radiosity.input_buffers();
+            cloud_lighting.set_layer(
+                device,
+                settings.as_ref().map(|_| CloudLayerResources {
+                    thickness: &thickness,
+                    ground_received: inputs.ground_received,
+                    cloud_received: inputs.cloud_received,
+                }),
+            );
+            self.resources = Some(resources);
         }
         let Some(resources) = &self.resources else {
             return Ok(());
         };
         let Some(settings) = settings else {
             self.current = StratusUniform::default();
-            queue.write_buffer(&self.uniform, 0, bytemuck::bytes_of(&self.current));
+            cloud_lighting.write_layer_uniform(queue, &self.current);
             return Ok(());
         };
         let field = cloud_layer_field(scene, &settings);
@@ -148,17 +163,19 @@ impl StratusPass {
             sizes: [PHASE_TEXELS as u32, PEAK_TEXELS as u32, grid.size, 0],
         };
         self.current.sizes[3] = u32::from(self.face_count() == 2);
-        queue.write_buffer(&self.uniform, 0, bytemuck::bytes_of(&self.current));
+        cloud_lighting.write_layer_uniform(queue, &self.current);
         Ok(())
     }
 
-    pub(super) fn build(
+    /// Builds the resources for `key`, and the phase tables of its
+    /// droplets (P_S, P², P_F texels) when it has a layer.
+    fn build(
         &self,
         device: &wgpu::Device,
         queue: &wgpu::Queue,
         key: ResourceKey,
         terrain: &Terrain,
-    ) -> Result<Resources, StratusError> {
+    ) -> Result<(Resources, Option<Vec<[f32; 4]>>), StratusError> {
         let n = key.resolution;
         let thickness = device.create_texture(&wgpu::TextureDescriptor {
             label: Some("stratus thickness"),
@@ -208,33 +225,17 @@ impl StratusPass {
                     texels.extend(table.chunks(3).map(|c| [c[0], c[1], c[2], 0.0]));
                 }
                 let spread = forward_peak_mean_square_rad2(&tables.forward_peak, FORWARD_PEAK_DEG);
+                debug_assert_eq!(texels.len(), 2 * PHASE_TEXELS + PEAK_TEXELS);
                 (
-                    texels,
+                    Some(texels),
                     Some((tables.extinction_per_m, tables.forward_fraction, spread)),
                 )
             }
-            None => (vec![[0.0; 4]; 2 * PHASE_TEXELS + PEAK_TEXELS], None),
+            None => (None, None),
         };
-        let phase_buffer = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-            label: Some("stratus phase tables"),
-            contents: bytemuck::cast_slice(&phase),
-            usage: wgpu::BufferUsages::STORAGE,
-        });
         let inputs = radiosity.input_buffers();
         let view = || wgpu::BindingResource::TextureView(&thickness_view);
-        let lookup_group = binding::sequential_bind_group(
-            device,
-            "stratus lookup",
-            &self.lookup_layout,
-            vec![
-                self.uniform.as_entire_binding(),
-                view(),
-                phase_buffer.as_entire_binding(),
-                inputs.ground_received.as_entire_binding(),
-                inputs.cloud_received.as_entire_binding(),
-            ],
-        );
-        let compute_group = binding::sequential_bind_group(
+        let compute_group = crate::core::binding::sequential_bind_group(
             device,
             "stratus compute",
             &self.compute_layout,
@@ -254,16 +255,16 @@ impl StratusPass {
             contents: bytemuck::cast_slice(&indices),
             usage: wgpu::BufferUsages::INDEX,
         });
-        Ok(Resources {
+        let resources = Resources {
             key,
             grid,
             radiosity,
-            lookup_group,
             compute_group,
             thickness,
             indices: index_buffer,
             index_count: indices.len() as u32,
             optics,
-        })
+        };
+        Ok((resources, phase))
     }
 }

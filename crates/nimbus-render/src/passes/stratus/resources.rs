@@ -1,40 +1,23 @@
 //! The stratus pass's layouts and pipelines, created once.
 
-#[allow(unused_imports)]
-use super::*;
+use super::{StratusPass, StratusUniform, compute_shader_source, layer_shader_source};
+use crate::core::binding;
+use crate::core::targets::{DEPTH_FORMAT, HDR_FORMAT};
+use crate::frame::FrameLayouts;
+use crate::frame::cloud_lighting::CloudLighting;
+use crate::shader;
 
 impl StratusPass {
     /// Creates the pipelines; resources are built by [`Self::prepare`].
     pub fn new(
         device: &wgpu::Device,
-        frame_layout: &wgpu::BindGroupLayout,
-        atmosphere_layout: &wgpu::BindGroupLayout,
-        cloud_shadow_layout: &wgpu::BindGroupLayout,
+        frame: &FrameLayouts<'_>,
+        cloud_lighting: &CloudLighting,
     ) -> Self {
         let uniform_size = std::mem::size_of::<StratusUniform>() as u64;
-        let uniform = device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("stratus uniform"),
-            size: uniform_size,
-            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
-            mapped_at_creation: false,
-        });
-        let draw = wgpu::ShaderStages::VERTEX_FRAGMENT;
         let compute = wgpu::ShaderStages::COMPUTE;
-        let storage_read = wgpu::BufferBindingType::Storage { read_only: true };
         let storage_write = wgpu::BufferBindingType::Storage { read_only: false };
         let vec4 = 16;
-        let lookup_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("stratus lookup"),
-            entries: &[
-                // The layer's shape is also for compute passes (and the
-                // tests' kernels) that need to know where the cloud is.
-                binding::uniform_layout_entry(0, draw | compute, uniform_size),
-                binding::texture_entry(1, wgpu::TextureViewDimension::D2, false, draw | compute),
-                binding::buffer_entry(2, storage_read, vec4, draw),
-                binding::buffer_entry(3, storage_read, vec4, wgpu::ShaderStages::FRAGMENT),
-                binding::buffer_entry(4, storage_read, vec4, wgpu::ShaderStages::FRAGMENT),
-            ],
-        });
         let compute_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("stratus compute"),
             entries: &[
@@ -61,9 +44,9 @@ impl StratusPass {
         let compute_layout_full = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
             label: Some("stratus compute"),
             bind_group_layouts: &[
-                Some(frame_layout),
+                Some(frame.frame),
                 Some(&compute_layout),
-                Some(atmosphere_layout),
+                Some(frame.atmosphere),
             ],
             immediate_size: 0,
         });
@@ -81,16 +64,7 @@ impl StratusPass {
         let inputs_pipeline = compute_pipeline("radiosity_inputs");
 
         let layer_module = shader::create_module(device, "stratus layer", &layer_shader_source());
-        let layer_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-            label: Some("stratus layer"),
-            bind_group_layouts: &[
-                Some(frame_layout),
-                Some(cloud_shadow_layout),
-                Some(atmosphere_layout),
-                Some(&lookup_layout),
-            ],
-            immediate_size: 0,
-        });
+        let layer_layout = frame.pipeline_layout(device, "stratus layer", None);
         let layer_pipeline = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
             label: Some("stratus layer"),
             layout: Some(&layer_layout),
@@ -123,8 +97,7 @@ impl StratusPass {
             cache: None,
         });
         Self {
-            uniform,
-            lookup_layout,
+            uniform: cloud_lighting.layer_uniform_buffer().clone(),
             compute_layout,
             thickness_pipeline,
             inputs_pipeline,

@@ -2,8 +2,9 @@
 //! [`nimbus_physics::terrain`]) as a mesh plus its albedo map, and draws it
 //! lit by the sun and sky.
 //!
-//! The albedo map ([`TerrainPass::albedo_view`]) is bound at group 1 with
-//! the cloud shadow map beside it (bindings 8 and 9); the stratus layer's
+//! The albedo map ([`TerrainPass::albedo_view`]) and the sun's visibility
+//! over the terrain are bound at group 1; the clouds' shadows come from the
+//! frame's group 3 ([`crate::frame::cloud_lighting`]). The stratus layer's
 //! radiosity reads the ground's reflectance from the terrain on the CPU
 //! (`RadiosityGrid::ground_reflectance`), and the rain stops on the
 //! terrain's triangles ([`TerrainPass::occluder_geometry`]), not on the map.
@@ -11,8 +12,8 @@
 use crate::core::binding;
 use crate::core::limits::{self, LimitError};
 use crate::core::targets::{DEPTH_FORMAT, HDR_FORMAT};
-use crate::frame::cloud_shadow::CloudShadowMap;
 use crate::frame::occluders::OccluderGeometry;
+use crate::frame::{FrameBindings, FrameLayouts};
 use crate::shader::{self, WgslFile};
 use bytemuck::{Pod, Zeroable};
 use nimbus_physics::terrain::{self, Terrain, TerrainParams};
@@ -98,22 +99,13 @@ pub struct TerrainPass {
 
 impl TerrainPass {
     /// Creates the pipeline; the mesh is built by [`Self::prepare`].
-    pub fn new(
-        device: &wgpu::Device,
-        frame_layout: &wgpu::BindGroupLayout,
-        atmosphere_layout: &wgpu::BindGroupLayout,
-        stratus_layout: &wgpu::BindGroupLayout,
-    ) -> Self {
-        let [shadow_uniform, shadow_map] =
-            CloudShadowMap::layout_entries(wgpu::ShaderStages::FRAGMENT);
+    pub fn new(device: &wgpu::Device, frame: &FrameLayouts<'_>) -> Self {
         let group_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("terrain albedo"),
             entries: &[
                 binding::texture_2d_entry(0, true),
                 binding::filtering_sampler_entry(1),
                 binding::texture_2d_entry(2, true),
-                shadow_uniform,
-                shadow_map,
             ],
         });
         let sampler = device.create_sampler(&wgpu::SamplerDescriptor {
@@ -123,16 +115,7 @@ impl TerrainPass {
             ..Default::default()
         });
         let module = shader::create_module(device, "terrain", &shader_source());
-        let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-            label: Some("terrain"),
-            bind_group_layouts: &[
-                Some(frame_layout),
-                Some(&group_layout),
-                Some(atmosphere_layout),
-                Some(stratus_layout),
-            ],
-            immediate_size: 0,
-        });
+        let layout = frame.pipeline_layout(device, "terrain", Some(&group_layout));
         let pipeline = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
             label: Some("terrain"),
             layout: Some(&layout),
@@ -184,7 +167,6 @@ impl TerrainPass {
         device: &wgpu::Device,
         queue: &wgpu::Queue,
         params: &TerrainParams,
-        cloud_shadow: &CloudShadowMap,
     ) -> Result<(), LimitError> {
         if self.mesh.as_ref().is_some_and(|m| &m.params == params) {
             return Ok(());
@@ -243,13 +225,10 @@ impl TerrainPass {
             view_formats: &[],
         });
         let sun_visibility_view = sun_visibility.create_view(&Default::default());
-        let [shadow_uniform, shadow_map] = cloud_shadow.bind_group_entries();
         let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("terrain albedo"),
             layout: &self.group_layout,
             entries: &[
-                shadow_uniform,
-                shadow_map,
                 wgpu::BindGroupEntry {
                     binding: 0,
                     resource: wgpu::BindingResource::TextureView(&albedo_view),
@@ -342,19 +321,10 @@ impl TerrainPass {
     }
 
     /// Records the draw into `pass`.
-    pub fn draw(
-        &self,
-        pass: &mut wgpu::RenderPass<'_>,
-        frame: &wgpu::BindGroup,
-        atmosphere: &wgpu::BindGroup,
-        stratus: &wgpu::BindGroup,
-    ) {
+    pub fn draw(&self, pass: &mut wgpu::RenderPass<'_>, frame: &FrameBindings<'_>) {
         let Some(mesh) = &self.mesh else { return };
         pass.set_pipeline(&self.pipeline);
-        pass.set_bind_group(0, frame, &[]);
-        pass.set_bind_group(1, &mesh.bind_group, &[]);
-        pass.set_bind_group(2, atmosphere, &[]);
-        pass.set_bind_group(3, stratus, &[]);
+        frame.set_on_render_pass(pass, Some(&mesh.bind_group));
         pass.set_vertex_buffer(0, mesh.vertices.slice(..));
         pass.set_index_buffer(mesh.indices.slice(..), wgpu::IndexFormat::Uint32);
         pass.draw_indexed(0..mesh.index_count, 0, 0..1);

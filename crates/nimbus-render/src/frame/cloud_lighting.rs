@@ -1,0 +1,273 @@
+//! The clouds' lighting, read by every pass that draws what the clouds
+//! light or shade (terrain, objects, the stratus layer, the cumulus bodies,
+//! the rain): bind group 3 of the drawing passes.
+//!
+//! | binding | what | written by | WGSL |
+//! |---|---|---|---|
+//! | 0 | the stratus layer's uniform ([`StratusUniform`]) | stratus pass (prepare) | `shader/cloud_layer_lookup.wgsl` |
+//! | 1 | the layer's thickness window (R32Float, m) | stratus pass (compute) | idem |
+//! | 2 | the layer's phase tables P_S, P², P_F | stratus pass (when the droplets change) | idem |
+//! | 3 | R_G, the radiosity received by the ground | radiosity iterations | idem |
+//! | 4 | R_C, the radiosity received by the cloud base | radiosity iterations | idem |
+//! | 8 | the cloud shadow map's uniform | cumulus pass | `shader/cloud_shadow_uniform.wgsl` |
+//! | 9 | the cloud shadow map (nearest and farthest core depth) | cumulus pass | `shader/cloud_shadow_lookup.wgsl` |
+//!
+//! [`CloudLighting`] owns the layout, the bind group, the uniform, the phase
+//! tables and the [`CloudShadowMap`]; the thickness window and the radiosity
+//! fields are sized by the layer and handed in by the stratus pass
+//! ([`CloudLighting::set_layer`]). Without a layer the group holds small
+//! placeholders and a uniform that says "no layer", so the group always
+//! exists and no pass depends on another to draw.
+
+use crate::core::binding;
+use crate::frame::cloud_shadow::CloudShadowMap;
+use bytemuck::{Pod, Zeroable};
+
+/// Texels of the P_S and P² tables over 0–180°.
+pub const PHASE_TEXELS: usize = 1024;
+/// Texels of the P_F table over 0–θ_f.
+pub const PEAK_TEXELS: usize = 256;
+/// GPU layout of WGSL `Stratus` (`shader/cloud_layer_field.wgsl`); see it for each field.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct StratusUniform {
+    /// 1/feature size (1/m), edge threshold n_c, ramp width, thickest cells (m).
+    pub shape: [f32; 4],
+    /// Wind drift (x, z) m ([`crate::scene::Scene::cloud_drift_m`]), 1/evolution time (1/s), time (s).
+    pub motion: [f32; 4],
+    /// Mid-plane height (m), window side (m), window min corner (x, z) (m).
+    pub window: [f32; 4],
+    /// Extinction κ per channel (1/m), forward-peak half-angle θ_f (rad).
+    pub extinction: [f32; 4],
+    /// Forward-peak weight P_f per channel.
+    pub forward_fraction: [f32; 4],
+    /// Mean square angle of P_F per channel, rad².
+    pub forward_spread: [f32; 4],
+    /// 1-D model at the sun's zenith: b, c (1/m), κ_c (1/m), t.
+    pub slab: [f32; 4],
+    /// 1-D model: r, β.
+    pub slab_r_beta: [f32; 4],
+    /// Radiosity grid min corner (x, z) (m), texel size (m), mean ground height (m).
+    pub radiosity: [f32; 4],
+    /// Layer present (0/1), octaves, seed, thickness-window texels per side.
+    pub flags: [u32; 4],
+    /// P_S/P² texels, P_F texels, radiosity texels per side, both faces drawn (0/1).
+    pub sizes: [u32; 4],
+}
+
+/// The layer-sized resources of group 3, owned by the stratus pass.
+#[derive(Clone, Copy, Debug)]
+pub struct CloudLayerResources<'a> {
+    /// The thickness window (R32Float, m; binding 1).
+    pub thickness: &'a wgpu::TextureView,
+    /// R_G, one `vec4<f32>` per radiosity texel (binding 3).
+    pub ground_received: &'a wgpu::Buffer,
+    /// R_C, one `vec4<f32>` per radiosity texel (binding 4).
+    pub cloud_received: &'a wgpu::Buffer,
+}
+
+/// Placeholders bound while there is no layer: a 1×1 thickness of 0 and
+/// one radiosity texel.
+#[derive(Debug)]
+struct Placeholders {
+    thickness: wgpu::TextureView,
+    ground_received: wgpu::Buffer,
+    cloud_received: wgpu::Buffer,
+}
+
+/// Group 3 of the drawing passes: the stratus layer's lighting and the
+/// cloud shadow map (see the module's table).
+#[derive(Debug)]
+pub struct CloudLighting {
+    uniform: wgpu::Buffer,
+    phase_tables: wgpu::Buffer,
+    shadow: CloudShadowMap,
+    layout: wgpu::BindGroupLayout,
+    placeholders: Placeholders,
+    bind_group: wgpu::BindGroup,
+}
+
+/// Bytes of one `vec4<f32>`.
+const VEC4_BYTES: u64 = 16;
+
+impl CloudLighting {
+    /// Values in the phase-table buffer: P_S and P² over 0–180°
+    /// ([`PHASE_TEXELS`] each), then P_F over 0–θ_f ([`PEAK_TEXELS`]).
+    pub const PHASE_TABLE_TEXELS: usize = 2 * PHASE_TEXELS + PEAK_TEXELS;
+
+    /// Creates the group with no layer and an empty shadow map.
+    pub fn new(device: &wgpu::Device, queue: &wgpu::Queue) -> Self {
+        let uniform_size = std::mem::size_of::<StratusUniform>() as u64;
+        let uniform = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("stratus uniform"),
+            size: uniform_size,
+            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        let phase_tables = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("stratus phase tables"),
+            size: Self::PHASE_TABLE_TEXELS as u64 * VEC4_BYTES,
+            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        let shadow = CloudShadowMap::new(device, queue);
+        let draw = wgpu::ShaderStages::VERTEX_FRAGMENT;
+        let compute = wgpu::ShaderStages::COMPUTE;
+        let storage_read = wgpu::BufferBindingType::Storage { read_only: true };
+        let [shadow_uniform, shadow_map] = CloudShadowMap::layout_entries(draw);
+        let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("cloud lighting"),
+            entries: &[
+                // The layer's shape is also for compute passes (and the
+                // tests' kernels) that need to know where the cloud is.
+                binding::uniform_layout_entry(0, draw | compute, uniform_size),
+                binding::texture_entry(1, wgpu::TextureViewDimension::D2, false, draw | compute),
+                binding::buffer_entry(2, storage_read, VEC4_BYTES, draw),
+                binding::buffer_entry(3, storage_read, VEC4_BYTES, wgpu::ShaderStages::FRAGMENT),
+                binding::buffer_entry(4, storage_read, VEC4_BYTES, wgpu::ShaderStages::FRAGMENT),
+                shadow_uniform,
+                shadow_map,
+            ],
+        });
+        let radiosity_texel = |label| {
+            device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some(label),
+                size: VEC4_BYTES,
+                usage: wgpu::BufferUsages::STORAGE,
+                mapped_at_creation: true,
+            })
+        };
+        let placeholders = Placeholders {
+            thickness: device
+                .create_texture(&wgpu::TextureDescriptor {
+                    label: Some("no stratus thickness"),
+                    size: wgpu::Extent3d {
+                        width: 1,
+                        height: 1,
+                        depth_or_array_layers: 1,
+                    },
+                    mip_level_count: 1,
+                    sample_count: 1,
+                    dimension: wgpu::TextureDimension::D2,
+                    format: wgpu::TextureFormat::R32Float,
+                    usage: wgpu::TextureUsages::TEXTURE_BINDING,
+                    view_formats: &[],
+                })
+                .create_view(&Default::default()),
+            ground_received: radiosity_texel("no radiosity (ground)"),
+            cloud_received: radiosity_texel("no radiosity (cloud)"),
+        };
+        // Mapped at creation: zero-filled, then unmapped for the GPU.
+        placeholders.ground_received.unmap();
+        placeholders.cloud_received.unmap();
+        let bind_group = Self::make_group(
+            device,
+            &layout,
+            &uniform,
+            &phase_tables,
+            &shadow,
+            CloudLayerResources {
+                thickness: &placeholders.thickness,
+                ground_received: &placeholders.ground_received,
+                cloud_received: &placeholders.cloud_received,
+            },
+        );
+        let lighting = Self {
+            uniform,
+            phase_tables,
+            shadow,
+            layout,
+            placeholders,
+            bind_group,
+        };
+        lighting.write_layer_uniform(queue, &StratusUniform::default());
+        lighting
+    }
+
+    fn make_group(
+        device: &wgpu::Device,
+        layout: &wgpu::BindGroupLayout,
+        uniform: &wgpu::Buffer,
+        phase_tables: &wgpu::Buffer,
+        shadow: &CloudShadowMap,
+        layer: CloudLayerResources<'_>,
+    ) -> wgpu::BindGroup {
+        let [shadow_uniform, shadow_map] = shadow.bind_group_entries();
+        let layer_entries = [
+            uniform.as_entire_binding(),
+            wgpu::BindingResource::TextureView(layer.thickness),
+            phase_tables.as_entire_binding(),
+            layer.ground_received.as_entire_binding(),
+            layer.cloud_received.as_entire_binding(),
+        ];
+        let entries: Vec<wgpu::BindGroupEntry<'_>> = layer_entries
+            .into_iter()
+            .enumerate()
+            .map(|(binding, resource)| wgpu::BindGroupEntry {
+                binding: binding as u32,
+                resource,
+            })
+            .chain([shadow_uniform, shadow_map])
+            .collect();
+        device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("cloud lighting"),
+            layout,
+            entries: &entries,
+        })
+    }
+
+    /// Binds the layer's thickness window and radiosity fields (when the
+    /// stratus pass rebuilt them), or the placeholders for `None` (no layer).
+    pub fn set_layer(&mut self, device: &wgpu::Device, layer: Option<CloudLayerResources<'_>>) {
+        let placeholders = CloudLayerResources {
+            thickness: &self.placeholders.thickness,
+            ground_received: &self.placeholders.ground_received,
+            cloud_received: &self.placeholders.cloud_received,
+        };
+        self.bind_group = Self::make_group(
+            device,
+            &self.layout,
+            &self.uniform,
+            &self.phase_tables,
+            &self.shadow,
+            layer.unwrap_or(placeholders),
+        );
+    }
+
+    /// Writes the layer's uniform (binding 0).
+    pub fn write_layer_uniform(&self, queue: &wgpu::Queue, value: &StratusUniform) {
+        queue.write_buffer(&self.uniform, 0, bytemuck::bytes_of(value));
+    }
+
+    /// Writes the phase tables (binding 2): [`Self::PHASE_TABLE_TEXELS`]
+    /// values of RGB and an unused lane.
+    pub fn write_phase_tables(&self, queue: &wgpu::Queue, texels: &[[f32; 4]]) {
+        debug_assert_eq!(texels.len(), Self::PHASE_TABLE_TEXELS);
+        let count = texels.len().min(Self::PHASE_TABLE_TEXELS);
+        queue.write_buffer(
+            &self.phase_tables,
+            0,
+            bytemuck::cast_slice(&texels[..count]),
+        );
+    }
+
+    /// The layer's uniform buffer (for the stratus pass's compute group).
+    pub fn layer_uniform_buffer(&self) -> &wgpu::Buffer {
+        &self.uniform
+    }
+
+    /// The cloud shadow map (bindings 8 and 9), drawn by the cumulus pass.
+    pub fn shadow(&self) -> &CloudShadowMap {
+        &self.shadow
+    }
+
+    /// Layout of group 3.
+    pub fn layout(&self) -> &wgpu::BindGroupLayout {
+        &self.layout
+    }
+
+    /// Group 3.
+    pub fn bind_group(&self) -> &wgpu::BindGroup {
+        &self.bind_group
+    }
+}
