@@ -1,7 +1,10 @@
 //! The cloud field per frame: placing, drifting with the wind, culling against the frustum, choosing the level of detail, and the shadow map's transform.
 
-#[allow(unused_imports)]
-use super::*;
+use super::gpu_types::{BUMP_LACUNARITY, CumulusInstance};
+use super::variants::CumulusVariant;
+use super::{FieldCloud, LOD_CELL_PX};
+use glam::{DVec3, Mat4, Vec3, Vec4};
+use nimbus_physics::cumulus::cloud_field::CloudInstance;
 
 /// Shadow clip space from world space: orthographic along the light
 /// (towards −`to_sun`) over the given bounding spheres; x, y in [−1, 1]

@@ -1,7 +1,11 @@
 //! GPU layouts of the cumulus uniform, vertices and instances, and the placement of a cloud in the world.
 
-#[allow(unused_imports)]
-use super::*;
+use super::variants::CumulusVertex;
+use crate::scene::CumulusSettings;
+use bytemuck::{Pod, Zeroable};
+use glam::DVec3;
+use nimbus_physics::atmosphere::AtmosphereParams;
+use nimbus_physics::cumulus::shading::LightTrapModel;
 
 /// GPU layout of the shader's parameters (WGSL `Cumulus`).
 #[repr(C)]

@@ -22,23 +22,13 @@
 
 pub mod variants;
 
-use crate::core::binding;
-use crate::core::targets::{DEPTH_FORMAT, HDR_FORMAT};
 pub use crate::frame::cloud_shadow::{CloudShadowMap, CloudShadowUniform, SHADOW_MAP_SIZE};
-use crate::frame::{
-    CLOUD_LIGHTING_GROUP, FRAME_GROUP, FrameBindings, FrameLayouts, FrameUniform, PASS_GROUP,
-};
-use crate::scene::{CumulusSettings, Scene};
+use crate::scene::CumulusSettings;
 use crate::shader::{self, WgslFile};
-use bytemuck::{Pod, Zeroable};
-use glam::{DVec3, Mat4, Vec3, Vec4};
-use nimbus_physics::atmosphere::AtmosphereParams;
-use nimbus_physics::cumulus::cloud_field::{CloudFieldParams, CloudInstance, place_clouds};
-use nimbus_physics::cumulus::shading::{CLOUD_ASYMMETRY, LightTrapModel};
+use glam::DVec3;
 use std::ops::Range;
 use std::sync::Arc;
-use variants::{CumulusVariant, CumulusVertex, VariantParams};
-use wgpu::util::DeviceExt;
+use variants::{CumulusVariant, VariantParams};
 
 /// The shader's terms (CPU twin: `nimbus_physics::cumulus::shading`).
 pub const SHADING: WgslFile = WgslFile {
@@ -92,16 +82,9 @@ mod gpu_types;
 mod node;
 mod prepare;
 mod resources;
-#[allow(unused_imports)]
-pub use field::*;
-#[allow(unused_imports)]
-pub use gpu_types::*;
-#[allow(unused_imports)]
-pub use node::*;
-#[allow(unused_imports)]
-pub use prepare::*;
-#[allow(unused_imports)]
-pub use resources::*;
+
+pub use field::{level_of_detail, shadow_clip_from_world, sphere_in_frustum};
+pub use gpu_types::{BUMP_LACUNARITY, CloudPlacement, CumulusInstance, CumulusUniform};
 /// Level of detail drawn into the shadow map (clamped to what exists): its
 /// cells (a last-level blob radius) match the map's texels of ~10 m.
 const SHADOW_LOD: usize = 1;
@@ -192,6 +175,7 @@ pub struct CumulusPass {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use glam::Vec3;
 
     #[test]
     fn shadow_transform_maps_the_spheres_into_the_unit_box() {

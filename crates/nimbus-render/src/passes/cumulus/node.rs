@@ -1,7 +1,9 @@
 //! The encode step: the shadow map, the opaque bodies, the fringes' order-independent accumulation (weighted blended OIT) and its composite.
 
-#[allow(unused_imports)]
-use super::*;
+use super::{CumulusPass, Draw, FringeTargets};
+use crate::core::binding;
+use crate::frame::cloud_shadow::CloudShadowMap;
+use crate::frame::{CLOUD_LIGHTING_GROUP, FRAME_GROUP, FrameBindings, PASS_GROUP};
 
 impl CumulusPass {
     pub(super) fn ensure_fringe_targets(&mut self, device: &wgpu::Device, width: u32, height: u32) {

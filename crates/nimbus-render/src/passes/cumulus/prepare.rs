@@ -1,7 +1,21 @@
 //! Per-frame preparation: shapes generated or loaded, the field placed, this frame's instances selected and uploaded.
 
-#[allow(unused_imports)]
-use super::*;
+use super::field::{
+    drifted_cloud, field_cloud, level_of_detail, shadow_clip_from_world, sphere_in_frustum,
+};
+use super::gpu_types::{CloudPlacement, CumulusInstance, CumulusUniform};
+use super::variants::VariantParams;
+use super::{
+    CumulusError, CumulusPass, Draw, FieldKey, GpuLod, GpuVariant, SHADOW_FILTER_TEXELS,
+    SHADOW_LOD, variants,
+};
+use crate::frame::FrameUniform;
+use crate::frame::cloud_shadow::{CloudShadowMap, CloudShadowUniform, SHADOW_MAP_SIZE};
+use crate::scene::{CumulusSettings, MAX_CLOUDS, Scene};
+use glam::{DVec3, Vec3};
+use nimbus_physics::cumulus::cloud_field::{CloudFieldParams, CloudInstance, place_clouds};
+use nimbus_physics::cumulus::shading::CLOUD_ASYMMETRY;
+use wgpu::util::DeviceExt;
 
 impl CumulusPass {
     /// Whether the frame has clouds to draw.

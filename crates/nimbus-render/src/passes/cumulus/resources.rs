@@ -1,7 +1,13 @@
 //! The cumulus pass's pipelines and layouts, created once.
 
-#[allow(unused_imports)]
-use super::*;
+use super::gpu_types::{CumulusUniform, vertex_layouts};
+use super::node::{ACCUMULATION_FORMAT, REVEALAGE_FORMAT};
+use super::{CumulusPass, composite_shader_source, draw_shader_source, shadow_shader_source};
+use crate::core::binding;
+use crate::core::targets::{DEPTH_FORMAT, HDR_FORMAT};
+use crate::frame::FrameLayouts;
+use crate::frame::cloud_shadow::CloudShadowMap;
+use crate::shader;
 
 pub(super) fn pipeline_descriptor_depth(
     write: bool,

@@ -1,7 +1,9 @@
 //! GPU layouts of the rain's uniforms and drops (twins of `rain_types.wgsl`), and how many drops a buffer holds.
 
-#[allow(unused_imports)]
-use super::*;
+use super::{DROP_BYTES, MAX_WORKGROUPS_PER_DISPATCH, WORKGROUP_SIZE};
+use bytemuck::{Pod, Zeroable};
+use nimbus_physics::rain::drop_optics::KERNEL_BINS;
+use nimbus_physics::rain::wind::MAX_WIND_PRIMITIVES;
 
 /// GPU layout of a wind primitive (WGSL `WindPrimitive`).
 #[repr(C)]

@@ -12,22 +12,13 @@
 //! view (`visibility.wgsl`); [`RainPass::draw`] draws the streaks (indirect)
 //! and splashes; [`RainPass::draw_mist`] lays the mist over the frame.
 
-use crate::core::binding::{self, buffer_entry, uniform_layout_entry};
-use crate::core::limits::{self, LimitError};
-use crate::core::targets::{DEPTH_FORMAT, HDR_FORMAT};
-use crate::frame::occluders::OccluderGeometry;
-use crate::frame::{Camera, FRAME_GROUP, FrameBindings, FrameLayouts, PASS_GROUP};
+use crate::core::limits::LimitError;
 use crate::scene::{FileStamp, RainBoxKind, RainSettings, Scene};
 use crate::shader::{self, WgslFile};
-use bytemuck::{Pod, Zeroable};
-use glam::{Mat4, Vec3};
-use nimbus_physics::rain::drag::terminal_speed_m_s_f32;
-use nimbus_physics::rain::drop_optics::{DropTransfer, KERNEL_BINS};
-use nimbus_physics::rain::dsd::mean_sampled_diameter_mm;
-use nimbus_physics::rain::rain_box::{RainBox, RainBoxShape, orthonormal_basis};
-use nimbus_physics::rain::simulation::{MAX_STEPS_PER_FRAME, RainParams, target_drop_count};
-use nimbus_physics::rain::wind::{MAX_WIND_PRIMITIVES, WindField};
-use nimbus_physics::rain::zones::{RainArea, RainZones, smoothstep};
+use glam::Vec3;
+use nimbus_physics::rain::drop_optics::DropTransfer;
+use nimbus_physics::rain::wind::WindField;
+use nimbus_physics::rain::zones::RainZones;
 
 pub use nimbus_physics::rain::simulation::STEP_S;
 
@@ -36,16 +27,12 @@ mod node;
 mod prepare;
 mod resources;
 mod settings;
-#[allow(unused_imports)]
-pub use gpu_types::*;
-#[allow(unused_imports)]
-pub use node::*;
-#[allow(unused_imports)]
-pub use prepare::*;
-#[allow(unused_imports)]
-pub use resources::*;
-#[allow(unused_imports)]
-pub use settings::*;
+
+pub use gpu_types::{
+    DropGpu, RainSegmentUniform, RainStepUniform, RainUniform, WindPrimitiveUniform,
+    drops_per_buffer,
+};
+pub use settings::{mean_rain_direction, occlusion_from_world, rain_box, rain_params, rain_zones};
 
 const RAIN_TYPES_WGSL: WgslFile = WgslFile {
     name: "passes/rain/rain_types.wgsl",

@@ -1,7 +1,11 @@
 //! The encode step: the simulation and visibility compute, the streaks and splashes, the mist.
 
-#[allow(unused_imports)]
-use super::*;
+use super::{
+    DropSegment, RainPass, RainState, SPLASH_CAPACITY, SPLASH_DROPLETS, STEP_STRIDE, WORKGROUP_SIZE,
+};
+use crate::core::binding;
+use crate::frame::occluders::OccluderGeometry;
+use crate::frame::{FRAME_GROUP, FrameBindings, PASS_GROUP};
 
 impl RainPass {
     /// Records the rain shadow map (when it must be redrawn), the

@@ -1,7 +1,22 @@
 //! Per-frame preparation: the state built for the settings, the drop buffers grown to the target count, the steps planned.
 
-#[allow(unused_imports)]
-use super::*;
+use super::gpu_types::{RainSegmentUniform, RainStepUniform, drops_per_buffer};
+use super::settings::{
+    mean_rain_direction, occlusion_from_world, rain_box, rain_params, rain_uniform, rain_zones,
+    step_uniform,
+};
+use super::{
+    DROP_BYTES, DropBuffers, DropSegment, FramePlan, OCCLUSION_REACH_ABOVE_M, OcclusionView,
+    RainError, RainKey, RainPass, RainState, SPLASH_BYTES, SPLASH_CAPACITY, STEP_STRIDE,
+    SharedBuffers, ZONE_MAP_SIZE, ZonesKey,
+};
+use crate::core::{binding, limits};
+use crate::frame::Camera;
+use crate::scene::Scene;
+use glam::Vec3;
+use nimbus_physics::rain::simulation::{MAX_STEPS_PER_FRAME, STEP_S, target_drop_count};
+use nimbus_physics::rain::wind::WindField;
+use nimbus_physics::rain::zones::RainZones;
 
 impl RainPass {
     pub(super) fn create_state(

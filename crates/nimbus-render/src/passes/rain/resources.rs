@@ -1,7 +1,18 @@
 //! The rain pass's pipelines and bind-group layouts, created once.
 
-#[allow(unused_imports)]
-use super::*;
+use super::gpu_types::{RainSegmentUniform, RainStepUniform, RainUniform};
+use super::{
+    DROP_BYTES, FramePlan, OCCLUSION_MAP_SIZE, RainPass, SPLASH_BYTES, STEP_STRIDE,
+    mist_shader_source, occluders_shader_source, simulation_shader_source, streaks_shader_source,
+    visibility_shader_source,
+};
+use crate::core::binding;
+use crate::core::binding::{buffer_entry, uniform_layout_entry};
+use crate::core::targets::{DEPTH_FORMAT, HDR_FORMAT};
+use crate::frame::FrameLayouts;
+use nimbus_physics::rain::drop_optics::DropTransfer;
+use nimbus_physics::rain::simulation::MAX_STEPS_PER_FRAME;
+use nimbus_physics::rain::zones::RainZones;
 
 pub(super) fn compute_pipeline(
     device: &wgpu::Device,

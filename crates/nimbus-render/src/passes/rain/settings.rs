@@ -1,7 +1,17 @@
 //! The scene's rain settings converted for the GPU: the rain box at the camera, the physics parameters and zones, the occlusion view and the uniforms.
 
-#[allow(unused_imports)]
-use super::*;
+use super::gpu_types::{RainStepUniform, RainUniform, WindPrimitiveUniform};
+use super::{RainState, SPLASH_CAPACITY, ZONE_MAP_SIZE};
+use crate::frame::Camera;
+use crate::scene::{RainBoxKind, RainSettings, Scene};
+use glam::{Mat4, Vec3};
+use nimbus_physics::rain::drag::terminal_speed_m_s_f32;
+use nimbus_physics::rain::drop_optics::DropTransfer;
+use nimbus_physics::rain::dsd::mean_sampled_diameter_mm;
+use nimbus_physics::rain::rain_box::{RainBox, RainBoxShape, orthonormal_basis};
+use nimbus_physics::rain::simulation::{RainParams, STEP_S};
+use nimbus_physics::rain::wind::MAX_WIND_PRIMITIVES;
+use nimbus_physics::rain::zones::{RainArea, RainZones, smoothstep};
 
 /// The rain box of the scene's settings at the camera.
 pub fn rain_box(settings: &RainSettings, camera: &Camera) -> RainBox {
