@@ -20,11 +20,11 @@
 //! and 0.40; the paper's weights favour the near field. [`exact_irradiance`]
 //! gives the exact integral for comparison.)
 //!
-//! **Iteration (§5.2).** Initialisation: R_G = S_Gⁱ = S_G^sky + E[S_C] (the
+//! **Iteration (§5.2).** Initialisation: R_G = S_Gⁱ = S_G^sky + E\[S_C\] (the
 //! sky and the light the cloud base transmits), dR_G = ρ_G (S_G^d + S_Gⁱ),
 //! R_C = dR_C = 0. Each iteration then runs ground → cloud
-//! (E = E[dR_G]; R_C += E; dR_C = ρ_C E) and cloud → ground
-//! (E = E[dR_C]; R_G += E; dR_G = ρ_G E). The terrain is lit by S_G^d + R_G
+//! (E = E\[dR_G\]; R_C += E; dR_C = ρ_C E) and cloud → ground
+//! (E = E\[dR_C\]; R_G += E; dR_G = ρ_G E). The terrain is lit by S_G^d + R_G
 //! (the direct sun kept apart at full resolution), the cloud base by R_C.
 
 /// A square field of RGB values over one plane.

@@ -108,13 +108,13 @@ fn no_module_imports_a_higher_layer_or_a_sibling_pass() {
     for path in &sources {
         let relative = path
             .strip_prefix(&src)
-            .unwrap()
+            .expect("a file under src/")
             .to_string_lossy()
             .replace('\\', "/");
         let Some(from) = module_of(&relative) else {
             continue;
         };
-        let text = std::fs::read_to_string(path).unwrap();
+        let text = std::fs::read_to_string(path).expect("a readable source file");
         for to in rust_imports(&text) {
             if !LAYERS.contains(&to.split("::").next().unwrap_or("")) {
                 violations.push(format!(
@@ -135,11 +135,14 @@ fn no_module_imports_a_higher_layer_or_a_sibling_pass() {
     for path in &wgsl {
         let relative = path
             .strip_prefix(&src)
-            .unwrap()
+            .expect("a file under src/")
             .to_string_lossy()
             .replace('\\', "/");
         let from = module_of(&relative).expect("WGSL lives in a module");
-        for line in std::fs::read_to_string(path).unwrap().lines() {
+        for line in std::fs::read_to_string(path)
+            .expect("a readable WGSL file")
+            .lines()
+        {
             if let Some(name) = line.strip_prefix("// import ") {
                 let to = module_of(name.trim()).expect("an import names a module's file");
                 if !allowed(&from, &to) {

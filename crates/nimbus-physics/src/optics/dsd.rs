@@ -34,12 +34,12 @@
 //! the nodes' offset: summed over the resonances narrower than h, an error
 //! that falls only as h (it set the spacing, 1/128, and the cost of the
 //! paper's case before). So the resonances narrower than
-//! [`RESONANCE_MAX_WIDTH`] are integrated analytically. On a resonance the
+//! `RESONANCE_MAX_WIDTH` are integrated analytically. On a resonance the
 //! coefficient is c = λ/(1 − is) with s = (x − x_r)/Γ (λ < 1 with
 //! absorption), and the intensity is I⁰ + L/(1 + s²) + D s/(1 + s²) exactly
 //! (see [`accumulate_resonance`]), with L and D smooth in x: frozen at the
 //! peak, their exact integrals (πΓL and 0) replace their trapezoid sums over
-//! the nodes, which have closed forms ([`lattice_sums`]). The rest of the
+//! the nodes, which have closed forms (`lattice_sums`). The rest of the
 //! integrand is smooth and left to the trapezoid rule. The smallest
 //! resonances, which together hold less than a thousandth of the tolerance,
 //! are left to the grid. Checked against the plain trapezoid rule at 1/8192

@@ -199,6 +199,7 @@ impl HeadlessRenderer {
 
     /// Renders one view and reads back its radiance (exposure undone) and,
     /// when asked, its depth buffer (reverse-Z values, 0 at the far plane).
+    #[allow(clippy::type_complexity)] // a pair of row-major buffers, named at the call sites
     fn render_view_hdr(
         &mut self,
         scene: &Scene,

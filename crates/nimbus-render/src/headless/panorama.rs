@@ -157,7 +157,7 @@ pub fn aces_fitted(color: [f32; 3]) -> [f32; 3] {
     let v = multiply(&INPUT, color);
     let fitted = v.map(|v| {
         let a = v * (v + 0.0245786) - 0.000090537;
-        let b = v * (0.983729 * v + 0.4329510) + 0.238081;
+        let b = v * (0.983729 * v + 0.432_951) + 0.238081;
         a / b
     });
     multiply(&OUTPUT, fitted).map(|c| c.clamp(0.0, 1.0))

@@ -47,7 +47,7 @@ pub enum TargetLoad {
     /// Clear the HDR target and the depth buffer (to the far plane, 0 under reverse-Z).
     #[default]
     Clear,
-    /// Keep the caller's depth (and anything drawn into [`Renderer::hdr_view`]):
+    /// Keep the caller's depth (and anything drawn into [`Renderer::hdr_target`]):
     /// the sky fills only pixels still at the far plane and the terrain is depth-tested.
     Keep,
 }

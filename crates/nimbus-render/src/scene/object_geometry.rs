@@ -1,5 +1,5 @@
 //! CPU geometry of the static objects: boxes built from their size and glTF
-//! meshes (read by [`super::gltf_mesh`]), both baked into one world-space
+//! meshes (read by [`crate::scene::gltf`]), both baked into one world-space
 //! triangle list (the objects never move, so there is no per-object
 //! transform on the GPU).
 

@@ -335,22 +335,25 @@ mod tests {
     fn hdr_flip_matches_nvidias_implementation() {
         let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
         let data: serde_json::Value = serde_json::from_str(
-            &std::fs::read_to_string(root.join("tests/data/flip_nvidia.json")).unwrap(),
+            &std::fs::read_to_string(root.join("tests/data/flip_nvidia.json"))
+                .expect("the stored NVIDIA results"),
         )
-        .unwrap();
+        .expect("valid JSON");
         let load = |name: &str| {
             let path = root.join(format!("../../scenes/realism/references/{name}.exr"));
-            super::super::read_exr(&path).unwrap().image
+            super::super::read_exr(&path)
+                .expect("a stored reference")
+                .image
         };
-        let pairs = data["pairs"].as_array().unwrap();
+        let pairs = data["pairs"].as_array().expect("an array field");
         assert_eq!(pairs.len(), 4);
         for pair in pairs {
-            let reference = load(pair["reference"].as_str().unwrap());
+            let reference = load(pair["reference"].as_str().expect("a string field"));
             let scale: Vec<f32> = pair["test_scale"]
                 .as_array()
-                .unwrap()
+                .expect("an array field")
                 .iter()
-                .map(|v| v.as_f64().unwrap() as f32)
+                .map(|v| v.as_f64().expect("a number field") as f32)
                 .collect();
             let test = if pair["test"] == "checkerboard" {
                 // The reference × (1 ± 0.05) on a checkerboard, as in the script.
@@ -360,7 +363,7 @@ mod tests {
                     .iter()
                     .enumerate()
                     .map(|(i, p)| {
-                        let even = (i % width + i / width) % 2 == 0;
+                        let even = (i % width + i / width).is_multiple_of(2);
                         let factor = if even { 1.0 + scale[0] } else { 1.0 - scale[0] };
                         p.map(|c| c * factor)
                     })
@@ -370,7 +373,7 @@ mod tests {
                     ..reference.clone()
                 }
             } else {
-                let mut image = load(pair["test"].as_str().unwrap());
+                let mut image = load(pair["test"].as_str().expect("a string field"));
                 for p in &mut image.pixels {
                     for (c, s) in p.iter_mut().zip(&scale) {
                         *c *= *s;
@@ -382,14 +385,14 @@ mod tests {
             let name = format!("{} vs {}", pair["reference"], pair["test"]);
             assert_eq!(
                 exposures.len() as u64,
-                pair["exposures"].as_u64().unwrap(),
+                pair["exposures"].as_u64().expect("an integer field"),
                 "{name}"
             );
             for (ours, key) in [
                 (exposures[0], "start_exposure"),
                 (exposures[exposures.len() - 1], "stop_exposure"),
             ] {
-                let theirs = pair[key].as_f64().unwrap();
+                let theirs = pair[key].as_f64().expect("a number field");
                 assert!(
                     (ours - theirs).abs() < 1e-3,
                     "{name}: {key} {ours} vs NVIDIA's {theirs}"
@@ -397,8 +400,10 @@ mod tests {
             }
             let flip = hdr_flip(&reference, &test, PIXELS_PER_DEGREE);
             let ours = flip.iter().map(|e| f64::from(*e)).sum::<f64>() / flip.len() as f64;
-            let quantised = pair["hdr_flip_mean_8bit_exposures"].as_f64().unwrap();
-            let float = pair["hdr_flip_mean"].as_f64().unwrap();
+            let quantised = pair["hdr_flip_mean_8bit_exposures"]
+                .as_f64()
+                .expect("a number field");
+            let float = pair["hdr_flip_mean"].as_f64().expect("a number field");
             assert!(
                 (ours - quantised).abs() < 2e-4,
                 "{name}: {ours} vs NVIDIA's 8-bit pipeline {quantised}"

@@ -575,7 +575,7 @@ fn write_terrain(scene: &Scene, dir: &Path, xml: &mut String) -> anyhow::Result<
     let stride = n.div_ceil(MAX_TERRAIN_VERTICES_PER_SIDE).max(1);
     let indices: Vec<usize> = (0..n)
         .step_by(stride)
-        .chain(((n - 1) % stride != 0).then_some(n - 1))
+        .chain((!(n - 1).is_multiple_of(stride)).then_some(n - 1))
         .collect();
     let m = indices.len();
     let mut ply = format!(

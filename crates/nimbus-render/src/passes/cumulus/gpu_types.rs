@@ -94,7 +94,7 @@ pub const BUMP_LACUNARITY: f32 = 3.0;
 /// R(yaw)·(x, y, z) = (x cos yaw + z sin yaw, y, −x sin yaw + z cos yaw).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct CloudPlacement {
-    /// Index of the variant (see [`variants::VariantParams::hierarchy`]).
+    /// Index of the variant (see `VariantParams::hierarchy` in the pass's `variants` module).
     pub variant: usize,
     /// World position of the variant's origin, m.
     pub base_centre_m: DVec3,

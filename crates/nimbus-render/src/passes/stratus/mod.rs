@@ -19,7 +19,7 @@
 //!    blended with alpha 1 − τ(H_v).
 //!
 //! The phase tables (P_S, P², P_F per RGB channel) come from
-//! [`CloudOpticsTables`], computed from the scene's droplet distribution and
+//! [`nimbus_physics::optics::tables::CloudOpticsTables`], computed from the scene's droplet distribution and
 //! cached on disk ([`optics_cache_dir`]).
 
 pub mod radiosity;

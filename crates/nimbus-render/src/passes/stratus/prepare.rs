@@ -12,6 +12,9 @@ use nimbus_physics::terrain::Terrain;
 use nimbus_physics::transport::stratus::OneDimensionalTable;
 use wgpu::util::DeviceExt;
 
+/// The phase tables' texels (RGB and an unused lane): P_S, P², P_F.
+type PhaseTexels = Vec<[f32; 4]>;
+
 impl StratusPass {
     /// The radiosity pass of the current grid.
     pub fn radiosity(&self) -> Option<&RadiosityPass> {
@@ -175,7 +178,7 @@ impl StratusPass {
         queue: &wgpu::Queue,
         key: ResourceKey,
         terrain: &Terrain,
-    ) -> Result<(Resources, Option<Vec<[f32; 4]>>), StratusError> {
+    ) -> Result<(Resources, Option<PhaseTexels>), StratusError> {
         let n = key.resolution;
         let thickness = device.create_texture(&wgpu::TextureDescriptor {
             label: Some("stratus thickness"),
