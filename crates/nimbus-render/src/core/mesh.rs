@@ -1,4 +1,7 @@
-//! Index buffers of regular grids (the terrain and the stratus layer).
+//! Indexed triangle meshes on the GPU (the terrain and the static objects)
+//! and the index buffers of regular grids (the terrain and the stratus layer).
+
+use wgpu::util::DeviceExt;
 
 /// Triangle indices of a row-major n × n vertex grid: two triangles per
 /// cell, counter-clockwise seen from +Y (+Z is south, so (a, c, b) turns
@@ -14,4 +17,48 @@ pub fn grid_indices(n: u32) -> Vec<u32> {
         }
     }
     indices
+}
+
+/// An indexed triangle list on the GPU: vertices (usage `VERTEX`) and
+/// `u32` indices (usage `INDEX`).
+#[derive(Debug)]
+pub struct IndexedMesh {
+    /// The vertices.
+    pub vertices: wgpu::Buffer,
+    /// The triangle indices.
+    pub indices: wgpu::Buffer,
+    /// Number of indices (three per triangle).
+    pub index_count: u32,
+}
+
+impl IndexedMesh {
+    /// Uploads `vertices` (any `Pod` vertex type) and `indices`. Check the
+    /// sizes against the device's limits first.
+    pub fn upload<V: bytemuck::Pod>(
+        device: &wgpu::Device,
+        label: &str,
+        vertices: &[V],
+        indices: &[u32],
+    ) -> Self {
+        Self {
+            vertices: device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some(&format!("{label} vertices")),
+                contents: bytemuck::cast_slice(vertices),
+                usage: wgpu::BufferUsages::VERTEX,
+            }),
+            indices: device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some(&format!("{label} indices")),
+                contents: bytemuck::cast_slice(indices),
+                usage: wgpu::BufferUsages::INDEX,
+            }),
+            index_count: indices.len() as u32,
+        }
+    }
+
+    /// Records a draw of every triangle into `pass` (vertex buffer slot 0).
+    pub fn draw(&self, pass: &mut wgpu::RenderPass<'_>) {
+        pass.set_vertex_buffer(0, self.vertices.slice(..));
+        pass.set_index_buffer(self.indices.slice(..), wgpu::IndexFormat::Uint32);
+        pass.draw_indexed(0..self.index_count, 0, 0..1);
+    }
 }

@@ -5,6 +5,8 @@
 //! position at the start of each vertex, so one pipeline with
 //! [`OccluderGeometry::vertex_buffer_layout`] draws both.
 
+use crate::core::mesh::IndexedMesh;
+
 /// The vertex attribute an occluder consumer reads: world position, m, as
 /// `Float32x3` at offset 0, shader location 0.
 pub static POSITION_ATTRIBUTES: [wgpu::VertexAttribute; 1] =
@@ -24,7 +26,18 @@ pub struct OccluderGeometry<'a> {
     pub vertex_stride: u64,
 }
 
-impl OccluderGeometry<'_> {
+impl<'a> OccluderGeometry<'a> {
+    /// The triangles of `mesh`, whose vertices are `V`s beginning with the
+    /// world position (check with `offset_of!` where `V` is defined).
+    pub fn of_mesh<V>(mesh: &'a IndexedMesh) -> Self {
+        Self {
+            vertices: &mesh.vertices,
+            indices: &mesh.indices,
+            index_count: mesh.index_count,
+            vertex_stride: std::mem::size_of::<V>() as u64,
+        }
+    }
+
     /// The vertex buffer layout that reads only the position (location 0).
     pub fn vertex_buffer_layout(&self) -> wgpu::VertexBufferLayout<'static> {
         wgpu::VertexBufferLayout {

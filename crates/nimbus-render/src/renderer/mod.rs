@@ -259,7 +259,7 @@ impl Renderer {
         self.terrain
             .prepare(&self.device, &self.queue, &scene.terrain)?;
         self.terrain.prepare_sun(&self.queue, scene.sun.direction());
-        self.objects.prepare(&self.device, &self.queue, scene)?;
+        self.objects.prepare(&self.device, scene)?;
         if let Some(terrain) = self.terrain.terrain() {
             self.stratus.prepare(
                 &self.device,

@@ -73,7 +73,23 @@ pub fn imports(text: &str) -> impl Iterator<Item = &str> {
 
 /// [`compose`] with the files read from `dir` (`None`: embedded).
 pub fn compose_from(files: &[WgslFile], dir: Option<&Path>) -> String {
-    let known: Vec<WgslFile> = LIBRARY.iter().chain(files).copied().collect();
+    compose_resolving(files, &[], dir)
+}
+
+/// [`compose`] where imports also resolve against `library`: a pass's own
+/// files that several of its shaders share. Only the files `files` import
+/// (directly or not) are included.
+pub fn compose_with_library(files: &[WgslFile], library: &[WgslFile]) -> String {
+    compose_resolving(files, library, source_dir().as_deref())
+}
+
+fn compose_resolving(files: &[WgslFile], library: &[WgslFile], dir: Option<&Path>) -> String {
+    let known: Vec<WgslFile> = LIBRARY
+        .iter()
+        .chain(library)
+        .chain(files)
+        .copied()
+        .collect();
     let mut done: Vec<&'static str> = Vec::new();
     let mut out = String::new();
     for file in files {
@@ -172,9 +188,9 @@ pub const FULLSCREEN: WgslFile = WgslFile {
 };
 /// Lambertian surfaces lit by the sun and the environment, `lambert_radiance`;
 /// shared by the terrain and the static objects.
-pub const LAMBERT: WgslFile = WgslFile {
-    name: "shader/lambert.wgsl",
-    source: include_str!("lambert.wgsl"),
+pub const LIT_SURFACE: WgslFile = WgslFile {
+    name: "shader/lit_surface.wgsl",
+    source: include_str!("lit_surface.wgsl"),
 };
 /// Shading of open water.
 pub const WATER: WgslFile = WgslFile {
@@ -227,7 +243,7 @@ pub const CLOUD_SHADOW_LOOKUP: WgslFile = WgslFile {
 pub const LIBRARY: [WgslFile; 11] = [
     COMMON,
     FULLSCREEN,
-    LAMBERT,
+    LIT_SURFACE,
     WATER,
     ATMOSPHERE,
     LIGHTING_TYPES,

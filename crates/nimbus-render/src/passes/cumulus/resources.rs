@@ -4,23 +4,10 @@ use super::gpu_types::{CumulusUniform, vertex_layouts};
 use super::node::{ACCUMULATION_FORMAT, REVEALAGE_FORMAT};
 use super::{CumulusPass, composite_shader_source, draw_shader_source, shadow_shader_source};
 use crate::core::binding;
-use crate::core::targets::{DEPTH_FORMAT, HDR_FORMAT};
+use crate::core::pipeline::{DrawPipeline, PREMULTIPLIED_OVER, depth_state, hdr_target};
 use crate::frame::FrameLayouts;
 use crate::frame::cloud_shadow::CloudShadowMap;
 use crate::shader;
-
-pub(super) fn pipeline_descriptor_depth(
-    write: bool,
-    compare: wgpu::CompareFunction,
-) -> wgpu::DepthStencilState {
-    wgpu::DepthStencilState {
-        format: DEPTH_FORMAT,
-        depth_write_enabled: Some(write),
-        depth_compare: Some(compare),
-        stencil: Default::default(),
-        bias: Default::default(),
-    }
-}
 
 impl CumulusPass {
     /// Creates the pipelines; shapes and the field are made by [`Self::prepare`].
@@ -65,27 +52,18 @@ impl CumulusPass {
         });
         let buffers = vertex_layouts().map(Some);
         let shadow_pipeline = |label: &str, compare| {
-            device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
-                label: Some(label),
-                layout: Some(&shadow_layout),
-                vertex: wgpu::VertexState {
-                    module: &shadow_module,
-                    entry_point: Some("cumulus_shadow_vertex"),
-                    compilation_options: Default::default(),
-                    buffers: &buffers,
-                },
-                primitive: wgpu::PrimitiveState::default(),
-                depth_stencil: Some(pipeline_descriptor_depth(true, compare)),
-                multisample: Default::default(),
-                fragment: Some(wgpu::FragmentState {
-                    module: &shadow_module,
-                    entry_point: Some("cumulus_shadow_fragment"),
-                    compilation_options: Default::default(),
-                    targets: &[],
-                }),
-                multiview_mask: None,
-                cache: None,
-            })
+            DrawPipeline {
+                label,
+                layout: &shadow_layout,
+                module: &shadow_module,
+                vertex_entry: "cumulus_shadow_vertex",
+                fragment_entry: Some("cumulus_shadow_fragment"),
+                vertex_buffers: &buffers,
+                cull_mode: None,
+                depth: Some(depth_state(true, compare)),
+                targets: &[],
+            }
+            .create(device)
         };
         let shadow_pipelines = [
             shadow_pipeline("cumulus shadow nearest", wgpu::CompareFunction::Less),
@@ -99,39 +77,24 @@ impl CumulusPass {
              entry: &str,
              depth_write: bool,
              targets: &[Option<wgpu::ColorTargetState>]| {
-                device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
-                    label: Some(label),
-                    layout: Some(&layout),
-                    vertex: wgpu::VertexState {
-                        module: &module,
-                        entry_point: Some("cumulus_vertex"),
-                        compilation_options: Default::default(),
-                        buffers: &buffers,
-                    },
-                    primitive: wgpu::PrimitiveState {
-                        cull_mode: Some(wgpu::Face::Back),
-                        ..Default::default()
-                    },
-                    depth_stencil: Some(pipeline_descriptor_depth(
-                        depth_write,
-                        wgpu::CompareFunction::Greater,
-                    )),
-                    multisample: Default::default(),
-                    fragment: Some(wgpu::FragmentState {
-                        module: &module,
-                        entry_point: Some(entry),
-                        compilation_options: Default::default(),
-                        targets,
-                    }),
-                    multiview_mask: None,
-                    cache: None,
-                })
+                DrawPipeline {
+                    label,
+                    layout: &layout,
+                    module: &module,
+                    vertex_entry: "cumulus_vertex",
+                    fragment_entry: Some(entry),
+                    vertex_buffers: &buffers,
+                    cull_mode: Some(wgpu::Face::Back),
+                    depth: Some(depth_state(depth_write, wgpu::CompareFunction::Greater)),
+                    targets,
+                }
+                .create(device)
             };
         let opaque_pipeline = draw_pipeline(
             "cumulus",
             "cumulus_opaque_fragment",
             true,
-            &[Some(HDR_FORMAT.into())],
+            &hdr_target(None),
         );
         let additive = wgpu::BlendComponent {
             src_factor: wgpu::BlendFactor::One,
@@ -192,31 +155,18 @@ impl CumulusPass {
                 bind_group_layouts: &[Some(&composite_layout)],
                 immediate_size: 0,
             });
-        let composite_pipeline = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
-            label: Some("cumulus composite"),
-            layout: Some(&composite_pipeline_layout),
-            vertex: wgpu::VertexState {
-                module: &composite_module,
-                entry_point: Some("fullscreen_vertex"),
-                compilation_options: Default::default(),
-                buffers: &[],
-            },
-            primitive: wgpu::PrimitiveState::default(),
-            depth_stencil: None,
-            multisample: Default::default(),
-            fragment: Some(wgpu::FragmentState {
-                module: &composite_module,
-                entry_point: Some("cumulus_composite_fragment"),
-                compilation_options: Default::default(),
-                targets: &[Some(wgpu::ColorTargetState {
-                    format: HDR_FORMAT,
-                    blend: Some(crate::core::pipeline::PREMULTIPLIED_OVER),
-                    write_mask: wgpu::ColorWrites::ALL,
-                })],
-            }),
-            multiview_mask: None,
-            cache: None,
-        });
+        let composite_pipeline = DrawPipeline {
+            label: "cumulus composite",
+            layout: &composite_pipeline_layout,
+            module: &composite_module,
+            vertex_entry: "fullscreen_vertex",
+            fragment_entry: Some("cumulus_composite_fragment"),
+            vertex_buffers: &[],
+            cull_mode: None,
+            depth: None,
+            targets: &hdr_target(Some(PREMULTIPLIED_OVER)),
+        }
+        .create(device);
         Self {
             uniform,
             group,

@@ -1,6 +1,6 @@
 //! Objects pass: the scene's static objects (`[[objects]]`: boxes and glTF
 //! meshes), baked into one world-space vertex and index buffer, drawn after
-//! the terrain and lit exactly as it is (`shader/lambert.wgsl`).
+//! the terrain and lit exactly as it is (`shader/lit_surface.wgsl`).
 //!
 //! The geometry is rebuilt only when `scene.objects` (or the directory
 //! their paths resolve against) changes, or a file read for it is
@@ -17,7 +17,8 @@ pub use geometry::{ObjectGeometry, ObjectVertex, ObjectsError};
 pub use gltf_mesh::{GltfError, GltfMesh, load_gltf};
 
 use crate::core::limits;
-use crate::core::targets::{DEPTH_FORMAT, HDR_FORMAT};
+use crate::core::mesh::IndexedMesh;
+use crate::core::pipeline::{DrawPipeline, hdr_target, opaque_depth};
 use crate::frame::occluders::OccluderGeometry;
 use crate::frame::{FrameBindings, FrameLayouts};
 use crate::scene::{FileStamp, Scene, SceneObject};
@@ -43,9 +44,7 @@ const _: () = assert!(std::mem::offset_of!(ObjectVertex, position_m) == 0);
 /// The objects' buffers on the GPU.
 #[derive(Debug)]
 struct GpuGeometry {
-    vertices: wgpu::Buffer,
-    indices: wgpu::Buffer,
-    index_count: u32,
+    mesh: IndexedMesh,
     bounds_m: ([f32; 3], [f32; 3]),
 }
 
@@ -85,42 +84,24 @@ impl ObjectsPass {
         let module = shader::create_module(device, "objects", &shader_source());
         // No group 1: the objects need only the frame's groups.
         let layout = frame.pipeline_layout(device, "objects", None);
-        let pipeline = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
-            label: Some("objects"),
-            layout: Some(&layout),
-            vertex: wgpu::VertexState {
-                module: &module,
-                entry_point: Some("objects_vertex"),
-                compilation_options: Default::default(),
-                buffers: &[Some(wgpu::VertexBufferLayout {
-                    array_stride: std::mem::size_of::<ObjectVertex>() as u64,
-                    step_mode: wgpu::VertexStepMode::Vertex,
-                    attributes: &VERTEX_ATTRIBUTES,
-                })],
-            },
+        let pipeline = DrawPipeline {
+            label: "objects",
+            layout: &layout,
+            module: &module,
+            vertex_entry: "objects_vertex",
+            fragment_entry: Some("objects_fragment"),
+            vertex_buffers: &[Some(wgpu::VertexBufferLayout {
+                array_stride: std::mem::size_of::<ObjectVertex>() as u64,
+                step_mode: wgpu::VertexStepMode::Vertex,
+                attributes: &VERTEX_ATTRIBUTES,
+            })],
             // No culling: glTF meshes need not be closed (a roof may be one
             // sheet); the fragment shader lights back faces as the side seen.
-            primitive: wgpu::PrimitiveState {
-                cull_mode: None,
-                ..Default::default()
-            },
-            depth_stencil: Some(wgpu::DepthStencilState {
-                format: DEPTH_FORMAT,
-                depth_write_enabled: Some(true),
-                depth_compare: Some(wgpu::CompareFunction::Greater),
-                stencil: Default::default(),
-                bias: Default::default(),
-            }),
-            multisample: Default::default(),
-            fragment: Some(wgpu::FragmentState {
-                module: &module,
-                entry_point: Some("objects_fragment"),
-                compilation_options: Default::default(),
-                targets: &[Some(HDR_FORMAT.into())],
-            }),
-            multiview_mask: None,
-            cache: None,
-        });
+            cull_mode: None,
+            depth: Some(opaque_depth()),
+            targets: &hdr_target(None),
+        }
+        .create(device);
         Self {
             pipeline,
             built_from: None,
@@ -133,12 +114,7 @@ impl ObjectsPass {
     /// changed (reading their glTF files again), after checking the buffer
     /// sizes against the device's limit. On failure the pass draws nothing
     /// until a later prepare succeeds.
-    pub fn prepare(
-        &mut self,
-        device: &wgpu::Device,
-        queue: &wgpu::Queue,
-        scene: &Scene,
-    ) -> Result<(), ObjectsError> {
+    pub fn prepare(&mut self, device: &wgpu::Device, scene: &Scene) -> Result<(), ObjectsError> {
         let unchanged = self.built_from.as_ref().is_some_and(|b| b.matches(scene));
         if unchanged {
             return Ok(());
@@ -155,28 +131,8 @@ impl ObjectsPass {
             let index_bytes = std::mem::size_of_val(geometry.indices.as_slice()) as u64;
             limits::check_buffer_size(device, &what, vertex_bytes)?;
             limits::check_buffer_size(device, &what, index_bytes)?;
-            let buffer = |label: &str, usage: wgpu::BufferUsages, bytes: &[u8]| {
-                let buffer = device.create_buffer(&wgpu::BufferDescriptor {
-                    label: Some(label),
-                    size: bytes.len() as u64,
-                    usage: usage | wgpu::BufferUsages::COPY_DST,
-                    mapped_at_creation: false,
-                });
-                queue.write_buffer(&buffer, 0, bytes);
-                buffer
-            };
             self.geometry = Some(GpuGeometry {
-                vertices: buffer(
-                    "objects vertices",
-                    wgpu::BufferUsages::VERTEX,
-                    bytemuck::cast_slice(&geometry.vertices),
-                ),
-                indices: buffer(
-                    "objects indices",
-                    wgpu::BufferUsages::INDEX,
-                    bytemuck::cast_slice(&geometry.indices),
-                ),
-                index_count: geometry.indices.len() as u32,
+                mesh: IndexedMesh::upload(device, "objects", &geometry.vertices, &geometry.indices),
                 bounds_m,
             });
             // Counted once per rebuild that has geometry, once more when
@@ -203,12 +159,9 @@ impl ObjectsPass {
     /// The objects' triangles for occlusion maps (world position at offset
     /// 0 of each vertex, `u32` indices); `None` without objects.
     pub fn occluder_geometry(&self) -> Option<OccluderGeometry<'_>> {
-        self.geometry.as_ref().map(|g| OccluderGeometry {
-            vertices: &g.vertices,
-            indices: &g.indices,
-            index_count: g.index_count,
-            vertex_stride: std::mem::size_of::<ObjectVertex>() as u64,
-        })
+        self.geometry
+            .as_ref()
+            .map(|g| OccluderGeometry::of_mesh::<ObjectVertex>(&g.mesh))
     }
 
     /// Axis-aligned bounds (min, max) of all objects, world m; `None` without objects.
@@ -229,8 +182,6 @@ impl ObjectsPass {
         };
         pass.set_pipeline(&self.pipeline);
         frame.set_on_render_pass(pass, None);
-        pass.set_vertex_buffer(0, geometry.vertices.slice(..));
-        pass.set_index_buffer(geometry.indices.slice(..), wgpu::IndexFormat::Uint32);
-        pass.draw_indexed(0..geometry.index_count, 0, 0..1);
+        geometry.mesh.draw(pass);
     }
 }

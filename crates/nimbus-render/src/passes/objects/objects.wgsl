@@ -1,12 +1,10 @@
-// import shader/lambert.wgsl
+// import shader/lit_surface.wgsl
 // Objects pass: the scene's static boxes and glTF meshes, baked into one
-// world-space triangle list, shaded exactly as the terrain is
-// (shader/lambert.wgsl): the sun through the atmosphere, the stratus
+// world-space triangle list, shaded by the same code as the terrain
+// (shader/lit_surface.wgsl): the sun through the atmosphere, the stratus
 // layer's directional transmittance T_C and the cumulus shadow map, the
 // sky's SH irradiance or the layer's radiosity as ambient light, seen
-// through the aerial perspective. Needs common.wgsl, the atmosphere lookups,
-// shader/cloud_layer_field.wgsl, shader/cloud_layer_lookup.wgsl, the cumulus shadow libraries and
-// shader/lambert.wgsl.
+// through the aerial perspective.
 //
 // Not modelled (yet): the objects' shadows on the terrain and on each other,
 // the terrain's shadow on them, and the occlusion of the sky by them.
@@ -40,7 +38,6 @@ fn objects_fragment(in: ObjectVarying, @builtin(front_facing) front_facing: bool
     // sheet) and lit as the side that is seen. Boxes and meshes are wound
     // counter-clockwise seen from outside, as glTF requires.
     let n = select(-1.0, 1.0, front_facing) * normalize(in.normal);
-    let sun_visibility = stratus_sun_transmittance(in.position_m) * cloud_shadow_transmittance(in.position_m);
-    let radiance = lambert_radiance(in.albedo, in.position_m, n, sun_visibility);
-    return to_target(stratus_apply_aerial_perspective(radiance, in.position_m));
+    let radiance = lambert_radiance(in.albedo, in.position_m, n, cloud_sun_visibility(in.position_m));
+    return lit_surface_output(radiance, in.position_m);
 }

@@ -1,5 +1,6 @@
 // import shader/cloud_layer_lookup.wgsl
 // import passes/rain/rain_types.wgsl
+// import passes/rain/zones.wgsl
 // Rain mist (Blanchard 2023, §4.3, after Weber et al. 2015): beyond the
 // rain box, drops are no longer drawn one by one; the rain there is a
 // participating medium with the extinction of the same drops,
@@ -19,30 +20,11 @@
 // Hulst 1957, §12–13). Drawn over everything with blending
 // dst·T + src.
 
-@group(1) @binding(0) var<uniform> rain: Rain;
-@group(1) @binding(1) var<storage, read> zone_factors: array<f32>;
 @group(1) @binding(2) var scene_depth: texture_depth_2d;
 
 const MIST_STEPS: u32 = 32u;
 const MIST_MAX_DISTANCE_M: f32 = 30000.0;
 const MIST_PHASE_G: f32 = 0.85;
-
-fn zone_factor(x: f32, z: f32) -> f32 {
-    let n = i32(rain.flags.x);
-    let gx = (x - rain.zones.x) / rain.zones.z - 0.5;
-    let gz = (z - rain.zones.y) / rain.zones.z - 0.5;
-    let fx = floor(gx);
-    let fz = floor(gz);
-    let i = i32(fx);
-    let j = i32(fz);
-    let i0 = clamp(i, 0, n - 1);
-    let i1 = clamp(i + 1, 0, n - 1);
-    let j0 = clamp(j, 0, n - 1);
-    let j1 = clamp(j + 1, 0, n - 1);
-    let a = mix(zone_factors[u32(i0 + n * j0)], zone_factors[u32(i1 + n * j0)], gx - fx);
-    let b = mix(zone_factors[u32(i0 + n * j1)], zone_factors[u32(i1 + n * j1)], gx - fx);
-    return mix(a, b, gz - fz);
-}
 
 // ∫_a^b D²·e^(−ΛD) dD, closed form (mm³).
 fn second_moment(slope: f32, a: f32, b: f32) -> f32 {

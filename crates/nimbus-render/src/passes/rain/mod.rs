@@ -42,6 +42,35 @@ const SIMULATION_WGSL: WgslFile = WgslFile {
     name: "passes/rain/simulation.wgsl",
     source: include_str!("simulation.wgsl"),
 };
+const RANDOM_WGSL: WgslFile = WgslFile {
+    name: "passes/rain/random.wgsl",
+    source: include_str!("random.wgsl"),
+};
+const WIND_WGSL: WgslFile = WgslFile {
+    name: "passes/rain/wind.wgsl",
+    source: include_str!("wind.wgsl"),
+};
+const ZONES_WGSL: WgslFile = WgslFile {
+    name: "passes/rain/zones.wgsl",
+    source: include_str!("zones.wgsl"),
+};
+const RAIN_BOX_WGSL: WgslFile = WgslFile {
+    name: "passes/rain/rain_box.wgsl",
+    source: include_str!("rain_box.wgsl"),
+};
+/// The pass's own WGSL library: what its shaders import besides the crate's.
+const LIBRARY: [WgslFile; 5] = [
+    RAIN_TYPES_WGSL,
+    RANDOM_WGSL,
+    WIND_WGSL,
+    ZONES_WGSL,
+    RAIN_BOX_WGSL,
+];
+
+/// Composes `file` with what it imports of the pass's library and the crate's.
+fn compose_with_library(file: WgslFile) -> String {
+    shader::compose_with_library(&[file], &LIBRARY)
+}
 const VISIBILITY_WGSL: WgslFile = WgslFile {
     name: "passes/rain/visibility.wgsl",
     source: include_str!("visibility.wgsl"),
@@ -61,16 +90,16 @@ const OCCLUDERS_WGSL: WgslFile = WgslFile {
 
 /// The composed WGSL of the simulation (compute).
 pub fn simulation_shader_source() -> String {
-    shader::compose(&[RAIN_TYPES_WGSL, SIMULATION_WGSL])
+    compose_with_library(SIMULATION_WGSL)
 }
 
 /// The composed WGSL of the visibility list (compute).
 pub fn visibility_shader_source() -> String {
-    shader::compose(&[RAIN_TYPES_WGSL, VISIBILITY_WGSL])
+    compose_with_library(VISIBILITY_WGSL)
 }
 
 fn drawing_files(last: WgslFile) -> String {
-    shader::compose(&[RAIN_TYPES_WGSL, last])
+    compose_with_library(last)
 }
 
 /// The composed WGSL of the streaks and splashes.

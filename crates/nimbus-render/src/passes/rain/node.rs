@@ -144,16 +144,24 @@ impl RainPass {
         frame: &FrameBindings<'_>,
     ) {
         let Some(state) = &self.state else { return };
-        let group = binding::sequential_bind_group(
-            &self.device,
-            "rain mist",
-            &self.mist_layout,
-            vec![
-                self.uniform.as_entire_binding(),
-                state.shared.zones.as_entire_binding(),
-                wgpu::BindingResource::TextureView(depth),
+        let group = self.device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("rain mist"),
+            layout: &self.mist_layout,
+            entries: &[
+                wgpu::BindGroupEntry {
+                    binding: 0,
+                    resource: self.uniform.as_entire_binding(),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 2,
+                    resource: wgpu::BindingResource::TextureView(depth),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 4,
+                    resource: state.shared.zones.as_entire_binding(),
+                },
             ],
-        );
+        });
         pass.set_pipeline(&self.mist);
         frame.set_on_render_pass(pass, Some(&group));
         pass.draw(0..3, 0..1);

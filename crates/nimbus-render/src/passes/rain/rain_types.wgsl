@@ -1,7 +1,9 @@
 // import shader/common.wgsl
 // The rain's shared declarations: the per-frame uniform, the drop and
 // splash records, and the wind primitives' layout. Rust twins in
-// rain/mod.rs (layouts checked against naga by tests/shaders.rs).
+// rain/gpu_types.rs (layouts checked against naga by tests/shaders.rs).
+// The uniform is binding 0 of group 1 in every rain shader (simulation,
+// visibility, streaks, mist); each file declares the other bindings it reads.
 
 struct WindPrimitive {
     // xyz: centre at t = 0, m; w: kind (0 uniform, 1 source, 2 vortex, 3 gust front).
@@ -109,3 +111,5 @@ fn pcg_hash(input: u32) -> u32 {
     let word = ((state >> ((state >> 28u) + 4u)) ^ state) * 277803737u;
     return (word >> 22u) ^ word;
 }
+
+@group(1) @binding(0) var<uniform> rain: Rain;

@@ -8,7 +8,7 @@ use super::{
 };
 use crate::core::binding;
 use crate::core::binding::{buffer_entry, uniform_layout_entry};
-use crate::core::targets::{DEPTH_FORMAT, HDR_FORMAT};
+use crate::core::pipeline::{DrawPipeline, depth_state, hdr_target};
 use crate::frame::FrameLayouts;
 use nimbus_physics::rain::drop_optics::DropTransfer;
 use nimbus_physics::rain::simulation::MAX_STEPS_PER_FRAME;
@@ -79,37 +79,18 @@ pub(super) fn draw_pipeline(
     blend: wgpu::BlendState,
     depth: bool,
 ) -> wgpu::RenderPipeline {
-    device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
-        label: Some(label),
-        layout: Some(layout),
-        vertex: wgpu::VertexState {
-            module,
-            entry_point: Some(vertex),
-            compilation_options: Default::default(),
-            buffers: &[],
-        },
-        fragment: Some(wgpu::FragmentState {
-            module,
-            entry_point: Some(fragment),
-            compilation_options: Default::default(),
-            targets: &[Some(wgpu::ColorTargetState {
-                format: HDR_FORMAT,
-                blend: Some(blend),
-                write_mask: wgpu::ColorWrites::ALL,
-            })],
-        }),
-        primitive: wgpu::PrimitiveState::default(),
-        depth_stencil: depth.then_some(wgpu::DepthStencilState {
-            format: DEPTH_FORMAT,
-            depth_write_enabled: Some(false),
-            depth_compare: Some(wgpu::CompareFunction::Greater),
-            stencil: Default::default(),
-            bias: Default::default(),
-        }),
-        multisample: Default::default(),
-        multiview_mask: None,
-        cache: None,
-    })
+    DrawPipeline {
+        label,
+        layout,
+        module,
+        vertex_entry: vertex,
+        fragment_entry: Some(fragment),
+        vertex_buffers: &[],
+        cull_mode: None,
+        depth: depth.then(|| depth_state(false, wgpu::CompareFunction::Greater)),
+        targets: &hdr_target(Some(blend)),
+    }
+    .create(device)
 }
 
 impl RainPass {
@@ -181,8 +162,9 @@ impl RainPass {
             label: Some("rain mist"),
             entries: &[
                 uniform_layout_entry(0, draw, uniform_size),
-                buffer_entry(1, read, 4, wgpu::ShaderStages::FRAGMENT),
                 depth_texture(2, wgpu::ShaderStages::FRAGMENT),
+                // The zone map at the simulation's binding (passes/rain/zones.wgsl).
+                buffer_entry(4, read, 4, wgpu::ShaderStages::FRAGMENT),
             ],
         });
         let simulate = compute_pipeline(
@@ -323,32 +305,23 @@ impl RainPass {
         device: &wgpu::Device,
         stride: u64,
     ) -> wgpu::RenderPipeline {
-        device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
-            label: Some("rain shadow map"),
-            layout: Some(&self.occluders_layout),
-            vertex: wgpu::VertexState {
-                module: &self.occluders_module,
-                entry_point: Some("occluder_vertex"),
-                compilation_options: Default::default(),
-                buffers: &[Some(wgpu::VertexBufferLayout {
-                    array_stride: stride,
-                    step_mode: wgpu::VertexStepMode::Vertex,
-                    attributes: &crate::frame::occluders::POSITION_ATTRIBUTES,
-                })],
-            },
-            fragment: None,
-            primitive: wgpu::PrimitiveState::default(),
-            depth_stencil: Some(wgpu::DepthStencilState {
-                format: wgpu::TextureFormat::Depth32Float,
-                depth_write_enabled: Some(true),
-                depth_compare: Some(wgpu::CompareFunction::Less),
-                stencil: Default::default(),
-                bias: Default::default(),
-            }),
-            multisample: Default::default(),
-            multiview_mask: None,
-            cache: None,
-        })
+        // Depth only: the nearest occluder seen from above (z grows downwards).
+        DrawPipeline {
+            label: "rain shadow map",
+            layout: &self.occluders_layout,
+            module: &self.occluders_module,
+            vertex_entry: "occluder_vertex",
+            fragment_entry: None,
+            vertex_buffers: &[Some(wgpu::VertexBufferLayout {
+                array_stride: stride,
+                step_mode: wgpu::VertexStepMode::Vertex,
+                attributes: &crate::frame::occluders::POSITION_ATTRIBUTES,
+            })],
+            cull_mode: None,
+            depth: Some(depth_state(true, wgpu::CompareFunction::Less)),
+            targets: &[],
+        }
+        .create(device)
     }
 
     /// Whether the current scene has rain.

@@ -26,7 +26,6 @@
 // dark ground the drops gather the bright sky and show; against the bright
 // sky they barely do.
 
-@group(1) @binding(0) var<uniform> rain: Rain;
 @group(1) @binding(1) var<storage, read> drops: array<Drop>;
 @group(1) @binding(2) var<storage, read> visible: array<u32>;
 @group(1) @binding(3) var<storage, read> splashes: array<Splash>;

@@ -5,7 +5,6 @@
 // global counter cold. Each buffer of drops has its own list and draw
 // (the list holds indices into that buffer).
 
-@group(1) @binding(0) var<uniform> rain: Rain;
 @group(1) @binding(1) var<storage, read> drops: array<Drop>;
 @group(1) @binding(2) var<storage, read_write> visible: array<u32>;
 // vertex_count, instance_count, first_vertex, first_instance.

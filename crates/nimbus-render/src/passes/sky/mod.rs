@@ -5,7 +5,7 @@
 //! its depth test passes only where nothing nearer has been drawn, so it also
 //! works behind a caller's own geometry.
 
-use crate::core::targets::{DEPTH_FORMAT, HDR_FORMAT};
+use crate::core::pipeline::{DrawPipeline, depth_state, hdr_target};
 use crate::frame::{FrameBindings, FrameLayouts};
 use crate::shader::{self, WgslFile};
 use bytemuck::{Pod, Zeroable};
@@ -76,33 +76,20 @@ impl SkyPass {
         );
         let module = shader::create_module(device, "sky", &shader_source());
         let layout = frame.pipeline_layout(device, "sky", Some(&params.layout));
-        let pipeline = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
-            label: Some("sky"),
-            layout: Some(&layout),
-            vertex: wgpu::VertexState {
-                module: &module,
-                entry_point: Some("fullscreen_vertex"),
-                compilation_options: Default::default(),
-                buffers: &[],
-            },
-            primitive: wgpu::PrimitiveState::default(),
-            depth_stencil: Some(wgpu::DepthStencilState {
-                format: DEPTH_FORMAT,
-                depth_write_enabled: Some(false),
-                depth_compare: Some(wgpu::CompareFunction::GreaterEqual),
-                stencil: Default::default(),
-                bias: Default::default(),
-            }),
-            multisample: Default::default(),
-            fragment: Some(wgpu::FragmentState {
-                module: &module,
-                entry_point: Some("sky_fragment"),
-                compilation_options: Default::default(),
-                targets: &[Some(HDR_FORMAT.into())],
-            }),
-            multiview_mask: None,
-            cache: None,
-        });
+        // A full-screen triangle at the far plane: it fills the pixels
+        // still at the cleared (or the caller's) far depth.
+        let pipeline = DrawPipeline {
+            label: "sky",
+            layout: &layout,
+            module: &module,
+            vertex_entry: "fullscreen_vertex",
+            fragment_entry: Some("sky_fragment"),
+            vertex_buffers: &[],
+            cull_mode: None,
+            depth: Some(depth_state(false, wgpu::CompareFunction::GreaterEqual)),
+            targets: &hdr_target(None),
+        }
+        .create(device);
         Self { pipeline, params }
     }
 

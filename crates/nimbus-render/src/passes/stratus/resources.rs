@@ -2,7 +2,7 @@
 
 use super::{StratusPass, StratusUniform, compute_shader_source, layer_shader_source};
 use crate::core::binding;
-use crate::core::targets::{DEPTH_FORMAT, HDR_FORMAT};
+use crate::core::pipeline::{DrawPipeline, PREMULTIPLIED_OVER, depth_state, hdr_target};
 use crate::frame::FrameLayouts;
 use crate::frame::cloud_lighting::CloudLighting;
 use crate::shader;
@@ -65,37 +65,19 @@ impl StratusPass {
 
         let layer_module = shader::create_module(device, "stratus layer", &layer_shader_source());
         let layer_layout = frame.pipeline_layout(device, "stratus layer", None);
-        let layer_pipeline = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
-            label: Some("stratus layer"),
-            layout: Some(&layer_layout),
-            vertex: wgpu::VertexState {
-                module: &layer_module,
-                entry_point: Some("layer_vertex"),
-                compilation_options: Default::default(),
-                buffers: &[],
-            },
-            primitive: wgpu::PrimitiveState::default(),
-            depth_stencil: Some(wgpu::DepthStencilState {
-                format: DEPTH_FORMAT,
-                depth_write_enabled: Some(false),
-                depth_compare: Some(wgpu::CompareFunction::Greater),
-                stencil: Default::default(),
-                bias: Default::default(),
-            }),
-            multisample: Default::default(),
-            fragment: Some(wgpu::FragmentState {
-                module: &layer_module,
-                entry_point: Some("layer_fragment"),
-                compilation_options: Default::default(),
-                targets: &[Some(wgpu::ColorTargetState {
-                    format: HDR_FORMAT,
-                    blend: Some(crate::core::pipeline::PREMULTIPLIED_OVER),
-                    write_mask: wgpu::ColorWrites::ALL,
-                })],
-            }),
-            multiview_mask: None,
-            cache: None,
-        });
+        // Blended over what is behind it, depth-tested but not written.
+        let layer_pipeline = DrawPipeline {
+            label: "stratus layer",
+            layout: &layer_layout,
+            module: &layer_module,
+            vertex_entry: "layer_vertex",
+            fragment_entry: Some("layer_fragment"),
+            vertex_buffers: &[],
+            cull_mode: None,
+            depth: Some(depth_state(false, wgpu::CompareFunction::Greater)),
+            targets: &hdr_target(Some(PREMULTIPLIED_OVER)),
+        }
+        .create(device);
         Self {
             uniform: cloud_lighting.layer_uniform_buffer().clone(),
             compute_layout,

@@ -11,7 +11,8 @@
 
 use crate::core::binding;
 use crate::core::limits::{self, LimitError};
-use crate::core::targets::{DEPTH_FORMAT, HDR_FORMAT};
+use crate::core::mesh::IndexedMesh;
+use crate::core::pipeline::{DrawPipeline, hdr_target, opaque_depth};
 use crate::frame::occluders::OccluderGeometry;
 use crate::frame::{FrameBindings, FrameLayouts};
 use crate::shader::{self, WgslFile};
@@ -75,9 +76,7 @@ struct TerrainMesh {
     params: TerrainParams,
     /// The CPU terrain, kept to recompute the sun visibility when the sun moves.
     terrain: Terrain,
-    vertices: wgpu::Buffer,
-    indices: wgpu::Buffer,
-    index_count: u32,
+    triangles: IndexedMesh,
     albedo: wgpu::Texture,
     albedo_view: wgpu::TextureView,
     sun_visibility: wgpu::Texture,
@@ -116,40 +115,22 @@ impl TerrainPass {
         });
         let module = shader::create_module(device, "terrain", &shader_source());
         let layout = frame.pipeline_layout(device, "terrain", Some(&group_layout));
-        let pipeline = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
-            label: Some("terrain"),
-            layout: Some(&layout),
-            vertex: wgpu::VertexState {
-                module: &module,
-                entry_point: Some("terrain_vertex"),
-                compilation_options: Default::default(),
-                buffers: &[Some(wgpu::VertexBufferLayout {
-                    array_stride: std::mem::size_of::<TerrainVertex>() as u64,
-                    step_mode: wgpu::VertexStepMode::Vertex,
-                    attributes: &VERTEX_ATTRIBUTES,
-                })],
-            },
-            primitive: wgpu::PrimitiveState {
-                cull_mode: Some(wgpu::Face::Back),
-                ..Default::default()
-            },
-            depth_stencil: Some(wgpu::DepthStencilState {
-                format: DEPTH_FORMAT,
-                depth_write_enabled: Some(true),
-                depth_compare: Some(wgpu::CompareFunction::Greater),
-                stencil: Default::default(),
-                bias: Default::default(),
-            }),
-            multisample: Default::default(),
-            fragment: Some(wgpu::FragmentState {
-                module: &module,
-                entry_point: Some("terrain_fragment"),
-                compilation_options: Default::default(),
-                targets: &[Some(HDR_FORMAT.into())],
-            }),
-            multiview_mask: None,
-            cache: None,
-        });
+        let pipeline = DrawPipeline {
+            label: "terrain",
+            layout: &layout,
+            module: &module,
+            vertex_entry: "terrain_vertex",
+            fragment_entry: Some("terrain_fragment"),
+            vertex_buffers: &[Some(wgpu::VertexBufferLayout {
+                array_stride: std::mem::size_of::<TerrainVertex>() as u64,
+                step_mode: wgpu::VertexStepMode::Vertex,
+                attributes: &VERTEX_ATTRIBUTES,
+            })],
+            cull_mode: Some(wgpu::Face::Back),
+            depth: Some(opaque_depth()),
+            targets: &hdr_target(None),
+        }
+        .create(device);
         Self {
             pipeline,
             group_layout,
@@ -178,16 +159,7 @@ impl TerrainPass {
         limits::check_buffer_size(device, &what, (side - 1) * (side - 1) * 6 * 4)?;
         let terrain = terrain::generate(params);
         let (vertices, indices) = build_mesh(&terrain);
-        let vertex_buffer = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-            label: Some("terrain vertices"),
-            contents: bytemuck::cast_slice(&vertices),
-            usage: wgpu::BufferUsages::VERTEX,
-        });
-        let index_buffer = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-            label: Some("terrain indices"),
-            contents: bytemuck::cast_slice(&indices),
-            usage: wgpu::BufferUsages::INDEX,
-        });
+        let mesh = IndexedMesh::upload(device, "terrain", &vertices, &indices);
         let side = terrain.vertices_per_side() as u32;
         let texels = terrain.albedo_rgba8();
         let albedo = device.create_texture_with_data(
@@ -247,9 +219,7 @@ impl TerrainPass {
         self.mesh = Some(TerrainMesh {
             params: params.clone(),
             terrain,
-            vertices: vertex_buffer,
-            indices: index_buffer,
-            index_count: indices.len() as u32,
+            triangles: mesh,
             albedo,
             albedo_view,
             sun_visibility,
@@ -312,12 +282,9 @@ impl TerrainPass {
     /// The terrain's triangles for occlusion maps (world position at offset
     /// 0 of each vertex, `u32` indices), once prepared.
     pub fn occluder_geometry(&self) -> Option<OccluderGeometry<'_>> {
-        self.mesh.as_ref().map(|m| OccluderGeometry {
-            vertices: &m.vertices,
-            indices: &m.indices,
-            index_count: m.index_count,
-            vertex_stride: std::mem::size_of::<TerrainVertex>() as u64,
-        })
+        self.mesh
+            .as_ref()
+            .map(|m| OccluderGeometry::of_mesh::<TerrainVertex>(&m.triangles))
     }
 
     /// Records the draw into `pass`.
@@ -325,9 +292,7 @@ impl TerrainPass {
         let Some(mesh) = &self.mesh else { return };
         pass.set_pipeline(&self.pipeline);
         frame.set_on_render_pass(pass, Some(&mesh.bind_group));
-        pass.set_vertex_buffer(0, mesh.vertices.slice(..));
-        pass.set_index_buffer(mesh.indices.slice(..), wgpu::IndexFormat::Uint32);
-        pass.draw_indexed(0..mesh.index_count, 0, 0..1);
+        mesh.triangles.draw(pass);
     }
 }
 

@@ -1,14 +1,13 @@
-// import shader/lambert.wgsl
+// import shader/lit_surface.wgsl
 // import shader/water.wgsl
 // Terrain pass: the heightfield lit by the sun (Lambert, with terrain
 // shadows) and by the environment (sky and ground, from the lighting
 // inputs' spherical harmonics), with open water shaded by water.wgsl, seen
 // through the aerial perspective. Under a stratus layer the sun is shadowed
 // by the layer's directional transmittance T_C and the indirect light is the
-// radiosity's R_G (Bouthors et al. 2006, §5). Needs common.wgsl, the
-// atmosphere lookups, shader/cloud_layer_field.wgsl, shader/cloud_layer_lookup.wgsl, the cumulus
-// shadow libraries, shader/lambert.wgsl (`lambert_radiance`, shared with the
-// objects pass) and water.wgsl. Cumulus shade it through their shadow map.
+// radiosity's R_G (Bouthors et al. 2006, §5); cumulus shade it through
+// their shadow map. The land is shaded by shader/lit_surface.wgsl, the same
+// code as the static objects.
 
 // Group 1: the albedo map. RGB: linear albedo (sRGB-encoded storage);
 // A: water mask (1 = water).
@@ -45,12 +44,12 @@ fn terrain_vertex(v: TerrainVertex) -> TerrainVarying {
 fn terrain_fragment(in: TerrainVarying) -> @location(0) vec4<f32> {
     let texel = textureSample(albedo_map, albedo_sampler, in.uv);
     let sun_visibility = textureSample(sun_visibility_map, albedo_sampler, in.uv).r
-        * stratus_sun_transmittance(in.position_m) * cloud_shadow_transmittance(in.position_m);
+        * cloud_sun_visibility(in.position_m);
     let n = normalize(in.normal);
     let land = lambert_radiance(texel.rgb, in.position_m, n, sun_visibility);
     // The water mask is filtered, so shorelines blend smoothly.
     let water = water_radiance(in.position_m, texel.rgb, sun_visibility);
-    return to_target(stratus_apply_aerial_perspective(mix(land, water, texel.a), in.position_m));
+    return lit_surface_output(mix(land, water, texel.a), in.position_m);
 }
 
 // What the water reflects: the sky, behind the stratus layer where the
