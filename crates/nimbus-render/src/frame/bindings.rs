@@ -121,32 +121,33 @@ pub struct FrameBindings<'a> {
     pub cloud_lighting: &'a wgpu::BindGroup,
 }
 
-impl FrameBindings<'_> {
-    /// Sets groups 0, 2 and 3 on a render pass, and the pass's own group 1 when given.
-    pub fn set_on_render_pass(
-        &self,
-        pass: &mut wgpu::RenderPass<'_>,
-        pass_group: Option<&wgpu::BindGroup>,
-    ) {
-        pass.set_bind_group(FRAME_GROUP, self.frame, &[]);
-        if let Some(group) = pass_group {
-            pass.set_bind_group(PASS_GROUP, group, &[]);
-        }
-        pass.set_bind_group(ATMOSPHERE_GROUP, self.atmosphere, &[]);
-        pass.set_bind_group(CLOUD_LIGHTING_GROUP, self.cloud_lighting, &[]);
-    }
+/// What bind groups are set on: wgpu's render and compute passes.
+pub trait SetBindGroup {
+    /// Sets `group` at `index`, without dynamic offsets.
+    fn set_group(&mut self, index: u32, group: &wgpu::BindGroup);
+}
 
-    /// Sets groups 0, 2 and 3 on a compute pass, and the pass's own group 1 when given.
-    pub fn set_on_compute_pass(
-        &self,
-        pass: &mut wgpu::ComputePass<'_>,
-        pass_group: Option<&wgpu::BindGroup>,
-    ) {
-        pass.set_bind_group(FRAME_GROUP, self.frame, &[]);
+impl SetBindGroup for wgpu::RenderPass<'_> {
+    fn set_group(&mut self, index: u32, group: &wgpu::BindGroup) {
+        self.set_bind_group(index, group, &[]);
+    }
+}
+
+impl SetBindGroup for wgpu::ComputePass<'_> {
+    fn set_group(&mut self, index: u32, group: &wgpu::BindGroup) {
+        self.set_bind_group(index, group, &[]);
+    }
+}
+
+impl FrameBindings<'_> {
+    /// Sets groups 0, 2 and 3 on a render or compute pass, and the pass's
+    /// own group 1 when given.
+    pub fn set_on(&self, pass: &mut impl SetBindGroup, pass_group: Option<&wgpu::BindGroup>) {
+        pass.set_group(FRAME_GROUP, self.frame);
         if let Some(group) = pass_group {
-            pass.set_bind_group(PASS_GROUP, group, &[]);
+            pass.set_group(PASS_GROUP, group);
         }
-        pass.set_bind_group(ATMOSPHERE_GROUP, self.atmosphere, &[]);
-        pass.set_bind_group(CLOUD_LIGHTING_GROUP, self.cloud_lighting, &[]);
+        pass.set_group(ATMOSPHERE_GROUP, self.atmosphere);
+        pass.set_group(CLOUD_LIGHTING_GROUP, self.cloud_lighting);
     }
 }

@@ -13,7 +13,7 @@ pub mod occluders;
 
 pub use bindings::{
     ATMOSPHERE_GROUP, CLOUD_LIGHTING_GROUP, FRAME_GROUP, FrameBindings, FrameLayouts,
-    FrameResources, PASS_GROUP,
+    FrameResources, PASS_GROUP, SetBindGroup,
 };
 
 use crate::scene::{CameraSettings, Scene};

@@ -98,7 +98,7 @@ impl CumulusPass {
     /// Records the opaque bodies into a pass on the HDR target and depth.
     pub fn draw_opaque(&self, pass: &mut wgpu::RenderPass<'_>, frame: &FrameBindings<'_>) {
         pass.set_pipeline(&self.opaque_pipeline);
-        frame.set_on_render_pass(pass, Some(&self.group));
+        frame.set_on(pass, Some(&self.group));
         self.record(pass, &self.draws);
     }
 
@@ -143,7 +143,7 @@ impl CumulusPass {
             multiview_mask: None,
         });
         pass.set_pipeline(&self.fringe_pipeline);
-        frame.set_on_render_pass(&mut pass, Some(&self.group));
+        frame.set_on(&mut pass, Some(&self.group));
         self.record(&mut pass, &self.draws);
     }
 

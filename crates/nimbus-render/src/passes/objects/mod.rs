@@ -181,7 +181,7 @@ impl ObjectsPass {
             return;
         };
         pass.set_pipeline(&self.pipeline);
-        frame.set_on_render_pass(pass, None);
+        frame.set_on(pass, None);
         geometry.mesh.draw(pass);
     }
 }

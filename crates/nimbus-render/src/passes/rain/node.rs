@@ -115,7 +115,7 @@ impl RainPass {
             return;
         };
         // Group 1 differs per drops' buffer, set below.
-        frame.set_on_render_pass(pass, None);
+        frame.set_on(pass, None);
         pass.set_pipeline(&self.streaks);
         for (index, segment) in state.drops.segments.iter().enumerate() {
             if index > 0 && segment.dispatched(state.dispatched) == 0 {
@@ -163,7 +163,7 @@ impl RainPass {
             ],
         });
         pass.set_pipeline(&self.mist);
-        frame.set_on_render_pass(pass, Some(&group));
+        frame.set_on(pass, Some(&group));
         pass.draw(0..3, 0..1);
     }
 }

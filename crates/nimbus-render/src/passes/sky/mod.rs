@@ -101,7 +101,7 @@ impl SkyPass {
     /// Records the pass into `pass`, which targets the HDR colour and the depth buffer.
     pub fn draw(&self, pass: &mut wgpu::RenderPass<'_>, frame: &FrameBindings<'_>) {
         pass.set_pipeline(&self.pipeline);
-        frame.set_on_render_pass(pass, Some(&self.params.bind_group));
+        frame.set_on(pass, Some(&self.params.bind_group));
         pass.draw(0..3, 0..1);
     }
 }

@@ -31,7 +31,7 @@ impl StratusPass {
             return;
         };
         pass.set_pipeline(&self.layer_pipeline);
-        frame.set_on_render_pass(pass, None);
+        frame.set_on(pass, None);
         pass.set_index_buffer(resources.indices.slice(..), wgpu::IndexFormat::Uint32);
         pass.draw_indexed(0..resources.index_count, 0, 0..self.face_count());
     }

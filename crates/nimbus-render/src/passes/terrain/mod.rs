@@ -291,7 +291,7 @@ impl TerrainPass {
     pub fn draw(&self, pass: &mut wgpu::RenderPass<'_>, frame: &FrameBindings<'_>) {
         let Some(mesh) = &self.mesh else { return };
         pass.set_pipeline(&self.pipeline);
-        frame.set_on_render_pass(pass, Some(&mesh.bind_group));
+        frame.set_on(pass, Some(&mesh.bind_group));
         mesh.triangles.draw(pass);
     }
 }
