@@ -67,6 +67,13 @@ noise = json.loads(subprocess.run(['target/debug/nimbus', 'compare', f'{work}/re
                                    f'{work}/reference_a.exr', '--mask-from', f'{work}/realtime.exr',
                                    '--json'], check=True, capture_output=True).stdout)
 error = json.load(open(f'{work}/error.json'))
+# The baseline of the realism work (the first measured error) is kept across
+# re-runs, so that improvements can be read against it.
+record_path = f'scenes/realism/references/{name}.json'
+try:
+    baseline = json.load(open(record_path)).get('baseline_error')
+except (OSError, ValueError):
+    baseline = None
 record = {
     'scene': scene,
     'spp': int(spp),
@@ -77,7 +84,9 @@ record = {
                  'nimbus compare realtime.exr reference.exr --json'],
     'mitsuba': mi.__version__,
 }
-json.dump(record, open(f'scenes/realism/references/{name}.json', 'w'), indent=2)
+if baseline is not None:
+    record['baseline_error'] = baseline
+json.dump(record, open(record_path, 'w'), indent=2)
 # Stored as half floats (ZIP): a 1e-3 relative rounding, far below the noise.
 ref = mi.Bitmap(f'{work}/reference.exr').convert(component_format=mi.Struct.Type.Float16)
 ref.write(f'scenes/realism/references/{name}.exr')

@@ -17,14 +17,25 @@
 // the field's mean radiance) plus the sun's single scattering with a
 // forward-peaked phase function (raindrops diffract: Henyey–Greenstein
 // g = 0.85 stands in for their geometric-optics phase function; van de
-// Hulst 1957, §12–13). Drawn over everything with blending
-// dst·T + src.
+// Hulst 1957, §12–13), shadowed by the stratus layer at each point of the
+// ray (so only the air under the layer's gaps glows in the sun). Under a
+// layer the diffuse field is the overcast's, not the clear sky's: from
+// above R_G (the radiosity's irradiance on the ground: sky through the
+// gaps, the deck's diffuse light, the inter-reflections), from below the
+// ground's exitance ρ_G·(R_G + the sun through the layer). Drawn over
+// everything with blending dst·T + src.
 
 @group(1) @binding(2) var scene_depth: texture_depth_2d;
 
 const MIST_STEPS: u32 = 32u;
 const MIST_MAX_DISTANCE_M: f32 = 30000.0;
 const MIST_PHASE_G: f32 = 0.85;
+// The layer's shadow is evaluated at four points of the ray (the middles of
+// its quarters of steps) before the march and held over each quarter:
+// texture lookups inside the march's loop cost llvmpipe about twice the
+// whole pass, and the shadow varies over the cells' size, while the steps
+// grow geometrically.
+const MIST_SHADOW_SEGMENTS: u32 = 4u;
 
 // ∫_a^b D²·e^(−ΛD) dD, closed form (mm³).
 fn second_moment(slope: f32, a: f32, b: f32) -> f32 {
@@ -47,6 +58,39 @@ fn mist_hash(p: vec3<i32>) -> f32 {
     var h = u32(p.x) * 73856093u ^ u32(p.y) * 19349663u ^ u32(p.z) * 83492791u;
     h = (h ^ (h >> 13u)) * 1274126177u;
     return f32(h & 0xffffu) / 65535.0;
+}
+
+// Mean radiance of the diffuse light field at `position_m`, W·sr⁻¹·m⁻²:
+// (E↓ + E↑)/(2π) for uniform upper and lower hemispheres of irradiance E↓
+// (on an upward surface) and E↑ (on a downward one).
+fn mist_ambient_radiance(position_m: vec3<f32>) -> vec3<f32> {
+    let up = vec3<f32>(0.0, 1.0, 0.0);
+    if (!stratus_enabled() || position_m.y >= stratus.window.x) {
+        // The clear sky above, the sunlit ground below (the environment's SH).
+        return (sh_irradiance(lighting, up) + sh_irradiance(lighting, -up)) / (2.0 * PI);
+    }
+    let from_above = stratus_radiosity_sample(true, position_m.xz);
+    let sun_on_ground = sun_irradiance_at(position_m) * max(frame.sun_direction.y, 0.0)
+        * mist_sun_shadow(position_m);
+    let from_below = atmosphere.ground_albedo * (from_above + sun_on_ground);
+    return (from_above + from_below) / (2.0 * PI);
+}
+
+// The layer's shadow on the mist at `position_m`: its directional
+// transmittance T_C where the sun's ray from there crosses the layer. The
+// crossing is held inside the thickness window: beyond it the thickness
+// would come from the procedural field itself, a dozen noise octaves per
+// lookup, and the mist that far is seen through the nearer mist.
+fn mist_sun_shadow(position_m: vec3<f32>) -> vec3<f32> {
+    let l = frame.sun_direction;
+    if (!stratus_enabled() || l.y <= 0.0 || position_m.y >= stratus.window.x) {
+        return vec3<f32>(1.0);
+    }
+    let half_texel = 0.5 * stratus.window.y / f32(stratus.flags.w);
+    let low = stratus.window.zw + half_texel;
+    let high = stratus.window.zw + stratus.window.y - half_texel;
+    let h = stratus_thickness_at(clamp(stratus_sun_crossing(position_m), low, high));
+    return slab_directional_transmittance(stratus, h, l.y);
 }
 
 fn mist_noise(p: vec3<f32>) -> f32 {
@@ -96,7 +140,17 @@ fn mist_fragment(in: MistVarying) -> @location(0) vec4<f32> {
     let layer_m = rain.mist.y;
     // Geometric steps: fine near the camera, long far away.
     let ratio = pow(max(end_m, 1.0), 1.0 / f32(MIST_STEPS));
-    var tau = 0.0;
+    // Transmittance from the camera to the current step.
+    var transmittance = 1.0;
+    // ∫ β(s) T(0, s) T_C(s) ds: the sunlit extinction seen along the ray,
+    // T_C the layer's directional transmittance of the sun at each point.
+    var sunlit = vec3<f32>(0.0);
+    let steps_per_segment = MIST_STEPS / MIST_SHADOW_SEGMENTS;
+    var shadows: array<vec3<f32>, MIST_SHADOW_SEGMENTS>;
+    shadows[0] = mist_sun_shadow(origin + direction * min(pow(ratio, 4.5), end_m));
+    shadows[1] = mist_sun_shadow(origin + direction * min(pow(ratio, 12.5), end_m));
+    shadows[2] = mist_sun_shadow(origin + direction * min(pow(ratio, 20.5), end_m));
+    shadows[3] = mist_sun_shadow(origin + direction * min(pow(ratio, 28.5), end_m));
     var previous = 0.0;
     for (var i = 1u; i <= MIST_STEPS; i++) {
         let s = min(pow(ratio, f32(i)), end_m);
@@ -114,23 +168,23 @@ fn mist_fragment(in: MistVarying) -> @location(0) vec4<f32> {
                 }
                 beta += density * rain_extinction(intensity, rain.drops.y, rain.drops.z);
             }
-            tau += beta * (s - previous);
+            let step_tau = beta * (s - previous);
+            let shadow = shadows[min((i - 1u) / steps_per_segment, MIST_SHADOW_SEGMENTS - 1u)];
+            // Exact for constant β over the step: T(0, s₀)·(1 − e^(−Δτ)).
+            let step_transmittance = exp(-step_tau);
+            sunlit += transmittance * (1.0 - step_transmittance) * shadow;
+            transmittance *= step_transmittance;
         }
         previous = s;
         if (s >= end_m) {
             break;
         }
     }
-    let transmittance = exp(-tau);
-    let up = vec3<f32>(0.0, 1.0, 0.0);
-    // Mean radiance of the field, (E↑ + E↓)/(2π) for uniform sky and ground hemispheres.
-    let ambient = (stratus_ground_irradiance(origin, up, sh_irradiance(lighting, up))
-        + stratus_ground_irradiance(origin, -up, sh_irradiance(lighting, -up))) / (2.0 * PI);
     let g = MIST_PHASE_G;
     let mu = dot(direction, frame.sun_direction);
     let phase = (1.0 - g * g) / (4.0 * PI * pow(1.0 + g * g - 2.0 * g * mu, 1.5));
-    let sun = lighting.sun_irradiance.xyz * stratus_sun_transmittance(origin) * phase;
-    let source = (ambient + sun) * pre_exposure();
-    let inscattered = min(source * (1.0 - transmittance), vec3<f32>(frame.max_pre_exposed));
+    let radiance = mist_ambient_radiance(origin) * (1.0 - transmittance)
+        + lighting.sun_irradiance.xyz * phase * sunlit;
+    let inscattered = min(radiance * pre_exposure(), vec3<f32>(frame.max_pre_exposed));
     return vec4<f32>(inscattered, transmittance);
 }
