@@ -93,6 +93,8 @@ struct Resources {
     radiosity: RadiosityPass,
     compute_group: wgpu::BindGroup,
     thickness: wgpu::Texture,
+    /// Its view, the same for the compute that writes it and group 3.
+    thickness_view: wgpu::TextureView,
     indices: wgpu::Buffer,
     index_count: u32,
     /// Per-channel optics of the current tables: κ, P_f, ⟨θ²⟩ of P_F.

@@ -84,12 +84,11 @@ impl StratusPass {
             if let Some(texels) = phase_tables {
                 cloud_lighting.write_phase_tables(queue, &texels);
             }
-            let thickness = resources.thickness.create_view(&Default::default());
             let inputs = resources.radiosity.input_buffers();
             cloud_lighting.set_layer(
                 device,
                 settings.as_ref().map(|_| CloudLayerResources {
-                    thickness: &thickness,
+                    thickness: &resources.thickness_view,
                     ground_received: inputs.ground_received,
                     cloud_received: inputs.cloud_received,
                 }),
@@ -264,6 +263,7 @@ impl StratusPass {
             radiosity,
             compute_group,
             thickness,
+            thickness_view,
             indices: index_buffer,
             index_count: indices.len() as u32,
             optics,
