@@ -4,13 +4,19 @@
 //!
 //! | binding | what | written by | WGSL |
 //! |---|---|---|---|
-//! | 0 | the stratus layer's uniform ([`StratusUniform`]) | stratus pass (prepare) | `shader/cloud_layer_lookup.wgsl` |
-//! | 1 | the layer's thickness window (R32Float, m) | stratus pass (compute) | idem |
-//! | 2 | the layer's phase tables P_S, P², P_F | stratus pass (when the droplets change) | idem |
-//! | 3 | R_G, the radiosity received by the ground | radiosity iterations | idem |
-//! | 4 | R_C, the radiosity received by the cloud base | radiosity iterations | idem |
-//! | 8 | the cloud shadow map's uniform | cumulus pass | `shader/cloud_shadow_uniform.wgsl` |
-//! | 9 | the cloud shadow map (nearest and farthest core depth) | cumulus pass | `shader/cloud_shadow_lookup.wgsl` |
+//! | 0 | the cloud shadow map's uniform | cumulus pass | `shader/cloud_shadow_uniform.wgsl` |
+//! | 1 | the cloud shadow map (nearest and farthest core depth) | cumulus pass | `shader/cloud_shadow_lookup.wgsl` |
+//! | 2 | the stratus layer's uniform ([`StratusUniform`]) | stratus pass (prepare) | `shader/cloud_layer_lookup.wgsl` |
+//! | 3 | the layer's thickness window (R32Float, m) | stratus pass (compute) | idem |
+//! | 4 | the layer's phase tables P_S, P², P_F | stratus pass (when the droplets change) | idem |
+//! | 5 | R_G, the radiosity received by the ground | radiosity iterations | idem |
+//! | 6 | R_C, the radiosity received by the cloud base | radiosity iterations | idem |
+//!
+//! The shadow map comes first for a measured reason: with it after the
+//! layer's bindings (at 8 and 9), lavapipe (Mesa 22.3) drew the stratus layer
+//! 13–15 % slower in scenes without cumulus, where the map is never read,
+//! from the same WGSL but for the binding numbers; in front of them the
+//! times are those of the map in a group of its own (docs/PERFORMANCE.md).
 //!
 //! [`CloudLighting`] owns the layout, the bind group, the uniform, the phase
 //! tables and the [`CloudShadowMap`]; the thickness window and the radiosity
@@ -87,6 +93,10 @@ pub struct CloudLighting {
     bind_group: wgpu::BindGroup,
 }
 
+/// Binding of the layer's uniform; the layer's resources follow it in the
+/// table's order (the shadow map holds 0 and 1).
+const LAYER_FIRST_BINDING: u32 = 2;
+
 /// Bytes of one `vec4<f32>`.
 const VEC4_BYTES: u64 = 16;
 
@@ -120,11 +130,11 @@ impl CloudLighting {
             entries: &[
                 // The layer's shape is also for compute passes (and the
                 // tests' kernels) that need to know where the cloud is.
-                binding::uniform_layout_entry(0, draw | compute, uniform_size),
-                binding::texture_entry(1, wgpu::TextureViewDimension::D2, false, draw | compute),
-                binding::buffer_entry(2, storage_read, VEC4_BYTES, draw),
-                binding::buffer_entry(3, storage_read, VEC4_BYTES, wgpu::ShaderStages::FRAGMENT),
-                binding::buffer_entry(4, storage_read, VEC4_BYTES, wgpu::ShaderStages::FRAGMENT),
+                binding::uniform_layout_entry(2, draw | compute, uniform_size),
+                binding::texture_entry(3, wgpu::TextureViewDimension::D2, false, draw | compute),
+                binding::buffer_entry(4, storage_read, VEC4_BYTES, draw),
+                binding::buffer_entry(5, storage_read, VEC4_BYTES, wgpu::ShaderStages::FRAGMENT),
+                binding::buffer_entry(6, storage_read, VEC4_BYTES, wgpu::ShaderStages::FRAGMENT),
                 shadow_uniform,
                 shadow_map,
             ],
@@ -204,7 +214,7 @@ impl CloudLighting {
             .into_iter()
             .enumerate()
             .map(|(binding, resource)| wgpu::BindGroupEntry {
-                binding: binding as u32,
+                binding: LAYER_FIRST_BINDING + binding as u32,
                 resource,
             })
             .chain([shadow_uniform, shadow_map])
@@ -256,7 +266,7 @@ impl CloudLighting {
         &self.uniform
     }
 
-    /// The cloud shadow map (bindings 8 and 9), drawn by the cumulus pass.
+    /// The cloud shadow map (bindings 0 and 1), drawn by the cumulus pass.
     pub fn shadow(&self) -> &CloudShadowMap {
         &self.shadow
     }

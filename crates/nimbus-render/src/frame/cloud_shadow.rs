@@ -1,6 +1,6 @@
 //! The cloud shadow map: what the cumulus pass draws and every pass lit by
 //! the sun reads (terrain, objects, the stratus layer, the cumulus bodies)
-//! at group 3, bindings 8 and 9, beside the stratus layer's lighting
+//! at group 3, bindings 0 and 1, beside the stratus layer's lighting
 //! ([`crate::frame::cloud_lighting`]). WGSL: `shader/cloud_shadow_uniform.wgsl`,
 //! `shader/cloud_shadow_lookup.wgsl`.
 
@@ -26,7 +26,7 @@ pub struct CloudShadowUniform {
 /// The cloud shadow map: a two-layer depth texture (nearest and farthest
 /// cloud core along the sun's light) and its uniform. Owned by the frame's
 /// [`crate::frame::cloud_lighting::CloudLighting`]; the cumulus pass draws
-/// it, the passes lit by the sun bind it at group 3, bindings 8 and 9.
+/// it, the passes lit by the sun bind it at group 3, bindings 0 and 1.
 #[derive(Debug)]
 pub struct CloudShadowMap {
     texture: wgpu::Texture,
@@ -94,16 +94,16 @@ impl CloudShadowMap {
         map
     }
 
-    /// Layout entries of the uniform (binding 8) and the map (binding 9).
+    /// Layout entries of the uniform (binding 0) and the map (binding 1).
     pub fn layout_entries(visibility: wgpu::ShaderStages) -> [wgpu::BindGroupLayoutEntry; 2] {
         [
             binding::uniform_layout_entry(
-                8,
+                0,
                 visibility,
                 std::mem::size_of::<CloudShadowUniform>() as u64,
             ),
             wgpu::BindGroupLayoutEntry {
-                binding: 9,
+                binding: 1,
                 visibility,
                 ty: wgpu::BindingType::Texture {
                     sample_type: wgpu::TextureSampleType::Depth,
@@ -120,7 +120,7 @@ impl CloudShadowMap {
         shadow_entries(&self.uniform, &self.array_view)
     }
 
-    /// A group 3 holding only the uniform (binding 8), for the pass that
+    /// A group 3 holding only the uniform (binding 0), for the pass that
     /// draws the map: it cannot bind the map it renders into.
     pub fn uniform_layout(&self) -> &wgpu::BindGroupLayout {
         &self.uniform_layout
@@ -148,18 +148,18 @@ impl CloudShadowMap {
     }
 }
 
-/// The shadow map's bind group entries: the uniform at 8, the map at 9.
+/// The shadow map's bind group entries: the uniform at 0, the map at 1.
 fn shadow_entries<'a>(
     uniform: &'a wgpu::Buffer,
     map: &'a wgpu::TextureView,
 ) -> [wgpu::BindGroupEntry<'a>; 2] {
     [
         wgpu::BindGroupEntry {
-            binding: 8,
+            binding: 0,
             resource: uniform.as_entire_binding(),
         },
         wgpu::BindGroupEntry {
-            binding: 9,
+            binding: 1,
             resource: wgpu::BindingResource::TextureView(map),
         },
     ]

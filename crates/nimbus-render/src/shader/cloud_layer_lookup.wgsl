@@ -4,18 +4,18 @@
 // layer's shadow and indirect light on the ground. Needs common.wgsl,
 // the atmosphere lookups and shader/cloud_layer_field.wgsl.
 
-@group(3) @binding(0) var<uniform> stratus: Stratus;
+@group(3) @binding(2) var<uniform> stratus: Stratus;
 // Thickness of the layer, m, over the window around the camera (R32Float,
 // texel centres at corner + (i + ½) · side / n).
-@group(3) @binding(1) var stratus_thickness: texture_2d<f32>;
+@group(3) @binding(3) var stratus_thickness: texture_2d<f32>;
 // Phase functions, RGB per texel, sr⁻¹: P_S over 0–180° (sizes.x texels),
 // then P² over 0–180° (sizes.x), then P_F over 0–θ_f (sizes.y).
-@group(3) @binding(2) var<storage, read> stratus_phase: array<vec4<f32>>;
+@group(3) @binding(4) var<storage, read> stratus_phase: array<vec4<f32>>;
 // Radiosity result (Bouthors 2006, §5): R_G, the ground's indirect
 // irradiance, and R_C, the irradiance the cloud base gets from the ground,
 // W·m⁻², over the radiosity grid (row-major, z rows).
-@group(3) @binding(3) var<storage, read> radiosity_ground: array<vec4<f32>>;
-@group(3) @binding(4) var<storage, read> radiosity_cloud: array<vec4<f32>>;
+@group(3) @binding(5) var<storage, read> radiosity_ground: array<vec4<f32>>;
+@group(3) @binding(6) var<storage, read> radiosity_cloud: array<vec4<f32>>;
 
 fn stratus_enabled() -> bool {
     return stratus.flags.x != 0u;

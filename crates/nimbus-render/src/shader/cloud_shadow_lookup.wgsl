@@ -8,7 +8,7 @@
 // over (2k + 1)² texels (percentage-closer filtering: soft edges). Needs
 // shader/cloud_shadow_uniform.wgsl.
 
-@group(3) @binding(9) var cloud_shadow_map: texture_depth_2d_array;
+@group(3) @binding(1) var cloud_shadow_map: texture_depth_2d_array;
 
 fn cloud_shadow_texel(texel: vec2<i32>, depth: f32) -> f32 {
     let front = textureLoad(cloud_shadow_map, texel, 0, 0);

@@ -1,5 +1,5 @@
 // import shader/common.wgsl
-// The cloud shadow map's transform and parameters (group 3, binding 8 in
+// The cloud shadow map's transform and parameters (group 3, binding 0 in
 // every pass that reads or draws the map; frame/cloud_lighting.rs).
 
 struct CloudShadow {
@@ -12,4 +12,4 @@ struct CloudShadow {
     flags: vec4<u32>,
 }
 
-@group(3) @binding(8) var<uniform> cloud_shadow: CloudShadow;
+@group(3) @binding(0) var<uniform> cloud_shadow: CloudShadow;

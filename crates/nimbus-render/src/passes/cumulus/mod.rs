@@ -52,7 +52,7 @@ const COMPOSITE_WGSL: WgslFile = WgslFile {
 };
 
 /// What a pass that is shadowed by the clouds composes (after the drawing
-/// libraries): the shadow uniform and lookup, group 3 bindings 8 and 9.
+/// libraries): the shadow uniform and lookup, group 3 bindings 0 and 1.
 pub const SHADOW_LIBRARIES: [WgslFile; 2] = [SHADOW_UNIFORM, SHADOW_LOOKUP];
 
 /// The composed WGSL of the camera's passes.
