@@ -233,3 +233,68 @@ fn gpu_lighting_inputs_match_the_cpu_reference() {
         }
     }
 }
+
+/// `camera.aerial_perspective = false` leaves the air out of everything in
+/// front of the sky and nothing else: the aerial-perspective volume holds no
+/// in-scattered light and a transmittance of 1, the sky's pixels are the
+/// same, and distant terrain loses its haze (bluer and brighter with it at
+/// a high sun over green land is the test's scene).
+#[test]
+fn without_aerial_perspective_only_what_is_in_front_of_the_sky_changes() {
+    let mut scene = Scene::default();
+    scene.camera.position_m = [0.0, 600.0, 0.0];
+    scene.camera.yaw_deg = Some(30.0);
+    scene.camera.pitch_deg = Some(-2.0);
+    scene.camera.auto_exposure = false;
+    scene.sun.azimuth_deg = Some(200.0);
+    scene.sun.elevation_deg = Some(50.0);
+    scene.terrain.resolution = 64;
+    scene.stratus = None;
+    scene.cumulus = None;
+    scene.rain = None;
+    let mut h = HeadlessRenderer::new(AdapterPreference::Auto)
+        .unwrap_or_else(|e| panic!("GPU tests need an adapter: {e}"));
+    let with_air = h.render_hdr(&scene, 64, 36, 0.0).expect("render");
+    scene.camera.aerial_perspective = false;
+    let without_air = h.render_hdr(&scene, 64, 36, 0.0).expect("render");
+    let bytes =
+        read_texture(&h.gpu, &h.renderer.atmosphere().textures()[3], 8).expect("read volume");
+    let halves: &[half::f16] = bytemuck::cast_slice(&bytes);
+    for froxel in halves.chunks(4) {
+        let [r, g, b, t] = [0, 1, 2, 3].map(|k| froxel[k].to_f32());
+        assert!(
+            r == 0.0 && g == 0.0 && b == 0.0 && t == 1.0,
+            "froxel {r} {g} {b} {t}"
+        );
+    }
+    // The top rows are sky, the bottom rows terrain (the camera looks 2° down, the
+    // horizon near row 17).
+    let row = |image: &[[f32; 3]], y: usize| image[y * 64..(y + 1) * 64].to_vec();
+    for (a, b) in row(&with_air.pixels, 0)
+        .iter()
+        .zip(row(&without_air.pixels, 0))
+    {
+        for c in 0..3 {
+            assert!(
+                (a[c] - b[c]).abs() <= 1e-4 * a[c].abs().max(1.0),
+                "sky {a:?} {b:?}"
+            );
+        }
+    }
+    // Rows 20–24: terrain 4–14 km away.
+    let mean_blue_over_red = |image: &[[f32; 3]]| {
+        let ground: Vec<[f32; 3]> = (20..25).flat_map(|y| row(image, y)).collect();
+        let (r, b) = ground
+            .iter()
+            .fold((0.0, 0.0), |(r, b), p| (r + p[0], b + p[2]));
+        b / r
+    };
+    let (hazy, clear) = (
+        mean_blue_over_red(&with_air.pixels),
+        mean_blue_over_red(&without_air.pixels),
+    );
+    assert!(
+        hazy > 1.05 * clear,
+        "terrain blue/red with air {hazy}, without {clear}"
+    );
+}

@@ -114,7 +114,7 @@ fn atmosphere_and_lighting_match_wgsl_layout() {
             sun_irradiance_top,
             ozone_peak_altitude_m,
             ozone_half_width_m,
-            _padding0,
+            aerial_perspective_scale,
             _padding1,
             _padding2,
         ]

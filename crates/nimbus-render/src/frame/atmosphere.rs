@@ -72,8 +72,9 @@ pub struct AtmosphereUniform {
     pub ozone_peak_altitude_m: f32,
     /// Ozone half width, m.
     pub ozone_half_width_m: f32,
-    /// Padding.
-    pub _padding0: f32,
+    /// 1 to draw the air between the camera and what it sees, 0 to leave it
+    /// out (`camera.aerial_perspective`).
+    pub aerial_perspective_scale: f32,
     /// Padding.
     pub _padding1: f32,
     /// Padding.
@@ -97,7 +98,7 @@ impl From<&AtmosphereParams> for AtmosphereUniform {
             sun_irradiance_top: solar_irradiance_top(),
             ozone_peak_altitude_m: p.ozone_peak_altitude_m as f32,
             ozone_half_width_m: p.ozone_half_width_m as f32,
-            _padding0: 0.0,
+            aerial_perspective_scale: 1.0,
             _padding1: 0.0,
             _padding2: 0.0,
         }

@@ -247,8 +247,12 @@ impl Renderer {
         }
         let frame = FrameUniform::with_camera(scene, camera, width, height, time_s);
         self.frame.write_uniform(&self.queue, &frame);
-        self.atmosphere
-            .prepare(&self.queue, &scene.atmosphere, &frame);
+        self.atmosphere.prepare(
+            &self.queue,
+            &scene.atmosphere,
+            scene.camera.aerial_perspective,
+            &frame,
+        );
         self.sky.prepare(
             &self.queue,
             SkySettings {

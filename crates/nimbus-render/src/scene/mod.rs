@@ -126,6 +126,12 @@ pub struct CameraSettings {
     pub adaptation_time_s: f64,
     /// How the view is projected onto the image.
     pub projection: Projection,
+    /// Draw the air between the camera and what it sees (Hillaire 2020's
+    /// aerial perspective: haze over distant terrain, the aureole of sunlit
+    /// air in front of a back-lit cloud). `false` leaves it out while the sky
+    /// itself stays as it is: what a path tracer whose sky is an environment
+    /// map at infinity renders (the realism suite's references).
+    pub aerial_perspective: bool,
 }
 
 /// Projection of the camera (`camera.projection`).
@@ -156,6 +162,7 @@ impl Default for CameraSettings {
             exposure_compensation_ev: 0.0,
             adaptation_time_s: 1.0,
             projection: Projection::Perspective,
+            aerial_perspective: true,
         }
     }
 }

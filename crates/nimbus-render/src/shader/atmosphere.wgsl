@@ -22,7 +22,8 @@ struct Atmosphere {
     sun_irradiance_top: vec3<f32>,
     ozone_peak_altitude_m: f32,
     ozone_half_width_m: f32,
-    _padding0: f32,
+    // 1 draws the air between the camera and what it sees, 0 leaves it out.
+    aerial_perspective_scale: f32,
     _padding1: f32,
     _padding2: f32,
 }

@@ -21,5 +21,9 @@ fn aerial_perspective_main(@builtin(global_invocation_id) id: vec3<u32>) {
     let result = scatter_along(transmittance_lut, multiple_scattering_lut, lut_sampler, atmosphere, r, view,
         frame.sun_direction, distance_m, AERIAL_PERSPECTIVE_STEPS);
     let transmittance = dot(result.transmittance, vec3<f32>(1.0 / 3.0));
-    textureStore(aerial_perspective_out, id, vec4<f32>(result.luminance * atmosphere.sun_irradiance_top, transmittance));
+    // Scale 0 (`camera.aerial_perspective = false`): no air in front of
+    // anything, as in a path tracer whose sky is an environment map.
+    let scale = atmosphere.aerial_perspective_scale;
+    textureStore(aerial_perspective_out, id, vec4<f32>(
+        result.luminance * atmosphere.sun_irradiance_top * scale, mix(1.0, transmittance, scale)));
 }

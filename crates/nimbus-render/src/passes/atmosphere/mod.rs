@@ -93,7 +93,8 @@ pub struct AtmospherePass {
     textures: [wgpu::Texture; 4],
     lighting: wgpu::Buffer,
     steps: [ComputeStep; 5],
-    params: Option<AtmosphereParams>,
+    /// The parameters and the aerial-perspective switch last uploaded.
+    params: Option<(AtmosphereParams, bool)>,
     view: Option<ViewKey>,
     luts_pending: AtomicBool,
     view_pending: AtomicBool,
@@ -308,19 +309,23 @@ impl AtmospherePass {
 
     /// Uploads the atmosphere when it changed, and marks what the next
     /// [`Self::encode`] must recompute.
+    /// Without `aerial_perspective` the aerial-perspective volume holds no
+    /// air (nothing scattered in, transmittance 1).
     pub fn prepare(
         &mut self,
         queue: &wgpu::Queue,
         params: &AtmosphereParams,
+        aerial_perspective: bool,
         frame: &crate::frame::FrameUniform,
     ) {
-        if self.params.as_ref() != Some(params) {
-            queue.write_buffer(
-                &self.uniform,
-                0,
-                bytemuck::bytes_of(&AtmosphereUniform::from(params)),
-            );
-            self.params = Some(params.clone());
+        let state = (params.clone(), aerial_perspective);
+        if self.params.as_ref() != Some(&state) {
+            let uniform = AtmosphereUniform {
+                aerial_perspective_scale: if aerial_perspective { 1.0 } else { 0.0 },
+                ..AtmosphereUniform::from(params)
+            };
+            queue.write_buffer(&self.uniform, 0, bytemuck::bytes_of(&uniform));
+            self.params = Some(state);
             self.luts_pending.store(true, Ordering::Relaxed);
             self.view_pending.store(true, Ordering::Relaxed);
         }
