@@ -258,7 +258,7 @@ fn without_aerial_perspective_only_what_is_in_front_of_the_sky_changes() {
     scene.camera.aerial_perspective = false;
     let without_air = h.render_hdr(&scene, 64, 36, 0.0).expect("render");
     let bytes =
-        read_texture(&h.gpu, &h.renderer.atmosphere().textures()[3], 8).expect("read volume");
+        read_texture(&h.gpu, h.renderer.atmosphere().textures()[3], 8).expect("read volume");
     let halves: &[half::f16] = bytemuck::cast_slice(&bytes);
     for froxel in halves.chunks(4) {
         let [r, g, b, t] = [0, 1, 2, 3].map(|k| froxel[k].to_f32());
