@@ -469,3 +469,22 @@ fn gpu_tone_mapping_matches_the_cpu_aces_reference() {
     // ±1 code value of dither, ±0.5 of rounding, and half-float input.
     assert!(worst <= 2.0, "worst tone-mapping error {worst} code values");
 }
+
+/// A scene made in code is checked by `prepare` as a scene file is by its
+/// loader: one line with the key, the value and what is allowed, and nothing
+/// drawn; a valid scene then renders with the same renderer.
+#[test]
+fn prepare_rejects_a_scene_out_of_range_with_one_line() {
+    let mut h = headless();
+    let mut scene = Scene::default();
+    scene.camera.fov_deg = 190.0;
+    let error = h
+        .render_hdr(&scene, 32, 18, 0.0)
+        .expect_err("a field of view of 190° must be refused")
+        .to_string();
+    assert_eq!(error, "scene: camera.fov_deg = 190: must be in (0, 179)");
+    assert!(!error.contains('\n'));
+    scene.camera.fov_deg = 60.0;
+    scene.terrain.resolution = 64;
+    h.render_hdr(&scene, 32, 18, 0.0).expect("valid scene");
+}

@@ -81,6 +81,10 @@ pub enum RenderError {
     /// The rain cannot be simulated on this device.
     #[error(transparent)]
     Rain(#[from] crate::passes::rain::RainError),
+    /// The scene has a value outside its documented range
+    /// ([`crate::Scene::check`]).
+    #[error(transparent)]
+    Scene(#[from] crate::scene::SceneError),
     /// A shader or pipeline failed validation (WGSL read from disk by
     /// [`crate::shader::set_source_dir`] that does not compile).
     #[error("the renderer's shaders do not compile: {0}")]
@@ -206,7 +210,9 @@ impl Renderer {
 
     /// Updates everything a frame needs: the frame uniform, the atmosphere
     /// and the terrain (recomputed only when their inputs change), and the
-    /// HDR target (recreated on resize).
+    /// HDR target (recreated on resize). The scene is checked first
+    /// ([`Scene::check`]): a value outside its documented range is
+    /// [`RenderError::Scene`], with the line a scene file's would have.
     pub fn prepare(
         &mut self,
         scene: &Scene,
@@ -229,6 +235,9 @@ impl Renderer {
         height: u32,
         time_s: f32,
     ) -> Result<(), RenderError> {
+        // The same checks as a scene file's: a scene built in code gets the
+        // same one-line errors instead of NaNs or a device error.
+        scene.check()?;
         Self::check_size(&self.device, width, height)?;
         if self.hdr.as_ref().map(Target::size) != Some((width, height)) {
             let hdr = Target::new(

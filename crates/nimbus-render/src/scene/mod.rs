@@ -22,7 +22,7 @@ pub use rain::{
     MAX_RAIN_DROPS, RainAreaSettings, RainBoxKind, RainSettings, TurbulenceSettings,
     WindFieldSettings, WindPrimitiveKindSetting, WindPrimitiveSettings,
 };
-pub use validate::SceneError;
+pub use validate::{IN_CODE, SceneError};
 
 use nimbus_physics::atmosphere::AtmosphereParams;
 use nimbus_physics::cloud_layer::CloudLayerField;

@@ -7,6 +7,9 @@
 use super::Scene;
 use std::fmt::Display;
 
+/// What errors of a scene made in code name in place of a file ([`Scene::check`]).
+pub const IN_CODE: &str = "scene";
+
 /// Why a scene could not be loaded.
 #[derive(Debug, thiserror::Error)]
 pub enum SceneError {
@@ -247,7 +250,17 @@ impl Scene {
         Ok(())
     }
 
-    /// Checks every value against its documented range.
+    /// Checks a scene made in code (no file): the checks of
+    /// [`Self::validate`], each error's line naming [`IN_CODE`] where a
+    /// file's errors name the file, e.g.
+    /// `scene: camera.fov_deg = 190: must be in (0, 179)`.
+    /// [`crate::Renderer::prepare`] runs it on every scene it is given.
+    pub fn check(&self) -> Result<(), SceneError> {
+        self.validate(IN_CODE)
+    }
+
+    /// Checks every value against its documented range; `file` names the
+    /// scene in the errors.
     pub fn validate(&self, file: &str) -> Result<(), SceneError> {
         let c = Checker { file };
         let side = super::MAX_IMAGE_SIDE_PX as u64;
