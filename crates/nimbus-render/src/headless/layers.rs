@@ -100,15 +100,6 @@ fn single_channel(values: Vec<[f32; 1]>) -> Vec<f32> {
     values.into_iter().map(|[v]| v).collect()
 }
 
-/// The scene without stratus, cumulus and rain.
-fn clear_sky(scene: &Scene) -> Scene {
-    let mut clear = scene.clone();
-    clear.stratus = None;
-    clear.cumulus = None;
-    clear.rain = None;
-    clear
-}
-
 impl HeadlessRenderer {
     /// Renders a scene with its EXR layers, in the scene camera's
     /// projection. Up to four frames per view: the image, two for the
@@ -242,8 +233,7 @@ impl HeadlessRenderer {
         // The clouds' opacity, from two frames over a grey and a black
         // background, without rain and at a fixed exposure.
         let has_clouds = scene.stratus.is_some() || scene.cumulus.is_some();
-        let mut masked = scene.clone();
-        masked.rain = None;
+        let mut masked = scene.without_rain();
         masked.camera.auto_exposure = false;
         for (view, layers) in views.iter().zip(out.iter_mut()) {
             let pixels = (view.width * view.height) as usize;
@@ -269,7 +259,7 @@ impl HeadlessRenderer {
                 })
                 .collect();
         }
-        let clear = clear_sky(scene);
+        let clear = scene.clear_sky();
         for (view, layers) in views.iter().zip(out.iter_mut()) {
             let (sky, _) =
                 self.render_view_hdr(&clear, &view.camera, view.width, view.height, time_s, false)?;

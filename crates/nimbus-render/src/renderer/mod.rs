@@ -82,7 +82,7 @@ pub enum RenderError {
     #[error(transparent)]
     Rain(#[from] crate::passes::rain::RainError),
     /// The scene has a value outside its documented range
-    /// ([`crate::Scene::check`]).
+    /// ([`crate::scene::Scene::check`]).
     #[error(transparent)]
     Scene(#[from] crate::scene::SceneError),
     /// A shader or pipeline failed validation (WGSL read from disk by
@@ -211,7 +211,7 @@ impl Renderer {
     /// Updates everything a frame needs: the frame uniform, the atmosphere
     /// and the terrain (recomputed only when their inputs change), and the
     /// HDR target (recreated on resize). The scene is checked first
-    /// ([`Scene::check`]): a value outside its documented range is
+    /// ([`crate::scene::Scene::check`]): a value outside its documented range is
     /// [`RenderError::Scene`], with the line a scene file's would have.
     pub fn prepare(
         &mut self,

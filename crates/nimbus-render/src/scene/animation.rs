@@ -313,6 +313,32 @@ impl Scene {
     }
 }
 
+impl Scene {
+    /// The scene without its rain, and without the keyframes' rain
+    /// intensities (which need a `[rain]` section): still a valid scene.
+    pub fn without_rain(&self) -> Scene {
+        let mut scene = self.clone();
+        scene.rain = None;
+        for key in &mut scene.keyframes {
+            key.rain_intensity_mm_h = None;
+        }
+        scene
+    }
+
+    /// The clear sky of the scene: without stratus, cumulus and rain, and
+    /// without the keyframed values of those parts (the EXR's `sky` layer,
+    /// the exported environment map).
+    pub fn clear_sky(&self) -> Scene {
+        let mut scene = self.without_rain();
+        scene.stratus = None;
+        scene.cumulus = None;
+        for key in &mut scene.keyframes {
+            key.stratus_coverage = None;
+        }
+        scene
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -252,6 +252,9 @@ impl Scene {
                             "must be the path of a .gltf or .glb file",
                         ));
                     }
+                    if !c.read_files {
+                        continue;
+                    }
                     let budget = MAX_OBJECT_TRIANGLES.saturating_sub(triangles);
                     let mesh =
                         super::gltf::load_gltf(&self.resolve_path(gltf), budget).map_err(|e| {

@@ -382,15 +382,17 @@ impl Scene {
                     ));
                 }
                 // Read it now, so that a bad file fails the scene's loading.
-                f.load(&self.resolve_path(&f.file)).map_err(|e| {
-                    c.invalid(
+                if c.read_files {
+                    f.load(&self.resolve_path(&f.file)).map_err(|e| {
+                        c.invalid(
                         "wind.field.file",
                         format!("{:?}", f.file),
                         format!(
                             "must be a float32 or float64 .npy array of shape (nz, ny, nx, 3): {e}"
                         ),
                     )
-                })?;
+                    })?;
+                }
             }
             if wind.primitives.len() > nimbus_physics::rain::wind::MAX_WIND_PRIMITIVES {
                 return Err(c.invalid(

@@ -411,3 +411,26 @@ fn scene_reference_documents_every_key_of_the_default_scene() {
     }
     walk("", &value, doc);
 }
+
+/// `Scene::check` (run by the renderer's `prepare` on every frame) has the
+/// file's range checks and their one-line errors, but reads no file: a
+/// mesh whose file is missing passes it and fails the file's validation.
+#[test]
+fn check_has_the_range_errors_and_reads_no_file() {
+    let mut scene = Scene::default();
+    scene.camera.fov_deg = 0.0;
+    assert_eq!(
+        scene.check().expect_err("fov 0").to_string(),
+        "scene: camera.fov_deg = 0: must be in (0, 179)"
+    );
+    let text =
+        "[[objects]]\nkind = \"mesh\"\ngltf = \"no/such/file.glb\"\nposition_m = [0.0, 0.0, 0.0]\n";
+    let error = error_of(text);
+    assert!(
+        error.contains("must be a readable glTF 2.0 file"),
+        "{error}"
+    );
+    let mut scene = Scene::default();
+    scene.objects = toml::from_str::<Scene>(text).expect("parses").objects;
+    scene.check().expect("check reads no file");
+}

@@ -107,6 +107,9 @@ impl SceneError {
 /// Collects range checks against one file, stopping at the first failure.
 pub(super) struct Checker<'a> {
     pub(super) file: &'a str,
+    /// Read the files the scene refers to (glTF meshes, wind fields) to
+    /// check them; off for [`Scene::check`], which must not touch the disk.
+    pub(super) read_files: bool,
 }
 
 impl Checker<'_> {
@@ -250,19 +253,30 @@ impl Scene {
         Ok(())
     }
 
-    /// Checks a scene made in code (no file): the checks of
-    /// [`Self::validate`], each error's line naming [`IN_CODE`] where a
-    /// file's errors name the file, e.g.
-    /// `scene: camera.fov_deg = 190: must be in (0, 179)`.
-    /// [`crate::Renderer::prepare`] runs it on every scene it is given.
+    /// Checks a scene made in code (no file): the range and consistency
+    /// checks of [`Self::validate`], each error's line naming [`IN_CODE`]
+    /// where a file's errors name the file, e.g.
+    /// `scene: camera.fov_deg = 190: must be in (0, 179)`. It reads no
+    /// file (the files a scene refers to are read, and their errors
+    /// reported, by the passes that load them), so the renderer's `prepare`
+    /// runs it on every scene it is given.
     pub fn check(&self) -> Result<(), SceneError> {
-        self.validate(IN_CODE)
+        self.validate_with(&Checker {
+            file: IN_CODE,
+            read_files: false,
+        })
     }
 
     /// Checks every value against its documented range; `file` names the
     /// scene in the errors.
     pub fn validate(&self, file: &str) -> Result<(), SceneError> {
-        let c = Checker { file };
+        self.validate_with(&Checker {
+            file,
+            read_files: true,
+        })
+    }
+
+    fn validate_with(&self, c: &Checker<'_>) -> Result<(), SceneError> {
         let side = super::MAX_IMAGE_SIDE_PX as u64;
         c.integer("image.width", self.image.width as u64, 1, side)?;
         c.integer("image.height", self.image.height as u64, 1, side)?;
@@ -321,8 +335,8 @@ impl Scene {
         )?;
         c.closed("camera.adaptation_time_s", cam.adaptation_time_s, 0.0, 60.0)?;
 
-        self.validate_sun(&c)?;
-        self.validate_keyframes(&c)?;
+        self.validate_sun(c)?;
+        self.validate_keyframes(c)?;
         let a = &self.atmosphere;
         c.closed(
             "atmosphere.bottom_radius_m",
@@ -535,8 +549,8 @@ impl Scene {
             c.closed("wind.speed_m_s", wind.speed_m_s, 0.0, 100.0)?;
             c.closed("wind.from_deg", wind.from_deg, 0.0, 360.0)?;
         }
-        self.validate_objects(&c)?;
-        self.validate_rain(&c)?;
+        self.validate_objects(c)?;
+        self.validate_rain(c)?;
         Ok(())
     }
 }

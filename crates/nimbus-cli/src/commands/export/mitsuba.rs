@@ -208,10 +208,7 @@ pub fn export(
     let variant_params = headless.renderer.cumulus().variant_params().cloned();
 
     // 2. The sky: nimbus's clear-sky panorama at the camera, sun disc removed.
-    let mut clear = scene.clone();
-    clear.stratus = None;
-    clear.cumulus = None;
-    clear.rain = None;
+    let mut clear = scene.clear_sky();
     clear.camera.projection = Projection::Equirectangular;
     let sky_height = SKY_WIDTH_PX / 2;
     let mut sky = headless.render_hdr(&clear, SKY_WIDTH_PX, sky_height, time_s as f32)?;
