@@ -430,7 +430,6 @@ fn check_has_the_range_errors_and_reads_no_file() {
         error.contains("must be a readable glTF 2.0 file"),
         "{error}"
     );
-    let mut scene = Scene::default();
-    scene.objects = toml::from_str::<Scene>(text).expect("parses").objects;
+    let scene: Scene = toml::from_str(text).expect("parses");
     scene.check().expect("check reads no file");
 }
