@@ -6,7 +6,7 @@
 use glam::{DMat4, DVec3, DVec4};
 use nimbus_physics::atmosphere::{
     AERIAL_PERSPECTIVE_SIZE, AtmosphereTables, MULTIPLE_SCATTERING_LUT_SIZE, SKY_VIEW_LUT_SIZE,
-    TRANSMITTANCE_LUT_SIZE, aerial_perspective_distance_m, fibonacci_sphere, unit_of_texel,
+    TRANSMITTANCE_LUT_SIZE, aerial_perspective_distance_m, unit_of_texel,
 };
 use nimbus_physics::sh;
 use nimbus_render::atmosphere::solar_irradiance_top;
@@ -163,40 +163,15 @@ fn gpu_atmosphere_matches_the_cpu_reference() {
 #[test]
 fn gpu_lighting_inputs_match_the_cpu_reference() {
     let f = fixture();
-    let p = &f.scene.atmosphere;
-    let e0 = solar_irradiance_top().map(f64::from);
-    let r = p.bottom_radius_m + f.scene.camera.position_m[1];
-    let sun = f.scene.sun.direction();
-    let mu_s = sun[1];
-    let sky = |d: [f64; 3]| {
-        let zenith = d[1].clamp(-1.0, 1.0).acos();
-        let (h, s) = (
-            (d[0] * d[0] + d[2] * d[2]).sqrt(),
-            (sun[0] * sun[0] + sun[2] * sun[2]).sqrt(),
-        );
-        let cos_az = if h > 1e-9 && s > 1e-9 {
-            (d[0] * sun[0] + d[2] * sun[2]) / (h * s)
-        } else {
-            1.0
-        };
-        let l = f.tables.sky_view_luminance(r, zenith, cos_az, mu_s);
-        [0, 1, 2].map(|c| l[c] * e0[c])
-    };
-    let directions: Vec<[f64; 3]> = (0..1024).map(|k| fibonacci_sphere(k, 1024)).collect();
-    let weight = 4.0 * std::f64::consts::PI / 1024.0;
-    let mut sky_up = [0.0; 3];
-    for d in directions.iter().filter(|d| d[1] > 0.0) {
-        let l = sky(*d);
-        for c in 0..3 {
-            sky_up[c] += l[c] * d[1] * weight;
-        }
-    }
-    let sun_t = p.transmittance_to_top(r, mu_s);
-    let sun_e: [f64; 3] = [0, 1, 2].map(|c| e0[c] * sun_t[c]);
-    let ground: [f64; 3] = [0, 1, 2].map(|c| {
-        p.ground_albedo[c] / std::f64::consts::PI * (sun_e[c] * mu_s.max(0.0) + sky_up[c])
-    });
-    let coefficients = sh::project(&directions, |d| if d[1] > 0.0 { sky(d) } else { ground });
+    // The CPU reference is the library's own (what embedders read).
+    let cpu = nimbus_render::atmosphere::sky_lighting(&f.scene);
+    assert_eq!(cpu.sun_direction, f.scene.sun.direction());
+    let (sky_up, sun_e, ground, coefficients) = (
+        cpu.sky_irradiance_up,
+        cpu.sun_irradiance,
+        cpu.ground_radiance,
+        cpu.sh,
+    );
 
     let gpu = |k: usize| {
         [

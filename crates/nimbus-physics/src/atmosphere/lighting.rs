@@ -117,9 +117,9 @@ mod tests {
     fn sh_irradiance_matches_the_integral_and_the_sky_is_blue() {
         let l = lighting(45.0);
         let up = l.environment_irradiance([0.0, 1.0, 0.0]);
-        for c in 0..3 {
-            let relative = (up[c] - l.sky_irradiance_up[c]).abs() / l.sky_irradiance_up[c];
-            assert!(relative < 0.08, "channel {c}: SH {} vs {}", up[c], l.sky_irradiance_up[c]);
+        for (c, (sh, integral)) in up.iter().zip(l.sky_irradiance_up).enumerate() {
+            let relative = (sh - integral).abs() / integral;
+            assert!(relative < 0.08, "channel {c}: SH {sh} vs {integral}");
         }
         assert!(l.sky_irradiance_up[2] > 1.5 * l.sky_irradiance_up[0]);
     }

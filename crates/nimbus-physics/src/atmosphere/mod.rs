@@ -13,10 +13,12 @@
 //! atmosphere (multiply by the sun's irradiance, W·m⁻², to get W·sr⁻¹·m⁻²).
 //! Phase functions are per steradian and integrate to 1 over the sphere.
 
+mod lighting;
 mod lut;
 mod params;
 mod scattering;
 
+pub use lighting::{LIGHTING_DIRECTIONS, SkyLighting};
 pub use lut::*;
 pub use params::AtmosphereParams;
 pub use scattering::*;

@@ -20,8 +20,9 @@ use nimbus_physics::atmosphere::{
 use std::sync::atomic::{AtomicBool, Ordering};
 
 pub use crate::frame::atmosphere::{
-    AtmosphereLookups, AtmosphereUniform, LightingUniform, solar_irradiance_top,
+    AtmosphereLookups, AtmosphereUniform, LightingUniform, sky_lighting, solar_irradiance_top,
 };
+pub use nimbus_physics::atmosphere::SkyLighting;
 
 pub use crate::shader::{ATMOSPHERE, ATMOSPHERE_LOOKUP as LOOKUP, LIGHTING_TYPES};
 
