@@ -121,12 +121,10 @@ fn gpu_terms_match_the_cpu_reference() {
     let device = &h.gpu.device;
     let cases = points();
     for model in [LightTrapModel::Furrows, LightTrapModel::Arctan] {
-        let settings = CumulusSettings {
-            shading: CumulusShading {
-                trap_model: model,
-                ..CumulusShading::default()
-            },
-            ..CumulusSettings::default()
+        let mut settings = CumulusSettings::default();
+        settings.shading = CumulusShading {
+            trap_model: model,
+            ..CumulusShading::default()
         };
         let uniform = CumulusUniform::new(
             &settings,

@@ -79,20 +79,18 @@ fn objects_are_shaded_exactly_as_the_terrain_under_cloud_shadows() {
     let mut scene = flat_scene(grass);
     scene.sun.azimuth_deg = Some(150.0);
     scene.sun.elevation_deg = Some(40.0);
-    scene.stratus = Some(StratusSettings {
-        base_m: 700.0,
-        thickness_m: 300.0,
-        coverage: 0.5,
-        feature_size_m: 600.0,
-        resolution: 128,
-        ..StratusSettings::default()
-    });
-    scene.cumulus = Some(CumulusSettings {
-        coverage: 0.3,
-        base_m: 500.0,
-        area_m: Some(4_000.0),
-        ..CumulusSettings::default()
-    });
+    let mut stratus = StratusSettings::default();
+    stratus.base_m = 700.0;
+    stratus.thickness_m = 300.0;
+    stratus.coverage = 0.5;
+    stratus.feature_size_m = 600.0;
+    stratus.resolution = 128;
+    scene.stratus = Some(stratus);
+    let mut cumulus = CumulusSettings::default();
+    cumulus.coverage = 0.3;
+    cumulus.base_m = 500.0;
+    cumulus.area_m = Some(4_000.0);
+    scene.cumulus = Some(cumulus);
     let (w, h) = (48, 32);
     let mut gpu = headless();
     let bare = gpu.render_hdr(&scene, w, h, 0.0).expect("render");

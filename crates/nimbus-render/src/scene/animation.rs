@@ -26,6 +26,7 @@ pub const MAX_KEYFRAMES: usize = 1024;
 /// One keyframe: the values that hold at `time_s` (keys left out are not keyed here).
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
+#[non_exhaustive]
 pub struct Keyframe {
     /// Animation time of the key, s, ≥ 0; keys in increasing order.
     pub time_s: f64,

@@ -46,6 +46,7 @@ pub const MAX_TERRAIN_RESOLUTION: u32 = 2048;
 /// A complete scene.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
+#[non_exhaustive]
 pub struct Scene {
     /// Output image size.
     pub image: ImageSettings,
@@ -82,6 +83,7 @@ pub struct Scene {
 /// Output image size (`[image]`).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
+#[non_exhaustive]
 pub struct ImageSettings {
     /// Width in pixels, 1 to 16384.
     pub width: u32,
@@ -102,6 +104,7 @@ impl Default for ImageSettings {
 /// `look_at_m` or by `yaw_deg`/`pitch_deg` (not both).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
+#[non_exhaustive]
 pub struct CameraSettings {
     /// Eye position in world metres (x east, y up, z south).
     pub position_m: [f64; 3],
@@ -137,6 +140,7 @@ pub struct CameraSettings {
 /// Projection of the camera (`camera.projection`).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
+#[non_exhaustive]
 pub enum Projection {
     /// A pinhole: `fov_deg` vertically, aimed by `look_at_m` or `yaw_deg`/`pitch_deg`.
     #[default]
@@ -173,6 +177,7 @@ impl Default for CameraSettings {
 /// azimuth 200° and elevation 30°.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
+#[non_exhaustive]
 pub struct SunSettings {
     /// Azimuth, degrees clockwise from north, in [0, 360].
     pub azimuth_deg: Option<f64>,
@@ -222,6 +227,7 @@ impl SunSettings {
 /// shaded after Bouthors (2004, ch. 5). See docs/cumulus.md.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
+#[non_exhaustive]
 pub struct CumulusSettings {
     /// Fraction of the area under the clouds' footprints, in [0, 1].
     pub coverage: f64,
@@ -269,6 +275,7 @@ impl Default for CumulusSettings {
 /// One cloud placed by hand (`[[cumulus.clouds]]`).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
+#[non_exhaustive]
 pub struct PlacedCloud {
     /// Centre of the cloud's base, world m.
     pub position_m: [f64; 3],
@@ -292,6 +299,7 @@ fn unit_scale() -> f64 {
 /// slab model and lit by the ground through radiosity.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
+#[non_exhaustive]
 pub struct StratusSettings {
     /// Height of the lowest cloud base, m, in [0, 15000]. The layer's
     /// mid-plane is at `base_m + thickness_m / 2`; each cell extends half its
@@ -344,6 +352,7 @@ impl Default for StratusSettings {
 /// Uniform wind (`[wind]`): carries the cloud layer.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
+#[non_exhaustive]
 pub struct WindSettings {
     /// Wind speed, m/s, in [0, 100].
     pub speed_m_s: f64,

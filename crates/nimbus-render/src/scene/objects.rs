@@ -49,6 +49,7 @@ pub const DEFAULT_OBJECT_ALBEDO: [f64; 3] = [0.5, 0.5, 0.5];
 /// The shape of an object (`kind`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
+#[non_exhaustive]
 pub enum ObjectKind {
     /// A rectangular box (`center_m`, `size_m`).
     Box,
@@ -60,6 +61,7 @@ pub enum ObjectKind {
 /// validation rejects a key of the other kind and a missing one of its own.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
+#[non_exhaustive]
 pub struct SceneObject {
     /// `"box"` or `"mesh"`.
     pub kind: ObjectKind,

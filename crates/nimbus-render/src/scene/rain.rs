@@ -13,6 +13,7 @@ pub const MAX_RAIN_DROPS: u64 = 16_000_000;
 /// Shape of the rain box (`rain.box_shape`).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
+#[non_exhaustive]
 pub enum RainBoxKind {
     /// A ball of `box_radius_m` around the camera (turning costs nothing).
     #[default]
@@ -26,6 +27,7 @@ pub enum RainBoxKind {
 /// A circular rain area (`[[rain.areas]]`).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
+#[non_exhaustive]
 pub struct RainAreaSettings {
     /// Centre (x, z), world m.
     pub center_m: [f64; 2],
@@ -44,6 +46,7 @@ fn default_edge_m() -> f64 {
 /// by Marshall–Palmer, streaks, splashes and mist (Blanchard 2023).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
+#[non_exhaustive]
 pub struct RainSettings {
     /// Rain intensity where it rains fully, mm/h, in [0, 300].
     pub intensity_mm_h: f64,
@@ -105,6 +108,7 @@ impl Default for RainSettings {
 /// Frozen turbulence carried by the wind (`[wind.turbulence]`).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
+#[non_exhaustive]
 pub struct TurbulenceSettings {
     /// RMS speed of the gusts, m/s, in [0, 30].
     pub rms_speed_m_s: f64,
@@ -128,6 +132,7 @@ impl Default for TurbulenceSettings {
 /// velocities added to the mean wind.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
+#[non_exhaustive]
 pub struct WindFieldSettings {
     /// Path of a NumPy `.npy` file, relative to the scene file: float32 or
     /// float64, shape (nz, ny, nx, 3), the velocity (x, y, z) in m/s at each
@@ -146,6 +151,18 @@ pub struct WindFieldSettings {
 }
 
 impl WindFieldSettings {
+    /// A field read from the `.npy` file at `file` (relative to the scene
+    /// file), `cell_m` metres between grid points, its origin at the world's,
+    /// fixed to the ground (not carried by the mean wind).
+    pub fn new(file: impl Into<String>, cell_m: f64) -> Self {
+        Self {
+            file: file.into(),
+            cell_m,
+            origin_m: [0.0; 3],
+            carried: false,
+        }
+    }
+
     /// Reads the grid from `path` (the file, resolved against the scene).
     pub fn load(
         &self,
@@ -166,6 +183,7 @@ impl WindFieldSettings {
 /// Kind of a wind primitive.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
+#[non_exhaustive]
 pub enum WindPrimitiveKindSetting {
     /// Uniform flow (a jet when `radius_m` > 0).
     Uniform,
@@ -180,6 +198,7 @@ pub enum WindPrimitiveKindSetting {
 /// A wind primitive (`[[wind.primitives]]`), after Wejchert & Haumann (1991).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
+#[non_exhaustive]
 pub struct WindPrimitiveSettings {
     /// "uniform", "source", "vortex" or "gust_front".
     pub kind: WindPrimitiveKindSetting,

@@ -206,11 +206,9 @@ mod tests {
 
     #[test]
     fn look_at_settings_give_the_same_view_direction() {
-        let settings = CameraSettings {
-            position_m: [10.0, 200.0, -5.0],
-            look_at_m: Some([500.0, 900.0, -3000.0]),
-            ..CameraSettings::default()
-        };
+        let mut settings = CameraSettings::default();
+        settings.position_m = [10.0, 200.0, -5.0];
+        settings.look_at_m = Some([500.0, 900.0, -3000.0]);
         let camera = ViewerCamera::from_settings(&settings);
         let expected = nimbus_render::frame::Camera::from_settings(&settings, 16, 9).forward;
         assert!(close(camera.forward(), expected));
@@ -239,11 +237,10 @@ mod tests {
 
     #[test]
     fn flying_moves_along_the_view_and_upwards() {
-        let mut camera = ViewerCamera::from_settings(&CameraSettings {
-            yaw_deg: Some(90.0),
-            pitch_deg: Some(0.0),
-            ..CameraSettings::default()
-        });
+        let mut settings = CameraSettings::default();
+        settings.yaw_deg = Some(90.0);
+        settings.pitch_deg = Some(0.0);
+        let mut camera = ViewerCamera::from_settings(&settings);
         let start = camera.position_m;
         let input = MoveInput {
             forward: 1.0,

@@ -62,12 +62,9 @@ pub const OPTIONAL_KEYS: &[OptionalKey] = &[
         table: "wind",
         key: "field",
         initial: || {
-            toml::Value::try_from(nimbus_render::scene::WindFieldSettings {
-                file: "wind.npy".to_owned(),
-                cell_m: 2.0,
-                origin_m: [0.0; 3],
-                carried: false,
-            })
+            toml::Value::try_from(nimbus_render::scene::WindFieldSettings::new(
+                "wind.npy", 2.0,
+            ))
             .unwrap_or(toml::Value::Table(toml::Table::new()))
         },
     },
