@@ -2,6 +2,9 @@
 //! output over `nimbus-render` and `nimbus-physics`. Errors are reported
 //! once, here, as one line on standard error.
 
+#[macro_use]
+mod stdout;
+
 mod commands;
 mod output;
 mod plot;

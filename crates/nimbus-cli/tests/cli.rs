@@ -1256,3 +1256,22 @@ fn animate_bad_input_fails_with_one_line() {
     assert_fails_with(&out, &["out.mp4", "ffmpeg is not on the PATH"]);
     assert_eq!(files_in(&dir), ["bad.toml", "file"]);
 }
+
+/// A reader that goes away (`nimbus optics dsd --json | head -c 10`) ends
+/// nimbus quietly with success, as it does other Unix tools, instead of a
+/// panic on the broken pipe.
+#[test]
+fn a_closed_standard_output_ends_quietly() {
+    let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_nimbus"))
+        .args(["optics", "dsd", "--json"])
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .expect("run nimbus");
+    // Close the read end before nimbus writes (it computes for ~0.5 s first).
+    drop(child.stdout.take());
+    let out = child.wait_with_output().expect("wait");
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "status {:?}: {stderr}", out.status);
+    assert!(!stderr.contains("panicked"), "{stderr}");
+}

@@ -138,40 +138,49 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
         note: (!timestamps).then(|| "this adapter does not support timestamp queries: only wall-clock frame times are reported".to_owned()),
     };
     if args.json {
-        println!("{}", serde_json::to_string_pretty(&report)?);
+        outln!("{}", serde_json::to_string_pretty(&report)?);
     } else {
-        println!(
+        outln!(
             "adapter   {} ({}, {})",
-            report.adapter, report.backend, report.device_type
+            report.adapter,
+            report.backend,
+            report.device_type
         );
-        println!("size      {width}×{height}, {} frames", report.frames);
+        outln!("size      {width}×{height}, {} frames", report.frames);
         if let Some(drops) = report.rain_drops {
-            println!("rain      {drops} drops");
+            outln!("rain      {drops} drops");
         }
         for pass in &report.passes {
             match &pass.stats {
-                Some(stats) => println!(
+                Some(stats) => outln!(
                     "{:<20} median {:8.3} ms   p95 {:8.3} ms   ({} frames)",
-                    pass.name, stats.median_ms, stats.p95_ms, pass.frames
+                    pass.name,
+                    stats.median_ms,
+                    stats.p95_ms,
+                    pass.frames
                 ),
-                None => println!(
+                None => outln!(
                     "{:<20} not run (inputs unchanged; --update-luts to measure)",
                     pass.name
                 ),
             }
         }
         if let Some(total) = &report.gpu_total {
-            println!(
+            outln!(
                 "{:<20} median {:8.3} ms   p95 {:8.3} ms",
-                "gpu total", total.median_ms, total.p95_ms
+                "gpu total",
+                total.median_ms,
+                total.p95_ms
             );
         }
-        println!(
+        outln!(
             "{:<20} median {:8.3} ms   p95 {:8.3} ms",
-            "wall", report.frame_wall.median_ms, report.frame_wall.p95_ms
+            "wall",
+            report.frame_wall.median_ms,
+            report.frame_wall.p95_ms
         );
         if let Some(note) = &report.note {
-            println!("note      {note}");
+            outln!("note      {note}");
         }
     }
     Ok(())

@@ -190,16 +190,20 @@ fn run_mie(args: &MieArgs) -> anyhow::Result<()> {
         angles_deg: angles,
     };
     if args.json {
-        println!("{}", serde_json::to_string(&report)?);
+        outln!("{}", serde_json::to_string(&report)?);
     } else {
-        println!("size parameter {:.6}, m = {:.6} + {:.3e}i", x, m.re, m.im);
-        println!(
+        outln!("size parameter {:.6}, m = {:.6} + {:.3e}i", x, m.re, m.im);
+        outln!(
             "Q_ext {:.8}  Q_sca {:.8}  Q_abs {:.3e}  Q_back {:.8}  g {:.8}",
-            e.q_ext, e.q_sca, e.q_abs, e.q_back, e.g
+            e.q_ext,
+            e.q_sca,
+            e.q_abs,
+            e.q_back,
+            e.g
         );
-        println!("{:>10} {:>16}", "angle_deg", "phase_per_sr");
+        outln!("{:>10} {:>16}", "angle_deg", "phase_per_sr");
         for (a, p) in report.angles_deg.iter().zip(&report.phase) {
-            println!("{a:>10.3} {p:>16.8e}");
+            outln!("{a:>10.3} {p:>16.8e}");
         }
     }
     Ok(())
@@ -394,7 +398,7 @@ fn run_dsd(args: &DsdArgs) -> anyhow::Result<()> {
         )?;
     }
     if args.json {
-        println!(
+        outln!(
             "{}",
             serde_json::to_string(
                 &serde_json::json!({ "effective_radius_um": args.effective_radius_um, "number_density_cm3": args.number_density_cm3, "results": entries })
@@ -402,7 +406,7 @@ fn run_dsd(args: &DsdArgs) -> anyhow::Result<()> {
         );
     } else {
         for e in &entries {
-            println!(
+            outln!(
                 "{:>8}  κ {:.6e} m⁻¹  mean free path {:.3} m  g {:.6}  P_f({}°) {:.4}",
                 e.label(),
                 e.extinction_per_m,

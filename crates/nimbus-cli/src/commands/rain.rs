@@ -188,10 +188,10 @@ fn run_terminal_velocity(args: &TerminalVelocityArgs) -> anyhow::Result<()> {
         })
         .collect();
     if args.json {
-        println!("{}", serde_json::to_string_pretty(&rows)?);
+        outln!("{}", serde_json::to_string_pretty(&rows)?);
         return Ok(());
     }
-    println!("D (mm)   v_t (m/s)   Gunn & Kinzer (m/s)   difference   C_d");
+    outln!("D (mm)   v_t (m/s)   Gunn & Kinzer (m/s)   difference   C_d");
     for r in &rows {
         let (measured, difference) = match r.gunn_kinzer_m_s {
             Some(g) => (
@@ -200,9 +200,11 @@ fn run_terminal_velocity(args: &TerminalVelocityArgs) -> anyhow::Result<()> {
             ),
             None => ("–".to_owned(), "–".to_owned()),
         };
-        println!(
+        outln!(
             "{:>6}   {:>9.3}   {measured:>19}   {difference:>10}   {:.3}",
-            r.diameter_mm, r.speed_m_s, r.drag_coefficient
+            r.diameter_mm,
+            r.speed_m_s,
+            r.drag_coefficient
         );
     }
     Ok(())
@@ -461,7 +463,7 @@ fn run_stats(args: &StatsArgs) -> anyhow::Result<()> {
         steps: inputs.steps,
     };
     if args.json {
-        println!("{}", serde_json::to_string_pretty(&report)?);
+        outln!("{}", serde_json::to_string_pretty(&report)?);
         return Ok(());
     }
     print_stats(&report);
@@ -471,7 +473,7 @@ fn run_stats(args: &StatsArgs) -> anyhow::Result<()> {
 fn print_stats(r: &StatsReport) {
     let or_dash =
         |v: Option<f64>, digits: usize| v.map_or("–".to_owned(), |v| format!("{v:.digits$}"));
-    println!(
+    outln!(
         "rain             {} mm/h, drops {}–{} mm, {} s ({} steps){}",
         r.intensity_mm_h,
         r.min_diameter_mm,
@@ -480,35 +482,37 @@ fn print_stats(r: &StatsReport) {
         r.steps,
         if r.gusts { ", gusts" } else { "" }
     );
-    println!(
+    outln!(
         "box              sphere of {} m, {:.1} m³",
-        r.box_radius_m, r.box_volume_m3
+        r.box_radius_m,
+        r.box_volume_m3
     );
-    println!(
+    outln!(
         "drops            {} simulated, {:.1} expected (Marshall–Palmer), error {}",
         r.simulated_drops,
         r.expected_drops,
         r.relative_error
             .map_or("–".to_owned(), |e| format!("{:+.2} %", 100.0 * e))
     );
-    println!(
+    outln!(
         "mean diameter    {} mm (expected {} mm)",
         or_dash(r.mean_diameter_mm, 3),
         or_dash(r.expected_mean_diameter_mm, 3)
     );
     let [wx, wy, wz] = r.wind_m_s;
-    println!(
+    outln!(
         "mean velocity    horizontal {} m/s, vertical {} m/s (wind {wx}, {wy}, {wz} m/s)",
         r.mean_horizontal_velocity_m_s
             .map_or("–".to_owned(), |[x, z]| format!("({x:.3}, {z:.3})")),
         or_dash(r.mean_vertical_velocity_m_s, 3)
     );
-    println!(
+    outln!(
         "recycled         {} of the drops per second",
         or_dash(r.recycled_per_second, 3)
     );
-    println!(
+    outln!(
         "splashes         {}, non-finite values {}",
-        r.splashes, r.non_finite_values
+        r.splashes,
+        r.non_finite_values
     );
 }

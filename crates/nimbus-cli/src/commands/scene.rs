@@ -18,7 +18,7 @@ pub struct SceneArgs {
 /// Runs the subcommand.
 pub fn run(args: &SceneArgs) -> anyhow::Result<()> {
     if args.print_default {
-        print!("{}", nimbus_render::scene::DEFAULT_SCENE_TOML);
+        out!("{}", nimbus_render::scene::DEFAULT_SCENE_TOML);
     }
     for path in &args.check {
         super::load_scene(Some(path))?;

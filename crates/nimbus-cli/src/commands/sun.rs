@@ -86,15 +86,16 @@ pub fn run(args: &SunArgs) -> anyhow::Result<()> {
         delta_t_s: delta_t_s(time.decimal_year()),
     };
     if args.json {
-        println!("{}", serde_json::to_string_pretty(&report)?);
+        outln!("{}", serde_json::to_string_pretty(&report)?);
     } else {
-        println!("time      {}", report.time_utc);
-        println!(
+        outln!("time      {}", report.time_utc);
+        outln!(
             "zenith    {:.5}°  (apparent, with refraction: {:.5}°)",
-            report.zenith_deg, report.apparent_zenith_deg
+            report.zenith_deg,
+            report.apparent_zenith_deg
         );
-        println!("elevation {:.5}°", report.elevation_deg);
-        println!(
+        outln!("elevation {:.5}°", report.elevation_deg);
+        outln!(
             "azimuth   {:.5}°  (clockwise from north)",
             report.azimuth_deg
         );

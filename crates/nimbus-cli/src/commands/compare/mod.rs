@@ -86,19 +86,20 @@ pub fn run(args: &CompareArgs) -> anyhow::Result<()> {
         write_report(out, &realtime.image, &reference.image, &report.flip)?;
     }
     if args.json {
-        println!("{}", serde_json::to_string_pretty(&report.metrics)?);
+        outln!("{}", serde_json::to_string_pretty(&report.metrics)?);
     } else {
         let m = &report.metrics;
-        println!("pixels compared          {}", m.pixels);
-        println!("HDR-FLIP (mean)          {:.4}", m.hdr_flip_mean);
-        println!("luminance RMSE / mean    {:.4}", m.luminance_relative_rmse);
-        println!("luminance PSNR           {:.2} dB", m.luminance_psnr_db);
-        println!("mean luminance ratio     {:.4}", m.mean_luminance_ratio);
-        println!(
+        outln!("pixels compared          {}", m.pixels);
+        outln!("HDR-FLIP (mean)          {:.4}", m.hdr_flip_mean);
+        outln!("luminance RMSE / mean    {:.4}", m.luminance_relative_rmse);
+        outln!("luminance PSNR           {:.2} dB", m.luminance_psnr_db);
+        outln!("mean luminance ratio     {:.4}", m.mean_luminance_ratio);
+        outln!(
             "red/blue of the means    {:.4} (reference {:.4})",
-            m.red_over_blue_test, m.red_over_blue_reference
+            m.red_over_blue_test,
+            m.red_over_blue_reference
         );
-        println!(
+        outln!(
             "chromaticity Δxy         {:.4}",
             m.mean_chromaticity_difference_xy
         );

@@ -294,7 +294,7 @@ pub fn run(args: &CumulusArgs) -> anyhow::Result<()> {
         seconds: start.elapsed().as_secs_f64(),
     };
     if args.json {
-        println!("{}", serde_json::to_string_pretty(&report)?);
+        outln!("{}", serde_json::to_string_pretty(&report)?);
     } else {
         for l in &report.levels {
             eprintln!(

@@ -200,19 +200,27 @@ pub fn run(args: &FitArgs) -> anyhow::Result<()> {
             photons_per_slab: per_slab,
             thicknesses_m: thicknesses,
         };
-        println!("{}", serde_json::to_string(&report)?);
+        outln!("{}", serde_json::to_string(&report)?);
     } else {
-        println!(
+        outln!(
             "beta {:.5} (paper {:.4}); fitted / paper, rms residuals of T_ms and of T1 R1 T2 R2:",
-            fit.table.beta, paper.beta
+            fit.table.beta,
+            paper.beta
         );
-        println!(
+        outln!(
             "{:>5}  {:>15}  {:>15}  {:>15}  {:>15}  {:>15}  {:>8}  {:>8}",
-            "sun", "b", "c", "kappa_c", "t", "r", "rms T", "rms 1-2"
+            "sun",
+            "b",
+            "c",
+            "kappa_c",
+            "t",
+            "r",
+            "rms T",
+            "rms 1-2"
         );
         for row in &rows {
             let p = paper.at(row.sun_zenith_deg);
-            println!(
+            outln!(
                 "{:>5.1}  {:>7.4}/{:<7.4}  {:>7.4}/{:<7.4}  {:>7.4}/{:<7.4}  {:>7.4}/{:<7.4}  {:>7.4}/{:<7.4}  {:>8.1e}  {:>8.1e}",
                 row.sun_zenith_deg,
                 row.b,
@@ -229,7 +237,7 @@ pub fn run(args: &FitArgs) -> anyhow::Result<()> {
                 row.rms_orders
             );
         }
-        println!("wrote {}", args.out.display());
+        outln!("wrote {}", args.out.display());
     }
     Ok(())
 }

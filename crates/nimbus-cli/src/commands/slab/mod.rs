@@ -515,25 +515,35 @@ fn run_point(args: &SlabArgs) -> anyhow::Result<()> {
         }
     };
     if args.json {
-        println!("{}", serde_json::to_string(&report)?);
+        outln!("{}", serde_json::to_string(&report)?);
     } else {
-        println!(
+        outln!(
             "{} slab, optical depth {:.4}, scattering angle {:.2}°",
-            report.method, report.optical_depth, report.scattering_angle_deg
+            report.method,
+            report.optical_depth,
+            report.scattering_angle_deg
         );
-        println!(
+        outln!(
             "reflectance {:.6}  transmittance {:.6}  direct {:.6}",
-            report.reflectance, report.transmittance, report.direct_transmittance
+            report.reflectance,
+            report.transmittance,
+            report.direct_transmittance
         );
         let r = &report.radiance;
-        println!(
+        outln!(
             "radiance (1/sr per unit incident flux): order 0 {:.6e}  1 {:.6e}  2 {:.6e}  3+ {:.6e}  total {:.6e}",
-            r.order0, r.order1, r.order2, r.order3plus, r.total
+            r.order0,
+            r.order1,
+            r.order2,
+            r.order3plus,
+            r.total
         );
         if let Some(e) = &report.std_error {
-            println!(
+            outln!(
                 "standard errors: reflectance {:.2e}  transmittance {:.2e}  radiance total {:.2e}",
-                e.reflectance, e.transmittance, e.radiance.total
+                e.reflectance,
+                e.transmittance,
+                e.radiance.total
             );
         }
     }
