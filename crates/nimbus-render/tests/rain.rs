@@ -466,3 +466,58 @@ fn rain_zones_follow_the_drifting_clouds() {
         |z: &nimbus_physics::rain::zones::RainZones| z.factors.iter().filter(|&&f| f > 0.5).count();
     assert!(raining(&first) > 100 && raining(&first) < first.factors.len() - 100);
 }
+
+/// The caller's geometry stops the rain as `[[objects]]` do: the shelter
+/// scene without its objects rains under where the roof was, and with the
+/// roof given as the caller's two triangles (`Renderer::set_occluders`) no
+/// drop falls there; malformed input is a one-line error.
+#[test]
+fn the_callers_occluders_stop_the_rain() {
+    let path = std::path::Path::new(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../../scenes/rain-shelter.toml"
+    ));
+    let mut scene = Scene::from_file(path).expect("scene");
+    scene.objects.clear();
+    let under_the_roof = |h: &mut HeadlessRenderer| {
+        for frame in 0..4 {
+            h.render_frame(&scene, 160, 90, 10.0 + frame as f32 / 30.0)
+                .expect("frame");
+        }
+        let drops = read_drops(h);
+        (
+            alive_in(&drops, [-5301.0, 29.8, 998.8], [-5298.0, 31.6, 1001.2]),
+            alive_in(&drops, [-5301.0, 29.8, 1004.0], [-5298.0, 31.6, 1006.4]),
+        )
+    };
+    let (bare, _) = under_the_roof(&mut headless());
+    assert!(bare > 20, "{bare} drops where the roof was, without it");
+
+    let mut h = headless();
+    // The roof of scenes/rain-shelter.toml: 6 m × 4 m around (−5300, 1000), 31.81 m up.
+    let y = 31.81;
+    let roof = [
+        [-5303.0, y, 998.0],
+        [-5297.0, y, 998.0],
+        [-5297.0, y, 1002.0],
+        [-5303.0, y, 1002.0],
+    ];
+    h.renderer
+        .set_occluders(&roof, &[0, 1, 2, 0, 2, 3])
+        .expect("two triangles");
+    let (under, open) = under_the_roof(&mut h);
+    assert_eq!(
+        under, 0,
+        "{under} drops under the caller's roof ({open} in the open)"
+    );
+    assert!(open > 50, "{open} drops in the open");
+
+    let error = h
+        .renderer
+        .set_occluders(&roof, &[0, 1, 7])
+        .expect_err("index 7 of 4");
+    assert_eq!(
+        error.to_string(),
+        "occluders: index 2 is 7: must be less than the 4 positions"
+    );
+}

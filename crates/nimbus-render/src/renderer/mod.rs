@@ -15,9 +15,11 @@ pub use pass_id::{PASS_NAMES, PassId, PassSet};
 pub use registry::{all_modules, map_error_positions};
 
 use crate::core::limits::{self, LimitError};
+use crate::core::mesh::IndexedMesh;
 use crate::core::targets::{HDR_FORMAT, Target};
 use crate::core::timing::GpuTimer;
 use crate::frame::cloud_shadow::CloudShadowMap;
+use crate::frame::occluders::OccluderGeometry;
 use crate::frame::{FrameResources, FrameUniform};
 use crate::passes::atmosphere::AtmospherePass;
 use crate::passes::cumulus::CumulusPass;
@@ -85,6 +87,9 @@ pub enum RenderError {
     /// ([`crate::scene::Scene::check`]).
     #[error(transparent)]
     Scene(#[from] crate::scene::SceneError),
+    /// The caller's occluders are malformed ([`Renderer::set_occluders`]).
+    #[error("occluders: {0}")]
+    Occluders(String),
     /// A shader or pipeline failed validation (WGSL read from disk by
     /// [`crate::shader::set_source_dir`] that does not compile).
     #[error("the renderer's shaders do not compile: {0}")]
@@ -115,6 +120,11 @@ pub struct Renderer {
     background_override: Option<f32>,
     /// Which passes the last [`Renderer::encode`] recorded ([`PassSet`] bits).
     passes_run: AtomicU32,
+    /// The caller's occluders ([`Self::set_occluders`]), positions only.
+    caller_occluders: Option<IndexedMesh>,
+    /// Counts the calls of [`Self::set_occluders`] (the rain redraws its
+    /// occlusion map when it changes).
+    caller_occluders_generation: u64,
 }
 
 impl Renderer {
@@ -157,7 +167,61 @@ impl Renderer {
             timer,
             background_override: None,
             passes_run: AtomicU32::new(0),
+            caller_occluders: None,
+            caller_occluders_generation: 0,
         }
+    }
+
+    /// The caller's own geometry that stops the rain (and casts its rain
+    /// shadow), beside nimbus's terrain and `[[objects]]`: world-space
+    /// positions in metres and a triangle list of indices into them (both
+    /// faces count). Replaces the previous set; empty slices remove it.
+    /// Errors: an index count not a multiple of 3, an index past the
+    /// positions, a position not finite, or buffers over the device's limits.
+    pub fn set_occluders(
+        &mut self,
+        positions_m: &[[f32; 3]],
+        indices: &[u32],
+    ) -> Result<(), RenderError> {
+        if !indices.len().is_multiple_of(3) {
+            return Err(RenderError::Occluders(format!(
+                "{} indices: must be a multiple of 3 (a triangle list)",
+                indices.len()
+            )));
+        }
+        if let Some((i, index)) = indices
+            .iter()
+            .enumerate()
+            .find(|(_, index)| **index as usize >= positions_m.len())
+        {
+            return Err(RenderError::Occluders(format!(
+                "index {i} is {index}: must be less than the {} positions",
+                positions_m.len()
+            )));
+        }
+        if let Some(i) = positions_m
+            .iter()
+            .position(|p| !p.iter().all(|c| c.is_finite()))
+        {
+            return Err(RenderError::Occluders(format!(
+                "position {i} is {:?}: must be finite",
+                positions_m[i]
+            )));
+        }
+        Self::check_buffer_size(
+            &self.device,
+            "occluder positions",
+            std::mem::size_of_val(positions_m) as u64,
+        )?;
+        Self::check_buffer_size(
+            &self.device,
+            "occluder indices",
+            std::mem::size_of_val(indices) as u64,
+        )?;
+        self.caller_occluders = (!indices.is_empty())
+            .then(|| IndexedMesh::upload(&self.device, "caller occluders", positions_m, indices));
+        self.caller_occluders_generation += 1;
+        Ok(())
     }
 
     /// Replaces, from the next [`Self::encode`] on, what the sky, terrain
@@ -294,7 +358,11 @@ impl Renderer {
         )?;
         let occluders = self.occluders();
         let strides: Vec<u64> = occluders.iter().map(|g| g.vertex_stride).collect();
-        let generation = (self.objects.generation(), self.terrain.generation());
+        let generation = [
+            self.objects.generation(),
+            self.terrain.generation(),
+            self.caller_occluders_generation,
+        ];
         let footprints = self.cumulus.footprints_m();
         self.rain.prepare(
             &self.device,
@@ -309,11 +377,15 @@ impl Renderer {
         Ok(())
     }
 
-    /// What stops the rain: the terrain and the static objects.
+    /// What stops the rain: the terrain, the static objects and the
+    /// caller's occluders.
     fn occluders(&self) -> Vec<crate::frame::occluders::OccluderGeometry<'_>> {
         [
             self.terrain.occluder_geometry(),
             self.objects.occluder_geometry(),
+            self.caller_occluders
+                .as_ref()
+                .map(OccluderGeometry::of_mesh::<[f32; 3]>),
         ]
         .into_iter()
         .flatten()

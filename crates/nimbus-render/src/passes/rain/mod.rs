@@ -247,8 +247,8 @@ impl ZonesKey {
 struct OcclusionView {
     centre_m: [i32; 3],
     direction: [f32; 3],
-    objects_generation: u64,
-    terrain: u64,
+    /// The generations of the occluders (objects, terrain, the caller's).
+    occluder_generations: [u64; 3],
 }
 
 /// One buffer's share of the drops: devices bind a limited number of bytes

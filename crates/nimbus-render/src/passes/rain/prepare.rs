@@ -223,7 +223,7 @@ impl RainPass {
         camera: &Camera,
         time_s: f32,
         cumulus_footprints_m: &[[f32; 3]],
-        occluder_generation: (u64, u64),
+        occluder_generations: [u64; 3],
         occluder_strides: &[u64],
     ) -> Result<(), RainError> {
         for &stride in occluder_strides {
@@ -362,8 +362,7 @@ impl RainPass {
         let view = OcclusionView {
             centre_m: [snapped.x as i32, snapped.y as i32, snapped.z as i32],
             direction: direction.to_array(),
-            objects_generation: occluder_generation.0,
-            terrain: occluder_generation.1,
+            occluder_generations,
         };
         let redraw_occlusion = state.occlusion_drawn != Some(view);
         let occlusion_radius = rain_box.bounding_radius_m() * 1.25 + snap;
