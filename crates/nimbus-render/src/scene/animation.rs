@@ -312,9 +312,7 @@ impl Scene {
         }
         Ok(())
     }
-}
 
-impl Scene {
     /// The scene without its rain, and without the keyframes' rain
     /// intensities (which need a `[rain]` section): still a valid scene.
     pub fn without_rain(&self) -> Scene {

@@ -290,6 +290,19 @@ pub struct PlacedCloud {
     pub variant: u32,
 }
 
+impl PlacedCloud {
+    /// A cloud of the first shape variant with its base centred at
+    /// `position_m`, unrotated and unscaled; set the other fields after.
+    pub fn new(position_m: [f64; 3]) -> Self {
+        Self {
+            position_m,
+            yaw_deg: 0.0,
+            scale: unit_scale(),
+            variant: 0,
+        }
+    }
+}
+
 fn unit_scale() -> f64 {
     1.0
 }

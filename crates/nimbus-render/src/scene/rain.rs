@@ -38,6 +38,18 @@ pub struct RainAreaSettings {
     pub edge_m: f64,
 }
 
+impl RainAreaSettings {
+    /// An area of rain centred at `center_m` (x, z) of radius `radius_m`,
+    /// with the file's default edge.
+    pub fn new(center_m: [f64; 2], radius_m: f64) -> Self {
+        Self {
+            center_m,
+            radius_m,
+            edge_m: default_edge_m(),
+        }
+    }
+}
+
 fn default_edge_m() -> f64 {
     500.0
 }
@@ -223,6 +235,24 @@ pub struct WindPrimitiveSettings {
     /// Gust fronts: their speed, m/s, in [0, 100].
     #[serde(default = "default_front_speed_m_s")]
     pub front_speed_m_s: f64,
+}
+
+impl WindPrimitiveSettings {
+    /// A primitive of `kind` and `speed_m_s` at the origin, not drifting,
+    /// with the file's defaults for the rest (axis up, radius 10 m, gust
+    /// fronts every 30 s at 10 m/s); set the other fields after.
+    pub fn new(kind: WindPrimitiveKindSetting, speed_m_s: f64) -> Self {
+        Self {
+            kind,
+            center_m: [0.0; 3],
+            drift_m_s: [0.0; 3],
+            axis: default_axis(),
+            speed_m_s,
+            radius_m: default_primitive_radius_m(),
+            period_s: default_period_s(),
+            front_speed_m_s: default_front_speed_m_s(),
+        }
+    }
 }
 
 fn default_axis() -> [f64; 3] {
