@@ -42,7 +42,7 @@ import numpy as np
 import OpenEXR
 import tomli_w
 
-WEIGHTS = ["ambient", "lambert", "light_traps", "transmission"]
+WEIGHTS = ["ambient", "lambert", "light_traps", "transmission", "diffusion", "forward_peak"]
 MASK_THRESHOLD = 0.05
 # Reuse the renders of an earlier run (--reuse).
 REUSE = False
@@ -99,7 +99,7 @@ def scene_system(nimbus, name, out_dir):
         image, _ = render(nimbus, scene, {**zero, w: 1.0}, out_dir, f"{name}-{w}")
         basis.append(image - base)
     # Linearity: arbitrary weights through the basis against their render.
-    probe = dict(zip(WEIGHTS, [0.5, 0.25, 0.4, 1.5]))
+    probe = dict(zip(WEIGHTS, [0.5, 0.25, 0.4, 1.5, 0.3, 0.7]))
     full, _ = render(nimbus, scene, probe, out_dir, f"{name}-probe")
     predicted = base + sum(probe[w] * b for w, b in zip(WEIGHTS, basis))
     mask = alpha > MASK_THRESHOLD
@@ -121,16 +121,18 @@ def scene_system(nimbus, name, out_dir):
 
 # The paper's weights (Bouthors 2004, appendix B; nimbus_physics::cumulus::
 # shading::CumulusShading::bouthors2004), the fit's starting point.
-PAPER = {"ambient": 0.75, "lambert": 0.35, "light_traps": 0.3, "transmission": 2.0}
+PAPER = {"ambient": 0.75, "lambert": 0.35, "light_traps": 0.3, "transmission": 2.0,
+         "diffusion": 0.0, "forward_peak": 0.0}
 
 
-def solve(systems):
-    """Non-negative weighted least squares over the systems (active sets enumerated)."""
+def solve(systems, fixed=()):
+    """Non-negative weighted least squares over the systems (active sets
+    enumerated); the weights named in `fixed` stay at 0."""
     a = np.concatenate([s["matrix"] * np.sqrt(s["weight"]) for s in systems])
     b = np.concatenate([s["target"] * np.sqrt(s["weight"]) for s in systems])
     best = None
     for free in itertools.product([False, True], repeat=len(WEIGHTS)):
-        idx = [i for i, f in enumerate(free) if f]
+        idx = [i for i, f in enumerate(free) if f and WEIGHTS[i] not in fixed]
         x = np.zeros(len(WEIGHTS))
         if idx:
             x[idx] = np.linalg.lstsq(a[:, idx], b, rcond=None)[0]
@@ -157,6 +159,8 @@ def main():
     parser.add_argument("--json", help="write the fit and its residuals here")
     parser.add_argument("--block", type=int, default=2,
                         help="side of the pixel blocks averaged before the fit")
+    parser.add_argument("--without", nargs="*", default=[], choices=WEIGHTS,
+                        help="weights held at 0 (terms left out of the model)")
     parser.add_argument("--reuse", action="store_true",
                         help="reuse the renders in target/fit-cumulus")
     args = parser.parse_args()
@@ -165,11 +169,13 @@ def main():
     os.makedirs(out_dir, exist_ok=True)
 
     systems = {n: scene_system(args.nimbus, n, out_dir) for n in args.fit + args.held_out}
-    x = solve([systems[n] for n in args.fit])
+    x = solve([systems[n] for n in args.fit], args.without)
     x0 = np.array([PAPER[w] for w in WEIGHTS])
     result = {
         "weights_paper": dict(zip(WEIGHTS, x0.tolist())),
         "weights_fitted": dict(zip(WEIGHTS, [round(v, 4) for v in x.tolist()])),
+        "block": BLOCK,
+        "without": args.without,
         "fit_scenes": args.fit,
         "held_out_scenes": args.held_out,
         "scenes": {},

@@ -6,9 +6,11 @@
 mod common;
 
 use glam::DVec3;
+use nimbus_physics::cumulus::forward_peak::{self, ForwardPeakTable};
 use nimbus_physics::cumulus::shading::{
     CumulusShading, LightTrapModel, PointLight, ShadingTerms, SurfacePoint, bump_height, shade,
 };
+use nimbus_physics::optics::tables::{CloudOpticsParams, CloudOpticsTables};
 use nimbus_render::AdapterPreference;
 use nimbus_render::cumulus::{BUMP_LACUNARITY, CumulusUniform};
 use nimbus_render::headless::HeadlessRenderer;
@@ -48,10 +50,11 @@ fn terms_kernel(@builtin(global_invocation_id) id: vec3<u32>) {
     p.bump_gradient = t.gradient.xyz;
     p.blob_up = t.up.xyz;
     let terms = cumulus_shade_terms(p, t.o.xyz, t.l.xyz);
-    results[3u * i] = vec4<f32>(terms.lambert, terms.light_traps, terms.forward, terms.optical_depth);
-    results[3u * i + 1u] = vec4<f32>(terms.smoothed_normal, cumulus_opacity(terms));
+    results[4u * i] = vec4<f32>(terms.lambert, terms.light_traps, terms.forward, terms.optical_depth);
+    results[4u * i + 1u] = vec4<f32>(terms.smoothed_normal, cumulus_opacity(terms));
     // The bump noise at the point's normal taken as noise coordinates.
-    results[3u * i + 2u] = vec4<f32>(cumulus_bump_height(t.normal_radius.xyz * 7.3), 0.0, 0.0, 0.0);
+    results[4u * i + 2u] = vec4<f32>(cumulus_bump_height(t.normal_radius.xyz * 7.3), 0.0, 0.0, 0.0);
+    results[4u * i + 3u] = vec4<f32>(terms.forward_peak, terms.diffusion);
 }
 "#;
 
@@ -110,6 +113,30 @@ fn points() -> Vec<(SurfacePoint, DVec3, DVec3)> {
     out
 }
 
+/// A forward-peak table of a Gaussian peak (σ 1°, 1.5° and 0.8° per channel)
+/// holding half the scattering: the shader's lookup does not depend on how
+/// the peak was made.
+fn gaussian_peak_table() -> ForwardPeakTable {
+    let mut optics = CloudOpticsTables {
+        params: CloudOpticsParams::bouthors_2006(),
+        extinction_per_m: [0.05; 3],
+        forward_fraction: [0.5; 3],
+        asymmetry: [0.86; 3],
+        peak_removed: Vec::new(),
+        forward_peak: vec![0.0; 3 * 256],
+        double_scattering: Vec::new(),
+    };
+    let cone = optics.params.forward_peak_deg.to_radians();
+    for i in 0..256 {
+        let theta = i as f64 * cone / 255.0;
+        for (c, sigma_deg) in [1.0f64, 1.5, 0.8].iter().enumerate() {
+            let sigma = sigma_deg.to_radians();
+            optics.forward_peak[3 * i + c] = (-theta * theta / (2.0 * sigma * sigma)).exp() as f32;
+        }
+    }
+    ForwardPeakTable::from_optics(&optics)
+}
+
 fn pack(v: DVec3, w: f64) -> [f32; 4] {
     [v.x as f32, v.y as f32, v.z as f32, w as f32]
 }
@@ -120,10 +147,13 @@ fn gpu_terms_match_the_cpu_reference() {
         .unwrap_or_else(|e| panic!("GPU tests need an adapter: {e}"));
     let device = &h.gpu.device;
     let cases = points();
+    let peak_table = gaussian_peak_table();
     for model in [LightTrapModel::Furrows, LightTrapModel::Arctan] {
         let mut settings = CumulusSettings::default();
         settings.shading = CumulusShading {
             trap_model: model,
+            diffusion: 0.4,
+            forward_peak: 1.0,
             ..CumulusShading::default()
         };
         let uniform = CumulusUniform::new(
@@ -162,12 +192,45 @@ fn gpu_terms_match_the_cpu_reference() {
         };
         let uniform_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("terms uniform"),
-            entries: &[nimbus_render::binding::uniform_layout_entry(
-                0,
-                wgpu::ShaderStages::COMPUTE,
-                std::mem::size_of::<CumulusUniform>() as u64,
-            )],
+            entries: &[
+                nimbus_render::binding::uniform_layout_entry(
+                    0,
+                    wgpu::ShaderStages::COMPUTE,
+                    std::mem::size_of::<CumulusUniform>() as u64,
+                ),
+                nimbus_render::binding::texture_entry(
+                    1,
+                    wgpu::TextureViewDimension::D2,
+                    false,
+                    wgpu::ShaderStages::COMPUTE,
+                ),
+            ],
         });
+        let peak_texels: Vec<f32> = peak_table
+            .values
+            .chunks_exact(3)
+            .flat_map(|rgb| [rgb[0], rgb[1], rgb[2], 0.0])
+            .collect();
+        let peak_texture = device.create_texture_with_data(
+            &h.gpu.queue,
+            &wgpu::TextureDescriptor {
+                label: Some("terms forward peak"),
+                size: wgpu::Extent3d {
+                    width: forward_peak::ANGLES as u32,
+                    height: forward_peak::DEPTHS as u32,
+                    depth_or_array_layers: 1,
+                },
+                mip_level_count: 1,
+                sample_count: 1,
+                dimension: wgpu::TextureDimension::D2,
+                format: wgpu::TextureFormat::Rgba32Float,
+                usage: wgpu::TextureUsages::TEXTURE_BINDING,
+                view_formats: &[],
+            },
+            wgpu::util::TextureDataOrder::LayerMajor,
+            bytemuck::cast_slice(&peak_texels),
+        );
+        let peak_view = peak_texture.create_view(&Default::default());
         let uniform_buffer = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
             label: Some("terms uniform"),
             contents: bytemuck::bytes_of(&uniform),
@@ -176,12 +239,18 @@ fn gpu_terms_match_the_cpu_reference() {
         let uniform_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("terms uniform"),
             layout: &uniform_layout,
-            entries: &[wgpu::BindGroupEntry {
-                binding: 0,
-                resource: uniform_buffer.as_entire_binding(),
-            }],
+            entries: &[
+                wgpu::BindGroupEntry {
+                    binding: 0,
+                    resource: uniform_buffer.as_entire_binding(),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 1,
+                    resource: wgpu::BindingResource::TextureView(&peak_view),
+                },
+            ],
         });
-        // Nine vec4 per point in, three vec4 out.
+        // Nine vec4 per point in, four vec4 out.
         let gpu: Vec<[f32; 4]> = common::run_kernel(
             &h,
             &common::Kernel {
@@ -191,7 +260,7 @@ fn gpu_terms_match_the_cpu_reference() {
                 input: bytemuck::cast_slice(&data),
                 input_stride: 144,
                 count: cases.len(),
-                outputs_per_item: 3,
+                outputs_per_item: 4,
                 extra: &[common::ExtraGroup {
                     index: 1,
                     layout: &uniform_layout,
@@ -206,8 +275,9 @@ fn gpu_terms_match_the_cpu_reference() {
             ambient_radiance: [0.0; 3],
             shadow: 1.0,
             forward_shadow: 1.0,
+            forward_peak: Some(&peak_table),
         };
-        let (mut glowing, mut partly_transparent) = (0, 0);
+        let (mut glowing, mut partly_transparent, mut lit_by_the_peak) = (0, 0, 0);
         for (i, (point, o, l)) in cases.iter().enumerate() {
             let cpu = shade(
                 point,
@@ -219,7 +289,7 @@ fn gpu_terms_match_the_cpu_reference() {
                 &settings.shading,
                 ShadingTerms::default(),
             );
-            let [g0, g1, g2] = [gpu[3 * i], gpu[3 * i + 1], gpu[3 * i + 2]];
+            let [g0, g1, g2, g3] = [gpu[4 * i], gpu[4 * i + 1], gpu[4 * i + 2], gpu[4 * i + 3]];
             let close = |a: f32, b: f64, tol: f64| (a as f64 - b).abs() <= tol * (1.0 + b.abs());
             let context = format!("{model:?} case {i}: gpu {g0:?} {g1:?}, cpu {cpu:?}");
             assert!(close(g0[0], cpu.lambert, 1e-4), "lambert, {context}");
@@ -249,13 +319,24 @@ fn gpu_terms_match_the_cpu_reference() {
                 settings.shading.bump_octaves,
             );
             assert!(close(g2[0], h_cpu, 1e-4), "bump {} vs {h_cpu}", g2[0]);
+            assert!(close(g3[3], cpu.diffusion, 1e-4), "diffusion, {context}");
+            // P = π F(θ, τ): where τ is well inside the table (its f32 error
+            // moves the lookup little), to the table's own f32 precision.
+            for (gpu_c, cpu_c) in g3[..3].iter().zip(cpu.forward_peak) {
+                let tolerance = 2e-3 * (1.0 + cpu_c) + cpu_c * (cpu.optical_depth * 1e-3).min(0.05);
+                assert!(
+                    (f64::from(*gpu_c) - cpu_c).abs() <= tolerance,
+                    "forward peak, {context}"
+                );
+            }
+            lit_by_the_peak += usize::from(cpu.forward_peak[1] > 0.1);
             glowing += usize::from(cpu.forward > 0.5);
             partly_transparent += usize::from(cpu.opacity > 0.05 && cpu.opacity < 0.95);
         }
         // The cases reach the corona's regimes, not only the opaque body.
         assert!(
-            glowing > 10 && partly_transparent > 10,
-            "{glowing} glowing, {partly_transparent} partly transparent"
+            glowing > 10 && partly_transparent > 10 && lit_by_the_peak > 5,
+            "{glowing} glowing, {partly_transparent} partly transparent, {lit_by_the_peak} lit by the peak"
         );
     }
 }

@@ -196,6 +196,8 @@ fn pass_uniforms_match_wgsl_layout() {
             flags,
             sun_at_base,
             sun_per_m,
+            extension,
+            peak_grid,
         ]
     );
     assert_layout!(

@@ -9,12 +9,15 @@
 //! - [`mesh`]: the surface of the last level as one closed triangle mesh.
 //! - [`gltf`]: binary glTF export.
 //! - [`shading`]: the phenomenological shader (Bouthors 2004, ch. 5), CPU reference.
+//! - [`forward_peak`]: small-angle multiple scattering in the diffraction
+//!   peak, the silver lining's light.
 //! - [`cloud_field`]: placement of many clouds from a coverage.
 //! - [`volume`]: the extinction the shader assumes on a grid, for a path tracer.
 
 pub mod cloud_field;
 pub mod dual;
 pub mod field;
+pub mod forward_peak;
 pub mod gltf;
 pub mod grid;
 pub mod hierarchy;

@@ -27,7 +27,41 @@
 
 use crate::core::binding;
 use crate::frame::cloud_shadow::CloudShadowMap;
+use crate::scene::StratusSettings;
 use bytemuck::{Pod, Zeroable};
+use nimbus_physics::optics::dsd::SizeDistribution;
+use nimbus_physics::optics::tables::{CloudOpticsParams, CloudOpticsTables};
+use std::path::PathBuf;
+
+/// Half-angle θ_f of the forward peak, degrees (Bouthors 2006, §4.1).
+pub const FORWARD_PEAK_DEG: f64 = 5.0;
+
+/// Where the optical tables are cached (see [`crate::core::cache::cache_dir`]).
+pub fn optics_cache_dir() -> PathBuf {
+    crate::core::cache::cache_dir()
+}
+
+/// The optical-table parameters of a layer's droplets.
+pub fn optics_params(settings: &StratusSettings) -> CloudOpticsParams {
+    CloudOpticsParams {
+        dsd: SizeDistribution::ModifiedGamma {
+            number_density_per_m3: settings.droplet_concentration_cm3 * 1e6,
+            gamma: 2.0,
+            effective_radius_m: settings.effective_radius_um * 1e-6,
+        },
+        forward_peak_deg: FORWARD_PEAK_DEG,
+        texels: PHASE_TEXELS,
+        peak_texels: PEAK_TEXELS,
+        tolerance: 1e-3,
+    }
+}
+
+/// A layer's optical tables: loaded from the cache or computed (and
+/// cached; a cache that cannot be written only costs the computation).
+pub fn load_optics(params: &CloudOpticsParams) -> CloudOpticsTables {
+    CloudOpticsTables::load_or_compute(&optics_cache_dir(), params)
+        .unwrap_or_else(|_| CloudOpticsTables::compute(params))
+}
 
 /// Texels of the P_S and P² tables over 0–180°.
 pub const PHASE_TEXELS: usize = 1024;

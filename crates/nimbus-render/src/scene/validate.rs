@@ -494,6 +494,8 @@ impl Scene {
                 ("lambert", s.lambert, 0.0, 10.0),
                 ("light_traps", s.light_traps, 0.0, 10.0),
                 ("transmission", s.transmission, 0.0, 10.0),
+                ("diffusion", s.diffusion, 0.0, 10.0),
+                ("forward_peak", s.forward_peak, 0.0, 10.0),
                 ("transmission_gain", s.transmission_gain, 0.0, 100.0),
                 ("bump", s.bump, 0.0, 1.0),
                 ("normal_smoothing", s.normal_smoothing, 0.0, 100.0),

@@ -5,6 +5,7 @@ use crate::scene::CumulusSettings;
 use bytemuck::{Pod, Zeroable};
 use glam::DVec3;
 use nimbus_physics::atmosphere::AtmosphereParams;
+use nimbus_physics::cumulus::forward_peak;
 use nimbus_physics::cumulus::shading::LightTrapModel;
 
 /// GPU layout of the shader's parameters (WGSL `Cumulus`).
@@ -25,6 +26,10 @@ pub struct CumulusUniform {
     pub sun_at_base: [f32; 4],
     /// Its change per metre of height above the bases (RGB), unused.
     pub sun_per_m: [f32; 4],
+    /// α_δ (diffusion through the cores), α_p (forward peak), unused, unused.
+    pub extension: [f32; 4],
+    /// The forward-peak table's grid: θ_max (rad), τ_max, angles, depths.
+    pub peak_grid: [f32; 4],
 }
 
 impl CumulusUniform {
@@ -80,6 +85,13 @@ impl CumulusUniform {
                 ((above[1] - base[1]) / 2000.0) as f32,
                 ((above[2] - base[2]) / 2000.0) as f32,
                 0.0,
+            ],
+            extension: [s.diffusion as f32, s.forward_peak as f32, 0.0, 0.0],
+            peak_grid: [
+                forward_peak::ANGLE_MAX_RAD as f32,
+                forward_peak::DEPTH_MAX as f32,
+                forward_peak::ANGLES as f32,
+                forward_peak::DEPTHS as f32,
             ],
         }
     }

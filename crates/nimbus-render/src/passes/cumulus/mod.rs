@@ -153,8 +153,12 @@ struct FieldKey {
 #[derive(Debug)]
 pub struct CumulusPass {
     uniform: wgpu::Buffer,
-    /// Group 1: the cumulus uniform (the bodies, the fringes and the shadow map).
+    /// Group 1: the cumulus uniform (the bodies, the fringes and the shadow
+    /// map) and the forward-peak table.
     group: wgpu::BindGroup,
+    forward_peak_table: wgpu::Texture,
+    /// Cache hash of the droplet optics the table was computed from.
+    forward_peak_key: Option<u64>,
     shadow_pipelines: [wgpu::RenderPipeline; 2],
     opaque_pipeline: wgpu::RenderPipeline,
     fringe_pipeline: wgpu::RenderPipeline,

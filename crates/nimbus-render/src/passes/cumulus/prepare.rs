@@ -10,14 +10,46 @@ use super::{
     SHADOW_LOD, variants,
 };
 use crate::frame::FrameUniform;
+use crate::frame::cloud_lighting::{load_optics, optics_params};
 use crate::frame::cloud_shadow::{CloudShadowMap, CloudShadowUniform, SHADOW_MAP_SIZE};
 use crate::scene::{CumulusSettings, MAX_CLOUDS, Scene};
 use glam::{DVec3, Vec3};
 use nimbus_physics::cumulus::cloud_field::{CloudFieldParams, CloudInstance, place_clouds};
+use nimbus_physics::cumulus::forward_peak::{self, ForwardPeakTable};
 use nimbus_physics::cumulus::shading::CLOUD_ASYMMETRY;
 use wgpu::util::DeviceExt;
 
 impl CumulusPass {
+    /// Computes and uploads the forward-peak table F(θ, τ) when the
+    /// droplets change: from the stratus layer's droplet size distribution
+    /// (the default one without a layer; the same phase function `nimbus
+    /// export` gives the cumulus volumes), its optical tables cached on disk.
+    fn update_forward_peak(&mut self, queue: &wgpu::Queue, scene: &Scene) {
+        let droplets = scene.stratus.clone().unwrap_or_default();
+        let params = optics_params(&droplets);
+        let key = params.cache_hash();
+        if self.forward_peak_key == Some(key) {
+            return;
+        }
+        let table = ForwardPeakTable::from_optics(&load_optics(&params));
+        let texels: Vec<f32> = table
+            .values
+            .chunks_exact(3)
+            .flat_map(|rgb| [rgb[0], rgb[1], rgb[2], 0.0])
+            .collect();
+        queue.write_texture(
+            self.forward_peak_table.as_image_copy(),
+            bytemuck::cast_slice(&texels),
+            wgpu::TexelCopyBufferLayout {
+                offset: 0,
+                bytes_per_row: Some(forward_peak::ANGLES as u32 * 16),
+                rows_per_image: None,
+            },
+            self.forward_peak_table.size(),
+        );
+        self.forward_peak_key = Some(key);
+    }
+
     /// Whether the frame has clouds to draw.
     pub fn enabled(&self) -> bool {
         self.enabled
@@ -88,6 +120,9 @@ impl CumulusPass {
             shadow_map.write(queue, &CloudShadowUniform::default());
             return Ok(());
         };
+        if settings.shading.forward_peak > 0.0 {
+            self.update_forward_peak(queue, scene);
+        }
         let params = VariantParams {
             count: settings.variants,
             seed: settings.shape_seed,

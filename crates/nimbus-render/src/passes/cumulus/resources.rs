@@ -8,6 +8,10 @@ use crate::core::pipeline::{DrawPipeline, PREMULTIPLIED_OVER, depth_state, hdr_t
 use crate::frame::FrameLayouts;
 use crate::frame::cloud_shadow::CloudShadowMap;
 use crate::shader;
+use nimbus_physics::cumulus::forward_peak;
+
+/// Texel format of the forward-peak table (RGB in the first three channels).
+pub(super) const FORWARD_PEAK_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba32Float;
 
 impl CumulusPass {
     /// Creates the pipelines; shapes and the field are made by [`Self::prepare`].
@@ -26,15 +30,47 @@ impl CumulusPass {
         let draw_stages = wgpu::ShaderStages::VERTEX_FRAGMENT;
         let group_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("cumulus"),
-            entries: &[binding::uniform_layout_entry(0, draw_stages, uniform_size)],
+            entries: &[
+                binding::uniform_layout_entry(0, draw_stages, uniform_size),
+                binding::texture_entry(
+                    1,
+                    wgpu::TextureViewDimension::D2,
+                    false,
+                    wgpu::ShaderStages::FRAGMENT,
+                ),
+            ],
+        });
+        // F(θ, τ), written by `prepare` when the droplets change (zero: no
+        // forward peak until then).
+        let forward_peak_table = device.create_texture(&wgpu::TextureDescriptor {
+            label: Some("cumulus forward peak"),
+            size: wgpu::Extent3d {
+                width: forward_peak::ANGLES as u32,
+                height: forward_peak::DEPTHS as u32,
+                depth_or_array_layers: 1,
+            },
+            mip_level_count: 1,
+            sample_count: 1,
+            dimension: wgpu::TextureDimension::D2,
+            format: FORWARD_PEAK_FORMAT,
+            usage: wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
+            view_formats: &[],
         });
         let group = device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("cumulus"),
             layout: &group_layout,
-            entries: &[wgpu::BindGroupEntry {
-                binding: 0,
-                resource: uniform.as_entire_binding(),
-            }],
+            entries: &[
+                wgpu::BindGroupEntry {
+                    binding: 0,
+                    resource: uniform.as_entire_binding(),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 1,
+                    resource: wgpu::BindingResource::TextureView(
+                        &forward_peak_table.create_view(&Default::default()),
+                    ),
+                },
+            ],
         });
 
         let shadow_module =
@@ -170,6 +206,8 @@ impl CumulusPass {
         Self {
             uniform,
             group,
+            forward_peak_table,
+            forward_peak_key: None,
             shadow_pipelines,
             opaque_pipeline,
             fringe_pipeline,

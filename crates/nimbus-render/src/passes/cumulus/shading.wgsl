@@ -21,9 +21,17 @@ struct Cumulus {
     // height (m); its change per metre of height (RGB).
     sun_at_base: vec4<f32>,
     sun_per_m: vec4<f32>,
+    // Extensions of the paper's model: α_δ (diffusion through the cores),
+    // α_p (small-angle forward scattering), unused, unused.
+    extension: vec4<f32>,
+    // The forward-peak table's grid: θ_max (rad), τ_max, angles, depths.
+    peak_grid: vec4<f32>,
 }
 
 @group(1) @binding(0) var<uniform> cumulus: Cumulus;
+// F(θ, τ) per channel, sr⁻¹ (nimbus_physics::cumulus::forward_peak): x the
+// angle index (quadratic in θ), y the depth index (uniform in τ).
+@group(1) @binding(1) var cumulus_forward_peak_table: texture_2d<f32>;
 
 const CUMULUS_AMBIENT: u32 = 1u;
 const CUMULUS_BUMP: u32 = 2u;
@@ -66,6 +74,30 @@ struct CumulusTerms {
     forward: f32,
     // Optical depth of the chord behind the point (a large value with the corona off).
     optical_depth: f32,
+    // D: the light diffused through the cores leaves every face alike (1);
+    // the shadow E at the point sets how much reached it.
+    diffusion: f32,
+    // P = π F(θ, τ) per channel.
+    forward_peak: vec3<f32>,
+}
+
+// F(θ, τ): bilinear in the table's indices (√θ and τ), 0 beyond its range.
+// Twin of nimbus_physics::cumulus::forward_peak::ForwardPeakTable::at.
+fn cumulus_forward_peak(angle_rad: f32, depth: f32) -> vec3<f32> {
+    let grid = cumulus.peak_grid;
+    if (!(angle_rad < grid.x && depth < grid.y) || depth < 0.0) {
+        return vec3<f32>(0.0);
+    }
+    let x = sqrt(max(angle_rad, 0.0) / grid.x) * (grid.z - 1.0);
+    let y = depth / grid.y * (grid.w - 1.0);
+    let i = min(i32(floor(x)), i32(grid.z) - 2);
+    let j = min(i32(floor(y)), i32(grid.w) - 2);
+    let t = vec2<f32>(x - f32(i), y - f32(j));
+    let a = textureLoad(cumulus_forward_peak_table, vec2<i32>(i, j), 0).rgb;
+    let b = textureLoad(cumulus_forward_peak_table, vec2<i32>(i + 1, j), 0).rgb;
+    let c = textureLoad(cumulus_forward_peak_table, vec2<i32>(i, j + 1), 0).rgb;
+    let d = textureLoad(cumulus_forward_peak_table, vec2<i32>(i + 1, j + 1), 0).rgb;
+    return mix(mix(a, b, t.x), mix(c, d, t.x), t.y);
 }
 
 // ∫ρ ds along the chord at impact b through a sphere of radius R whose
@@ -194,6 +226,8 @@ fn cumulus_shade_terms(p: CumulusPoint, o: vec3<f32>, l: vec3<f32>) -> CumulusTe
     // Density, forward scattering (eqs 5.31, 5.32, 5.40 corrected).
     out.forward = 0.0;
     out.optical_depth = 1e30;
+    out.forward_peak = vec3<f32>(0.0);
+    out.diffusion = 1.0;
     if (cumulus_term_on(CUMULUS_CORONA)) {
         let tau = cumulus_optical_depth(p, o, bump_on);
         let rho = max(saturate(tau), 1e-4);
@@ -201,6 +235,7 @@ fn cumulus_shade_terms(p: CumulusPoint, o: vec3<f32>, l: vec3<f32>) -> CumulusTe
         let lobe = pow(cos_theta, cumulus.corona.x / rho);
         out.forward = saturate(cumulus.corona.y * (1.0 - rho) * (1.0 - rho) * lobe);
         out.optical_depth = tau;
+        out.forward_peak = PI * cumulus_forward_peak(acos(clamp(-dot(o, l), -1.0, 1.0)), tau);
     }
     return out;
 }
@@ -227,6 +262,10 @@ fn cumulus_radiance(terms: CumulusTerms, ambient: vec3<f32>, sun: vec3<f32>, sha
     if (cumulus_term_on(CUMULUS_AMBIENT)) {
         a = cumulus.weights.x;
     }
-    let reflected = cumulus.weights.z * terms.light_traps + cumulus.weights.y * terms.lambert;
-    return a * ambient + sun * (shadow * reflected + forward_shadow * cumulus.weights.w * terms.forward);
+    // Reflected and diffused light is shadowed at the point; light scattered
+    // forwards through the chord where it enters the chord.
+    let direct = cumulus.weights.z * terms.light_traps + cumulus.weights.y * terms.lambert
+        + cumulus.extension.x * terms.diffusion;
+    let through = cumulus.weights.w * terms.forward + cumulus.extension.y * terms.forward_peak;
+    return a * ambient + sun * (shadow * direct + forward_shadow * through);
 }

@@ -66,8 +66,7 @@ mod resources;
 pub use grid::RadiosityGrid;
 pub use optics::{forward_peak_mean_square_rad2, load_optics, optics_cache_dir, optics_params};
 
-/// Half-angle θ_f of the forward peak, degrees (Bouthors 2006, §4.1).
-pub const FORWARD_PEAK_DEG: f64 = 5.0;
+pub use crate::frame::cloud_lighting::FORWARD_PEAK_DEG;
 /// Largest radiosity grid, texels per side.
 pub const MAX_RADIOSITY_SIZE: u32 = 256;
 /// Smallest height of the layer above the ground used for the radiosity
