@@ -6,13 +6,12 @@
 mod common;
 
 use glam::DVec3;
-use nimbus_physics::cumulus::forward_peak::{self, ForwardPeakTable};
+use nimbus_physics::cumulus::forward_peak::ForwardPeakTable;
 use nimbus_physics::cumulus::shading::{
     CumulusShading, LightTrapModel, PointLight, ShadingTerms, SurfacePoint, bump_height, shade,
 };
-use nimbus_physics::optics::tables::{CloudOpticsParams, CloudOpticsTables};
 use nimbus_render::AdapterPreference;
-use nimbus_render::cumulus::{BUMP_LACUNARITY, CumulusUniform};
+use nimbus_render::cumulus::{BUMP_LACUNARITY, CumulusUniform, FORWARD_PEAK_TEXTURE};
 use nimbus_render::headless::HeadlessRenderer;
 use nimbus_render::scene::CumulusSettings;
 use nimbus_render::shader;
@@ -113,30 +112,6 @@ fn points() -> Vec<(SurfacePoint, DVec3, DVec3)> {
     out
 }
 
-/// A forward-peak table of a Gaussian peak (σ 1°, 1.5° and 0.8° per channel)
-/// holding half the scattering: the shader's lookup does not depend on how
-/// the peak was made.
-fn gaussian_peak_table() -> ForwardPeakTable {
-    let mut optics = CloudOpticsTables {
-        params: CloudOpticsParams::bouthors_2006(),
-        extinction_per_m: [0.05; 3],
-        forward_fraction: [0.5; 3],
-        asymmetry: [0.86; 3],
-        peak_removed: Vec::new(),
-        forward_peak: vec![0.0; 3 * 256],
-        double_scattering: Vec::new(),
-    };
-    let cone = optics.params.forward_peak_deg.to_radians();
-    for i in 0..256 {
-        let theta = i as f64 * cone / 255.0;
-        for (c, sigma_deg) in [1.0f64, 1.5, 0.8].iter().enumerate() {
-            let sigma = sigma_deg.to_radians();
-            optics.forward_peak[3 * i + c] = (-theta * theta / (2.0 * sigma * sigma)).exp() as f32;
-        }
-    }
-    ForwardPeakTable::from_optics(&optics)
-}
-
 fn pack(v: DVec3, w: f64) -> [f32; 4] {
     [v.x as f32, v.y as f32, v.z as f32, w as f32]
 }
@@ -147,7 +122,16 @@ fn gpu_terms_match_the_cpu_reference() {
         .unwrap_or_else(|e| panic!("GPU tests need an adapter: {e}"));
     let device = &h.gpu.device;
     let cases = points();
-    let peak_table = gaussian_peak_table();
+    // A Gaussian peak (σ 1°, 1.5°, 0.8° per channel) holding half the
+    // scattering: the shader's lookup does not depend on how it was made.
+    let peak_table = ForwardPeakTable::gaussian([1f64, 1.5, 0.8].map(f64::to_radians), [0.5; 3]);
+    let peak_texture = device.create_texture_with_data(
+        &h.gpu.queue,
+        &FORWARD_PEAK_TEXTURE,
+        wgpu::util::TextureDataOrder::LayerMajor,
+        bytemuck::cast_slice(&peak_table.rgba_texels()),
+    );
+    let peak_view = peak_texture.create_view(&Default::default());
     for model in [LightTrapModel::Furrows, LightTrapModel::Arctan] {
         let mut settings = CumulusSettings::default();
         settings.shading = CumulusShading {
@@ -206,31 +190,6 @@ fn gpu_terms_match_the_cpu_reference() {
                 ),
             ],
         });
-        let peak_texels: Vec<f32> = peak_table
-            .values
-            .chunks_exact(3)
-            .flat_map(|rgb| [rgb[0], rgb[1], rgb[2], 0.0])
-            .collect();
-        let peak_texture = device.create_texture_with_data(
-            &h.gpu.queue,
-            &wgpu::TextureDescriptor {
-                label: Some("terms forward peak"),
-                size: wgpu::Extent3d {
-                    width: forward_peak::ANGLES as u32,
-                    height: forward_peak::DEPTHS as u32,
-                    depth_or_array_layers: 1,
-                },
-                mip_level_count: 1,
-                sample_count: 1,
-                dimension: wgpu::TextureDimension::D2,
-                format: wgpu::TextureFormat::Rgba32Float,
-                usage: wgpu::TextureUsages::TEXTURE_BINDING,
-                view_formats: &[],
-            },
-            wgpu::util::TextureDataOrder::LayerMajor,
-            bytemuck::cast_slice(&peak_texels),
-        );
-        let peak_view = peak_texture.create_view(&Default::default());
         let uniform_buffer = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
             label: Some("terms uniform"),
             contents: bytemuck::bytes_of(&uniform),

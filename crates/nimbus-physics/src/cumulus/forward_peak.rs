@@ -133,6 +133,34 @@ impl ForwardPeakTable {
         Self::compute(&peaks, fraction)
     }
 
+    /// The table of a Gaussian peak of angular standard deviation
+    /// `sigma_rad` per axis (per channel) holding the fraction `fraction` of
+    /// the scattering, sampled like the optical tables' peak (256 angles over
+    /// 0–5°). Its n-fold convolution is the Gaussian of variance n σ²: the
+    /// analytic case the transforms are tested against.
+    pub fn gaussian(sigma_rad: [f64; 3], fraction: [f64; 3]) -> Self {
+        let cone_rad = 5f64.to_radians();
+        let peaks = sigma_rad.map(|sigma| {
+            Peak::new(
+                (0..256).map(|i| {
+                    let t = f64::from(i) * cone_rad / 255.0;
+                    (-t * t / (2.0 * sigma * sigma)).exp()
+                }),
+                cone_rad,
+            )
+        });
+        Self::compute(&peaks, fraction)
+    }
+
+    /// The values as RGBA texels (alpha 0), rows of [`ANGLES`] texels, one
+    /// row per depth: what the cumulus shader's table holds.
+    pub fn rgba_texels(&self) -> Vec<f32> {
+        self.values
+            .chunks_exact(3)
+            .flat_map(|rgb| [rgb[0], rgb[1], rgb[2], 0.0])
+            .collect()
+    }
+
     fn compute(peaks: &[Peak; 3], fraction: [f64; 3]) -> Self {
         // Hankel transforms on a uniform k grid; the peak's narrowest
         // feature (~0.5°) fades by k ≈ 10³ rad⁻¹, and the
@@ -209,19 +237,6 @@ impl ForwardPeakTable {
 mod tests {
     use super::*;
 
-    /// A Gaussian peak of angular standard deviation σ (per axis), sampled
-    /// over 0–5°: its n-fold convolution is the Gaussian of variance n σ².
-    fn gaussian(sigma: f64) -> Peak {
-        let cone = 5f64.to_radians();
-        Peak::new(
-            (0..256).map(|i| {
-                let t = i as f64 * cone / 255.0;
-                (-t * t / (2.0 * sigma * sigma)).exp()
-            }),
-            cone,
-        )
-    }
-
     fn gaussian_series(theta: f64, tau: f64, fraction: f64, sigma: f64) -> f64 {
         let a = tau * fraction;
         let mut term = 1.0;
@@ -239,10 +254,7 @@ mod tests {
         // Analytic limit: for a Gaussian peak p^{*n} is the Gaussian of
         // variance n σ², so F is a Poisson-weighted sum of Gaussians.
         let sigma = 0.8f64.to_radians();
-        let table = ForwardPeakTable::compute(
-            &[gaussian(sigma), gaussian(sigma), gaussian(sigma)],
-            [0.5; 3],
-        );
+        let table = ForwardPeakTable::gaussian([sigma; 3], [0.5; 3]);
         for &(theta_deg, tau) in &[(0.0, 1.0), (1.0, 2.0), (2.5, 6.0), (4.0, 10.0), (0.5, 0.5)] {
             let theta = f64::to_radians(theta_deg);
             let exact = gaussian_series(theta, tau, 0.5, sigma);
@@ -263,10 +275,7 @@ mod tests {
         // ∫ F dΩ = e^{−τ(1 − P_f)} − e^{−τ} (as long as the broadened peak
         // stays within the table's 16°).
         let sigma = 0.8f64.to_radians();
-        let table = ForwardPeakTable::compute(
-            &[gaussian(sigma), gaussian(sigma), gaussian(sigma)],
-            [0.47; 3],
-        );
+        let table = ForwardPeakTable::gaussian([sigma; 3], [0.47; 3]);
         for &tau in &[0.5, 2.0, 5.0, 10.0] {
             let n = 4000;
             let h = ANGLE_MAX_RAD / n as f64;

@@ -831,22 +831,7 @@ mod tests {
     fn a_thin_rim_near_the_sun_glows_with_the_forward_peak() {
         // A rim of τ ≈ 2 seen 3° from the sun: P = π F(θ, τ) from the
         // table, weighted α_p and shadowed where the light enters the chord.
-        let mut optics = crate::optics::tables::CloudOpticsTables {
-            params: crate::optics::tables::CloudOpticsParams::bouthors_2006(),
-            extinction_per_m: [0.05; 3],
-            forward_fraction: [0.5; 3],
-            asymmetry: [0.86; 3],
-            peak_removed: Vec::new(),
-            forward_peak: vec![0.0; 3 * 256],
-            double_scattering: Vec::new(),
-        };
-        for i in 0..256 {
-            let theta = (i as f64 * 5.0 / 255.0).to_radians();
-            let sigma = 1f64.to_radians();
-            optics.forward_peak[3 * i..3 * i + 3]
-                .fill((-theta * theta / (2.0 * sigma * sigma)).exp() as f32);
-        }
-        let table = ForwardPeakTable::from_optics(&optics);
+        let table = ForwardPeakTable::gaussian([1f64.to_radians(); 3], [0.5; 3]);
         let shading = CumulusShading::fitted();
         let o = DVec3::Z;
         // The point on the rim where the chord behind it reaches τ ≈ 2.

@@ -70,6 +70,24 @@ pub fn composite_shader_source() -> String {
     shader::compose(&[COMPOSITE_WGSL])
 }
 
+/// The forward-peak table F(θ, τ) of `shading.wgsl` (group 1, binding 1):
+/// [`nimbus_physics::cumulus::forward_peak::ForwardPeakTable::rgba_texels`],
+/// read with `textureLoad` (RGBA32 float is not filterable everywhere).
+pub const FORWARD_PEAK_TEXTURE: wgpu::TextureDescriptor<'static> = wgpu::TextureDescriptor {
+    label: Some("cumulus forward peak"),
+    size: wgpu::Extent3d {
+        width: nimbus_physics::cumulus::forward_peak::ANGLES as u32,
+        height: nimbus_physics::cumulus::forward_peak::DEPTHS as u32,
+        depth_or_array_layers: 1,
+    },
+    mip_level_count: 1,
+    sample_count: 1,
+    dimension: wgpu::TextureDimension::D2,
+    format: wgpu::TextureFormat::Rgba32Float,
+    usage: wgpu::TextureUsages::TEXTURE_BINDING.union(wgpu::TextureUsages::COPY_DST),
+    view_formats: &[],
+};
+
 /// Percentage-closer filter radius of the shadow lookups, texels ((2k + 1)² taps).
 pub const SHADOW_FILTER_TEXELS: u32 = 1;
 /// Largest projected size of a mesh cell, pixels, before a coarser level of

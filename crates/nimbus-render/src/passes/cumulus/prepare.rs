@@ -12,7 +12,7 @@ use super::{
 use crate::frame::FrameUniform;
 use crate::frame::cloud_lighting::{load_optics, optics_params};
 use crate::frame::cloud_shadow::{CloudShadowMap, CloudShadowUniform, SHADOW_MAP_SIZE};
-use crate::scene::{CumulusSettings, MAX_CLOUDS, Scene};
+use crate::scene::{CumulusSettings, MAX_CLOUDS, Scene, StratusSettings};
 use glam::{DVec3, Vec3};
 use nimbus_physics::cumulus::cloud_field::{CloudFieldParams, CloudInstance, place_clouds};
 use nimbus_physics::cumulus::forward_peak::{self, ForwardPeakTable};
@@ -25,21 +25,18 @@ impl CumulusPass {
     /// (the default one without a layer; the same phase function `nimbus
     /// export` gives the cumulus volumes), its optical tables cached on disk.
     fn update_forward_peak(&mut self, queue: &wgpu::Queue, scene: &Scene) {
-        let droplets = scene.stratus.clone().unwrap_or_default();
-        let params = optics_params(&droplets);
+        let params = match &scene.stratus {
+            Some(layer) => optics_params(layer),
+            None => optics_params(&StratusSettings::default()),
+        };
         let key = params.cache_hash();
         if self.forward_peak_key == Some(key) {
             return;
         }
         let table = ForwardPeakTable::from_optics(&load_optics(&params));
-        let texels: Vec<f32> = table
-            .values
-            .chunks_exact(3)
-            .flat_map(|rgb| [rgb[0], rgb[1], rgb[2], 0.0])
-            .collect();
         queue.write_texture(
             self.forward_peak_table.as_image_copy(),
-            bytemuck::cast_slice(&texels),
+            bytemuck::cast_slice(&table.rgba_texels()),
             wgpu::TexelCopyBufferLayout {
                 offset: 0,
                 bytes_per_row: Some(forward_peak::ANGLES as u32 * 16),

@@ -2,16 +2,15 @@
 
 use super::gpu_types::{CumulusUniform, vertex_layouts};
 use super::node::{ACCUMULATION_FORMAT, REVEALAGE_FORMAT};
-use super::{CumulusPass, composite_shader_source, draw_shader_source, shadow_shader_source};
+use super::{
+    CumulusPass, FORWARD_PEAK_TEXTURE, composite_shader_source, draw_shader_source,
+    shadow_shader_source,
+};
 use crate::core::binding;
 use crate::core::pipeline::{DrawPipeline, PREMULTIPLIED_OVER, depth_state, hdr_target};
 use crate::frame::FrameLayouts;
 use crate::frame::cloud_shadow::CloudShadowMap;
 use crate::shader;
-use nimbus_physics::cumulus::forward_peak;
-
-/// Texel format of the forward-peak table (RGB in the first three channels).
-pub(super) const FORWARD_PEAK_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba32Float;
 
 impl CumulusPass {
     /// Creates the pipelines; shapes and the field are made by [`Self::prepare`].
@@ -42,20 +41,7 @@ impl CumulusPass {
         });
         // F(θ, τ), written by `prepare` when the droplets change (zero: no
         // forward peak until then).
-        let forward_peak_table = device.create_texture(&wgpu::TextureDescriptor {
-            label: Some("cumulus forward peak"),
-            size: wgpu::Extent3d {
-                width: forward_peak::ANGLES as u32,
-                height: forward_peak::DEPTHS as u32,
-                depth_or_array_layers: 1,
-            },
-            mip_level_count: 1,
-            sample_count: 1,
-            dimension: wgpu::TextureDimension::D2,
-            format: FORWARD_PEAK_FORMAT,
-            usage: wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
-            view_formats: &[],
-        });
+        let forward_peak_table = device.create_texture(&FORWARD_PEAK_TEXTURE);
         let group = device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("cumulus"),
             layout: &group_layout,
