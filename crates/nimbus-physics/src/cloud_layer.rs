@@ -270,6 +270,83 @@ pub fn path_inside_layer_m(
     max_length_m
 }
 
+/// Most steps of [`cloud_along_ray_m`]'s march.
+pub const SUN_PATH_STEPS: u32 = 24;
+
+/// Mean step length, m, that [`cloud_along_ray_m`] aims at: a path short
+/// enough (a high sun's) takes fewer than [`SUN_PATH_STEPS`] steps, at least
+/// two. Fine detail of 80 m (a 2.5 km feature's sixth octave) is resolved.
+pub const SUN_PATH_MEAN_STEP_M: f64 = 60.0;
+
+/// Ratio between successive steps of [`cloud_along_ray_m`]'s march.
+pub const SUN_PATH_STEP_GROWTH: f64 = 1.1;
+
+/// Total length, m, of cloud that the straight path from `start_m` along
+/// the unit vector `direction` crosses within `max_length_m`, every cell on
+/// the way counted: how much of the layer the sunlight reaching a point of
+/// its lit face has come through.
+///
+/// Bouthors et al. (2006, §4) light every point of the surface as the top
+/// of its own horizontal slab, so a cell's top is lit the same whether or
+/// not a thicker cell stands between it and the sun. Under a low sun that
+/// is the dominant structure of a real layer's top: cells 200 m higher than
+/// their neighbours cast shadows 2 km long under a sun 5° high (and a top
+/// seen from above lit wherever its fine normal faces the sun, dark only on
+/// the thin line where it turns away, draws the "contour lines" of issue
+/// 25). The renderer attenuates the direct sun by the layer's directional
+/// transmittance T_C of this length, and the light of the higher orders by
+/// its diffuse transmittance.
+///
+/// `thickness_m(x, z)` and `offset_m` are as in [`path_inside_layer_m`].
+/// The march takes `max_length_m / `[`SUN_PATH_MEAN_STEP_M`] steps, from 2 to
+/// [`SUN_PATH_STEPS`], growing by [`SUN_PATH_STEP_GROWTH`], and counts each step's part inside the layer
+/// from the signed distance h/2 − |y − y_mid| at its two ends, linear
+/// between them (exact for a uniform slab; a cell thinner than a step
+/// between two samples outside it is missed). The GPU twin is
+/// `stratus_cloud_along_ray_m` in `nimbus-render`'s
+/// `shader/cloud_layer_lookup.wgsl`.
+pub fn cloud_along_ray_m(
+    thickness_m: impl Fn(f64, f64) -> f64,
+    offset_m: f64,
+    mid_plane_m: f64,
+    start_m: [f64; 3],
+    direction: [f64; 3],
+    max_length_m: f64,
+) -> f64 {
+    let inside = |s: f64| {
+        let x = start_m[0] + direction[0] * s;
+        let y = start_m[1] + direction[1] * s;
+        let z = start_m[2] + direction[2] * s;
+        0.5 * (thickness_m(x, z) + offset_m) - (y - mid_plane_m).abs()
+    };
+    let steps = (max_length_m / SUN_PATH_MEAN_STEP_M)
+        .ceil()
+        .clamp(2.0, f64::from(SUN_PATH_STEPS)) as i32;
+    let growth = SUN_PATH_STEP_GROWTH;
+    let mut step = max_length_m * (growth - 1.0) / (growth.powi(steps) - 1.0);
+    let (mut s, mut g) = (0.0, inside(0.0));
+    let mut length_m = 0.0;
+    for _ in 0..steps {
+        let next_s = (s + step).min(max_length_m);
+        let next_g = inside(next_s);
+        length_m += (next_s - s) * inside_fraction(g, next_g);
+        (s, g) = (next_s, next_g);
+        step *= growth;
+    }
+    length_m
+}
+
+/// The part of a step inside the layer, from the signed distances `g0`,
+/// `g1` at its ends (positive inside), the distance taken linear between
+/// them.
+fn inside_fraction(g0: f64, g1: f64) -> f64 {
+    match (g0 > 0.0, g1 > 0.0) {
+        (true, true) => 1.0,
+        (false, false) => 0.0,
+        _ => g0.max(g1) / (g1 - g0).abs(),
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -284,6 +361,40 @@ mod tests {
             wind_velocity_m_s: [8.0, -3.0],
             evolution_time_s: 900.0,
         }
+    }
+
+    #[test]
+    fn cloud_along_ray_is_exact_in_a_uniform_slab_and_sums_every_cell() {
+        // A uniform slab 200 m thick about y = 0: from its top, down at
+        // μ = 0.4, the ray is inside for 200/0.4 m; from its top towards a
+        // sun above, never.
+        let slab = |_: f64, _: f64| 200.0;
+        let mu: f64 = 0.4;
+        let down = [(1.0 - mu * mu).sqrt(), -mu, 0.0];
+        let through = cloud_along_ray_m(slab, 0.0, 0.0, [0.0, 100.0, 0.0], down, 2000.0);
+        assert!((through - 500.0).abs() < 1e-9, "{through}");
+        let up = [(1.0 - mu * mu).sqrt(), mu, 0.0];
+        assert_eq!(
+            cloud_along_ray_m(slab, 0.0, 0.0, [0.0, 100.0, 0.0], up, 2000.0),
+            0.0
+        );
+
+        // Two cells of 300 m, cones whose thickness falls linearly to 0
+        // 400 m from their axes at x = 800 m and x = 2000 m: a horizontal
+        // ray 50 m above the mid-plane from x = 0 is inside both where
+        // h > 100 m, 533 m of each, 1067 m in all; the first-exit march of
+        // `path_inside_layer_m` would stop at the first.
+        let cells = |x: f64, _: f64| {
+            [800.0, 2000.0]
+                .iter()
+                .map(|c: &f64| 300.0 * (1.0 - (x - c).abs() / 400.0).max(0.0))
+                .fold(0.0, f64::max)
+        };
+        let along = cloud_along_ray_m(cells, 0.0, 0.0, [0.0, 50.0, 0.0], [1.0, 0.0, 0.0], 2500.0);
+        // The steps grow from 25 m to 250 m: each cell's edges are placed
+        // by linear interpolation within a step, the apex's kink is not.
+        assert!((along - 3200.0 / 3.0).abs() < 30.0, "{along}");
+        assert!(along > 600.0, "both cells counted: {along}");
     }
 
     #[test]

@@ -182,6 +182,7 @@ fn pass_uniforms_match_wgsl_layout() {
             radiosity,
             flags,
             sizes,
+            model,
         ]
     );
     assert_layout!(

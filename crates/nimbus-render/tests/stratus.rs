@@ -192,16 +192,20 @@ fn view_path_kernel(@builtin(global_invocation_id) id: vec3<u32>) {
         return;
     }
     let ray = view_path_rays[id.x];
-    view_path_lengths[id.x] = stratus_view_path_m(ray.start.xyz, ray.direction.xyz, ray.start.w, ray.direction.w);
+    view_path_lengths[2u * id.x] = stratus_view_path_m(ray.start.xyz, ray.direction.xyz, ray.start.w, ray.direction.w);
+    view_path_lengths[2u * id.x + 1u] = stratus_cloud_along_ray_m(ray.start.xyz, ray.direction.xyz, ray.start.w, ray.direction.w);
 }
 ";
 
-/// The layer shader's view-path march (`stratus_view_path_m`) against its
-/// CPU twin (`cloud_layer::path_inside_layer_m`) marching the same window,
-/// for rays entering the tops, the bases and the cells' sides.
+/// The layer shader's marches against their CPU twins marching the same
+/// window: the view path (`stratus_view_path_m`,
+/// `cloud_layer::path_inside_layer_m`) for rays entering the tops, the
+/// bases and the cells' sides, and the cloud along the sun's ray
+/// (`stratus_cloud_along_ray_m`, `cloud_layer::cloud_along_ray_m`) for rays
+/// leaving the tops towards a low sun.
 #[test]
-fn gpu_view_path_matches_the_cpu_march() {
-    use nimbus_physics::cloud_layer::path_inside_layer_m;
+fn gpu_layer_marches_match_the_cpu_marches() {
+    use nimbus_physics::cloud_layer::{cloud_along_ray_m, path_inside_layer_m};
     use nimbus_render::shader;
 
     let mut h = headless();
@@ -266,6 +270,20 @@ fn gpu_view_path_matches_the_cpu_march() {
                     [dz as f32, *mu as f32, dx as f32, range as f32],
                 ]);
             }
+            // Towards a sun 5° high from the top, over the distance in
+            // which it climbs out of the layer's height range.
+            let mu = 5f64.to_radians().sin();
+            let cos = (1.0 - mu * mu).sqrt();
+            let thickest = scene.stratus.as_ref().expect("stratus").thickness_m;
+            rays.push([
+                [x as f32, (mid_m + 0.5 * hc) as f32, z as f32, 0.0],
+                [
+                    cos as f32,
+                    mu as f32,
+                    0.0,
+                    (0.5 * (thickest - hc) / mu) as f32,
+                ],
+            ]);
         }
     }
     assert!(rays.len() > 300, "{} rays", rays.len());
@@ -285,7 +303,7 @@ fn gpu_view_path_matches_the_cpu_march() {
             input: bytemuck::cast_slice(&rays),
             input_stride: 32,
             count: rays.len(),
-            outputs_per_item: 1,
+            outputs_per_item: 2,
             extra: &[common::ExtraGroup {
                 index: 3,
                 layout: h.renderer.frame_resources().cloud_lighting.layout(),
@@ -294,30 +312,48 @@ fn gpu_view_path_matches_the_cpu_march() {
         },
     );
 
-    let (mut worst, mut side_entries_through_cloud) = (0.0f64, 0);
-    for (ray, &gpu_length) in rays.iter().zip(&gpu) {
+    let (mut worst, mut worst_along, mut side_entries_through_cloud, mut shaded_by_others) =
+        (0.0f64, 0.0f64, 0, 0);
+    for (ray, gpu_lengths) in rays.iter().zip(gpu.chunks(2)) {
         let [start, direction] = *ray;
-        let cpu_length = path_inside_layer_m(
-            thickness,
-            start[3] as f64,
-            mid_m,
-            [start[0] as f64, start[1] as f64, start[2] as f64],
-            [
-                direction[0] as f64,
-                direction[1] as f64,
-                direction[2] as f64,
-            ],
-            direction[3] as f64,
-        );
+        let start_m = [start[0] as f64, start[1] as f64, start[2] as f64];
+        let direction_unit = [
+            direction[0] as f64,
+            direction[1] as f64,
+            direction[2] as f64,
+        ];
+        let (offset_m, range_m) = (start[3] as f64, direction[3] as f64);
+        let cpu_length =
+            path_inside_layer_m(thickness, offset_m, mid_m, start_m, direction_unit, range_m);
+        let cpu_along =
+            cloud_along_ray_m(thickness, offset_m, mid_m, start_m, direction_unit, range_m);
         // f32 against f64: a bisection may fall on the other side of a
         // crossing only within the last refinement of a step.
         let tolerance = 0.5 + 2e-3 * cpu_length;
-        worst = worst.max((gpu_length as f64 - cpu_length).abs() - tolerance);
+        worst = worst.max((gpu_lengths[0] as f64 - cpu_length).abs() - tolerance);
+        // No bisection in the sum: only rounding of the step ends.
+        worst_along =
+            worst_along.max((gpu_lengths[1] as f64 - cpu_along).abs() - (0.5 + 2e-3 * cpu_along));
         if direction[1] == 0.0 && cpu_length > 100.0 {
             side_entries_through_cloud += 1;
         }
+        if direction[1] > 0.0 && direction[1] < 0.1 && cpu_along > 50.0 {
+            shaded_by_others += 1;
+        }
     }
-    assert!(worst <= 0.0, "GPU − CPU exceeds the tolerance by {worst} m");
+    assert!(
+        worst <= 0.0,
+        "view path: GPU − CPU exceeds the tolerance by {worst} m"
+    );
+    assert!(
+        worst_along <= 0.0,
+        "cloud along the sun ray: GPU − CPU exceeds the tolerance by {worst_along} m"
+    );
+    // Some tops are shaded by other cells under the low sun.
+    assert!(
+        shaded_by_others > 5,
+        "{shaded_by_others} tops shaded by other cells"
+    );
     // Some horizontal rays from cell edges cross real cloud.
     assert!(
         side_entries_through_cloud > 5,

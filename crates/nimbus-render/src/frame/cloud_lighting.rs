@@ -93,6 +93,9 @@ pub struct StratusUniform {
     pub flags: [u32; 4],
     /// P_S/P² texels, P_F texels, radiosity texels per side, both faces drawn (0/1).
     pub sizes: [u32; 4],
+    /// View and sun paths marched through the field (1, `stratus.model =
+    /// "marched"`) or the paper's slab (0, `"bnl2006"`); three unused.
+    pub model: [u32; 4],
 }
 
 /// The layer-sized resources of group 3, owned by the stratus pass.

@@ -341,6 +341,25 @@ pub struct StratusSettings {
     /// Ground–cloud radiosity iterations (each one ground → cloud → ground),
     /// 0 to 32 (Bouthors 2006: 2 suffice over country, 8 over snow).
     pub radiosity_iterations: u32,
+    /// How the layer's surface is shaded: `marched` (default) or the
+    /// paper's slab, `bnl2006`.
+    pub model: StratusShadingModel,
+}
+
+/// How the layer's surface is shaded (`stratus.model`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum StratusShadingModel {
+    /// Bouthors et al. (2006) with the paths the slab misses marched
+    /// through the thickness field: the view ray's (the cells' sides, §8 of
+    /// the paper) and the sun ray's (cells shading each other under a low
+    /// sun). docs/stratus.md and docs/REALISM.md give the gain.
+    #[default]
+    Marched,
+    /// Bouthors et al. (2006) as published: every point of the surface a
+    /// horizontal slab of the local thickness, lit and seen through it
+    /// alone, to reproduce the paper's images.
+    Bnl2006,
 }
 
 impl Default for StratusSettings {
@@ -358,6 +377,7 @@ impl Default for StratusSettings {
             extent_m: 40_000.0,
             resolution: 512,
             radiosity_iterations: 3,
+            model: StratusShadingModel::Marched,
         }
     }
 }

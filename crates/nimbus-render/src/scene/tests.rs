@@ -102,6 +102,29 @@ fn wrong_types_are_rejected_with_the_line() {
 }
 
 #[test]
+fn stratus_model_is_marched_by_default_and_the_paper_on_request() {
+    let scene = Scene::from_toml_str("[stratus]\n", "scene.toml").expect("scene");
+    assert_eq!(
+        scene.stratus.expect("stratus").model,
+        StratusShadingModel::Marched
+    );
+    let scene =
+        Scene::from_toml_str("[stratus]\nmodel = \"bnl2006\"", "scene.toml").expect("scene");
+    assert_eq!(
+        scene.stratus.expect("stratus").model,
+        StratusShadingModel::Bnl2006
+    );
+    let m = error_of("[stratus]\nmodel = \"bnl2007\"");
+    assert!(
+        m.contains("stratus.model")
+            && m.contains("bnl2007")
+            && m.contains("marched")
+            && m.contains("line 2"),
+        "{m}"
+    );
+}
+
+#[test]
 fn syntax_errors_name_the_line() {
     let m = error_of("[camera]\nfov_deg = = 3\n");
     assert!(m.contains("line 2"), "{m}");

@@ -35,6 +35,10 @@ struct Stratus {
     // x: texels of P_S and P² over 0–180°; y: texels of P_F over 0–θ_f;
     // z: radiosity texels per side; w: 1 when both faces are drawn.
     sizes: vec4<u32>,
+    // x: 1 when the view and sun paths are marched through the field
+    // (stratus.model = "marched"), 0 for the paper's slab (bnl2006);
+    // yzw: unused.
+    model: vec4<u32>,
 }
 
 // ---- 3-D gradient noise (Perlin 2002), integer-hashed lattice.

@@ -92,6 +92,46 @@ fn stratus_view_path_m(start_m: vec3<f32>, direction: vec3<f32>, offset_m: f32, 
     return max_length_m;
 }
 
+// The march of stratus_cloud_along_ray_m (twins of nimbus_physics::cloud_layer's
+// SUN_PATH_STEPS, SUN_PATH_MEAN_STEP_M and SUN_PATH_STEP_GROWTH).
+const STRATUS_SUN_PATH_STEPS: u32 = 24u;
+const STRATUS_SUN_PATH_MEAN_STEP_M: f32 = 60.0;
+const STRATUS_SUN_PATH_STEP_GROWTH: f32 = 1.1;
+
+// Total length, m, of cloud the straight path from `start_m` along the unit
+// `direction` crosses within `max_length_m`, every cell on the way counted
+// (not just the first): how much of the layer a point's sunlight has come
+// through. GPU twin of nimbus_physics::cloud_layer::cloud_along_ray_m.
+fn stratus_cloud_along_ray_m(start_m: vec3<f32>, direction: vec3<f32>, offset_m: f32, max_length_m: f32) -> f32 {
+    let steps = u32(clamp(ceil(max_length_m / STRATUS_SUN_PATH_MEAN_STEP_M), 2.0, f32(STRATUS_SUN_PATH_STEPS)));
+    let growth = STRATUS_SUN_PATH_STEP_GROWTH;
+    var step = max_length_m * (growth - 1.0) / (pow(growth, f32(steps)) - 1.0);
+    var s = 0.0;
+    var g = stratus_inside_m(start_m, offset_m);
+    var length_m = 0.0;
+    for (var i = 0u; i < steps; i = i + 1u) {
+        let next_s = min(s + step, max_length_m);
+        let next_g = stratus_inside_m(start_m + direction * next_s, offset_m);
+        length_m += (next_s - s) * inside_fraction(g, next_g);
+        s = next_s;
+        g = next_g;
+        step = step * growth;
+    }
+    return length_m;
+}
+
+// The fraction of a step inside the layer, from the signed distances at its
+// ends (linear between them).
+fn inside_fraction(g0: f32, g1: f32) -> f32 {
+    if (g0 > 0.0 && g1 > 0.0) {
+        return 1.0;
+    }
+    if (g0 <= 0.0 && g1 <= 0.0) {
+        return 0.0;
+    }
+    return max(g0, g1) / abs(g1 - g0);
+}
+
 // The fade of the drawn layer towards the edge of its window (1 inside the
 // inner four fifths, 0 at the edge and beyond): what the camera sees of the
 // layer, and so what water reflects.

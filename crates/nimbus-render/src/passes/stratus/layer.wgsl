@@ -138,8 +138,16 @@ fn layer_fragment(in: LayerVarying) -> @location(0) vec4<f32> {
     let sun_above = l.y > 0.0;
     // Orders 0–2 are local events: cosines to the local normal. Orders 3+
     // and the diffuse sources are global: cosines to the vertical (§6).
+    // The sun's cosine to the lit face's outward normal, clamped at 0: where
+    // a fine bump of that face turns away from the sun, the bump itself
+    // stands between them (its single and double scattering vanish; the
+    // global orders still light it). The absolute value used before lit the
+    // far slope again as if the sun shone on it, leaving a thin dark line
+    // where the normal crossed the terminator: the contour lines of issue 25
+    // on stratus-sunset-plane.
     let mu_v = max(abs(dot(up, v)), MIN_MU);
-    let mu_l = max(abs(dot(up, l)), MIN_MU);
+    let mu_l = max(select(-1.0, 1.0, sun_above) * dot(up, l), MIN_MU);
+    let marched = stratus.model.x == 1u;
     let mu_l_vertical = max(abs(l.y), MIN_MU);
     let theta = acos(clamp(dot(-l, v), -1.0, 1.0));
 
@@ -155,17 +163,22 @@ fn layer_fragment(in: LayerVarying) -> @location(0) vec4<f32> {
     // the vertical keeps their bumps from reading as changes of thickness)
     // and its opaque silhouettes, which carry the silver lining. The
     // opacity takes the longer of the marched path and the slab's H_v.
-    let entry_m = vec3<f32>(xz.x, stratus.window.x + 0.5 * in.face * h, xz.y);
+    // (With stratus.model = "bnl2006" the paper's slab stands everywhere.)
     let offset_m = h - stratus_thickness_at(xz);
-    let direction = -v;
-    let mu_v_vertical = max(abs(direction.y), MIN_MU);
-    let range_m = min(
-        (stratus.shape.w + abs(offset_m)) / mu_v_vertical,
-        STRATUS_VIEW_RANGE_FEATURES / stratus.shape.x,
-    );
-    let path_m = stratus_view_path_m(entry_m, direction, offset_m, range_m);
-    let h_view = max(h, path_m * mu_v_vertical);
-    let opacity_path_m = max(path_m, h_view / mu_v);
+    var h_view = h;
+    var opacity_path_m = h / mu_v;
+    if (marched) {
+        let entry_m = vec3<f32>(xz.x, stratus.window.x + 0.5 * in.face * h, xz.y);
+        let direction = -v;
+        let mu_v_vertical = max(abs(direction.y), MIN_MU);
+        let range_m = min(
+            (stratus.shape.w + abs(offset_m)) / mu_v_vertical,
+            STRATUS_VIEW_RANGE_FEATURES / stratus.shape.x,
+        );
+        let path_m = stratus_view_path_m(entry_m, direction, offset_m, range_m);
+        h_view = max(h, path_m * mu_v_vertical);
+        opacity_path_m = max(path_m, h_view / mu_v);
+    }
 
     let kappa = stratus.extinction.rgb;
     let kappa_s = (1.0 - stratus.forward_fraction.rgb) * kappa;
@@ -179,6 +192,31 @@ fn layer_fragment(in: LayerVarying) -> @location(0) vec4<f32> {
     let lit_face_m = vec3<f32>(in.position_m.x, stratus.window.x + select(-0.5, 0.5, sun_above) * h, in.position_m.z);
     // Cumulus between the sun and the layer shade it.
     let sun = sun_irradiance_at(lit_face_m) * cloud_shadow_transmittance(lit_face_m);
+    // Other cells between the sun and the lit face shade it (the paper
+    // lights every point as the top of its own slab): the cloud the sun
+    // ray crosses, marched up to where it leaves the layer's height range,
+    // is taken as a slab of the same slant path under the same sun. The
+    // direct sun that feeds orders 0–2 is its directional transmittance
+    // T_C (the cast shadow); the light of orders 3+ seen on the lit face
+    // its diffuse T_ms, for light diffuses along the layer under a shadow.
+    // Seen through the layer, orders 3+ have diffused across its thickness,
+    // wider than the shadows' detail: left unshaded there (shading them per
+    // pixel drew the window's texels as sharp facets on the base). Under a
+    // sun 5° high a cell 200 m above its neighbours shades 2 km of them.
+    var sun_direct = sun;
+    var sun_diffuse = sun;
+    if (marched) {
+        let top_or_base_m = stratus.window.x + select(-0.5, 0.5, sun_above) * stratus.shape.w;
+        let sun_range_m = min(
+            abs(top_or_base_m - lit_face_m.y) / mu_l_vertical,
+            STRATUS_VIEW_RANGE_FEATURES / stratus.shape.x,
+        );
+        let h_sun = stratus_cloud_along_ray_m(lit_face_m, l, offset_m, sun_range_m) * mu_l_vertical;
+        sun_direct = sun * slab_directional_transmittance(stratus, h_sun, mu_l_vertical);
+        if (viewer_above == sun_above) {
+            sun_diffuse = sun * slab_t_ms(stratus, h_sun);
+        }
+    }
 
     var local_orders: vec3<f32>;
     var global_orders: vec3<f32>;
@@ -199,7 +237,7 @@ fn layer_fragment(in: LayerVarying) -> @location(0) vec4<f32> {
         local_orders = peak + single + double;
         global_orders = fluxes.t3plus / PI;
     }
-    let sun_light = sun * (local_orders * mu_l + global_orders * select(0.0, mu_l_vertical, l.y != 0.0));
+    let sun_light = sun_direct * local_orders * mu_l + sun_diffuse * global_orders * select(0.0, mu_l_vertical, l.y != 0.0);
 
     // Sky above the layer and the ground's light below it (R_C from the
     // radiosity), both diffuse, carried by T_ms and R_ms (§4.6). The part

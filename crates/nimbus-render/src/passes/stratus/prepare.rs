@@ -7,7 +7,7 @@ use super::{
 };
 use crate::frame::cloud_lighting::{CloudLayerResources, CloudLighting};
 use crate::passes::stratus::radiosity::RadiosityPass;
-use crate::scene::Scene;
+use crate::scene::{Scene, StratusShadingModel};
 use nimbus_physics::terrain::Terrain;
 use nimbus_physics::transport::stratus::OneDimensionalTable;
 use wgpu::util::DeviceExt;
@@ -163,6 +163,12 @@ impl StratusPass {
             ],
             flags: [1, field.fractal().octaves, settings.seed, n],
             sizes: [PHASE_TEXELS as u32, PEAK_TEXELS as u32, grid.size, 0],
+            model: [
+                u32::from(settings.model == StratusShadingModel::Marched),
+                0,
+                0,
+                0,
+            ],
         };
         self.current.sizes[3] = u32::from(self.face_count() == 2);
         cloud_lighting.write_layer_uniform(queue, &self.current);
