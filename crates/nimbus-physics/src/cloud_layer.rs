@@ -336,6 +336,80 @@ pub fn cloud_along_ray_m(
     length_m
 }
 
+/// Most steps of [`first_entry_m`]'s march.
+pub const ENTRY_STEPS: u32 = 128;
+
+/// Mean step length, m, that [`first_entry_m`] aims at: a ray that leaves
+/// the layer's height range soon (steep, or from near its top or base)
+/// takes fewer than [`ENTRY_STEPS`] steps, at least four.
+pub const ENTRY_MEAN_STEP_M: f64 = 150.0;
+
+/// Ratio between successive steps of [`first_entry_m`]'s march.
+pub const ENTRY_STEP_GROWTH: f64 = 1.03;
+
+/// Bisections that place the entry within the march's step.
+pub const ENTRY_REFINEMENTS: u32 = 6;
+
+/// Distance, m, along the unit vector `direction` from `start_m` (a camera)
+/// to where the ray first enters the layer within `max_length_m`; 0 if
+/// `start_m` is inside it, `None` if the ray stays outside.
+///
+/// Seen from within the layer's height range, the cells' tops and bases
+/// are both seen edge-on and a ray at eye level runs between them: drawn as
+/// surfaces, the layer shows a band of clear sky through its middle where a
+/// real layer (and the path-traced one of `stratus-side`) is a continuous
+/// body. The renderer finds the surface each pixel's ray enters by this
+/// march instead. Steps: `max_length_m / `[`ENTRY_MEAN_STEP_M`], from 4 to
+/// [`ENTRY_STEPS`], growing by [`ENTRY_STEP_GROWTH`]
+/// (fine near the camera, where cells are large on screen); the entry
+/// bracketed is placed by [`ENTRY_REFINEMENTS`] bisections and a linear
+/// interpolation of the signed distance. A cell thinner than a step
+/// between two samples outside it is missed. The GPU twin is
+/// `stratus_view_entry_m` in `nimbus-render`'s `shader/cloud_layer_lookup.wgsl`.
+pub fn first_entry_m(
+    thickness_m: impl Fn(f64, f64) -> f64,
+    mid_plane_m: f64,
+    start_m: [f64; 3],
+    direction: [f64; 3],
+    max_length_m: f64,
+) -> Option<f64> {
+    let inside = |s: f64| {
+        let x = start_m[0] + direction[0] * s;
+        let y = start_m[1] + direction[1] * s;
+        let z = start_m[2] + direction[2] * s;
+        0.5 * thickness_m(x, z) - (y - mid_plane_m).abs()
+    };
+    let steps = (max_length_m / ENTRY_MEAN_STEP_M)
+        .ceil()
+        .clamp(4.0, f64::from(ENTRY_STEPS)) as i32;
+    let growth = ENTRY_STEP_GROWTH;
+    let mut step = max_length_m * (growth - 1.0) / (growth.powi(steps) - 1.0);
+    let (mut s, mut g) = (0.0, inside(0.0));
+    if g > 0.0 {
+        return Some(0.0);
+    }
+    for _ in 0..steps {
+        let next_s = (s + step).min(max_length_m);
+        let next_g = inside(next_s);
+        if next_g > 0.0 {
+            let (mut a, mut ga, mut b, mut gb) = (s, g, next_s, next_g);
+            for _ in 0..ENTRY_REFINEMENTS {
+                let c = 0.5 * (a + b);
+                let gc = inside(c);
+                if gc > 0.0 {
+                    (b, gb) = (c, gc);
+                } else {
+                    (a, ga) = (c, gc);
+                }
+            }
+            return Some(a + (b - a) * (-ga / (gb - ga)));
+        }
+        (s, g) = (next_s, next_g);
+        step *= growth;
+    }
+    None
+}
+
 /// The part of a step inside the layer, from the signed distances `g0`,
 /// `g1` at its ends (positive inside), the distance taken linear between
 /// them.
@@ -395,6 +469,30 @@ mod tests {
         // by linear interpolation within a step, the apex's kink is not.
         assert!((along - 3200.0 / 3.0).abs() < 30.0, "{along}");
         assert!(along > 600.0, "both cells counted: {along}");
+    }
+
+    #[test]
+    fn first_entry_finds_the_nearest_cell_and_nothing_in_clear_air() {
+        // The cones of the test above, a ray at 50 m above the mid-plane
+        // from x = 0: the first cone's h = 100 m contour is at x = 800 − 266.7.
+        let cells = |x: f64, _: f64| {
+            [800.0, 2000.0]
+                .iter()
+                .map(|c: &f64| 300.0 * (1.0 - (x - c).abs() / 400.0).max(0.0))
+                .fold(0.0, f64::max)
+        };
+        let entry = first_entry_m(cells, 0.0, [0.0, 50.0, 0.0], [1.0, 0.0, 0.0], 20_000.0)
+            .expect("the ray enters the first cone");
+        assert!((entry - (800.0 - 800.0 / 3.0)).abs() < 2.0, "{entry}");
+        // From inside a cell: 0. Above every cell: never.
+        assert_eq!(
+            first_entry_m(cells, 0.0, [800.0, 0.0, 0.0], [1.0, 0.0, 0.0], 5000.0),
+            Some(0.0)
+        );
+        assert_eq!(
+            first_entry_m(cells, 0.0, [0.0, 200.0, 0.0], [1.0, 0.0, 0.0], 20_000.0),
+            None
+        );
     }
 
     #[test]

@@ -192,8 +192,9 @@ fn view_path_kernel(@builtin(global_invocation_id) id: vec3<u32>) {
         return;
     }
     let ray = view_path_rays[id.x];
-    view_path_lengths[2u * id.x] = stratus_view_path_m(ray.start.xyz, ray.direction.xyz, ray.start.w, ray.direction.w);
-    view_path_lengths[2u * id.x + 1u] = stratus_cloud_along_ray_m(ray.start.xyz, ray.direction.xyz, ray.start.w, ray.direction.w);
+    view_path_lengths[3u * id.x] = stratus_view_path_m(ray.start.xyz, ray.direction.xyz, ray.start.w, ray.direction.w);
+    view_path_lengths[3u * id.x + 1u] = stratus_cloud_along_ray_m(ray.start.xyz, ray.direction.xyz, ray.start.w, ray.direction.w);
+    view_path_lengths[3u * id.x + 2u] = stratus_view_entry_m(ray.start.xyz, ray.direction.xyz, ray.direction.w);
 }
 ";
 
@@ -202,10 +203,11 @@ fn view_path_kernel(@builtin(global_invocation_id) id: vec3<u32>) {
 /// `cloud_layer::path_inside_layer_m`) for rays entering the tops, the
 /// bases and the cells' sides, and the cloud along the sun's ray
 /// (`stratus_cloud_along_ray_m`, `cloud_layer::cloud_along_ray_m`) for rays
-/// leaving the tops towards a low sun.
+/// leaving the tops towards a low sun, and the first entry of a level
+/// camera's rays (`stratus_view_entry_m`, `cloud_layer::first_entry_m`).
 #[test]
 fn gpu_layer_marches_match_the_cpu_marches() {
-    use nimbus_physics::cloud_layer::{cloud_along_ray_m, path_inside_layer_m};
+    use nimbus_physics::cloud_layer::{cloud_along_ray_m, first_entry_m, path_inside_layer_m};
     use nimbus_render::shader;
 
     let mut h = headless();
@@ -303,7 +305,7 @@ fn gpu_layer_marches_match_the_cpu_marches() {
             input: bytemuck::cast_slice(&rays),
             input_stride: 32,
             count: rays.len(),
-            outputs_per_item: 2,
+            outputs_per_item: 3,
             extra: &[common::ExtraGroup {
                 index: 3,
                 layout: h.renderer.frame_resources().cloud_lighting.layout(),
@@ -314,7 +316,7 @@ fn gpu_layer_marches_match_the_cpu_marches() {
 
     let (mut worst, mut worst_along, mut side_entries_through_cloud, mut shaded_by_others) =
         (0.0f64, 0.0f64, 0, 0);
-    for (ray, gpu_lengths) in rays.iter().zip(gpu.chunks(2)) {
+    for (ray, gpu_lengths) in rays.iter().zip(gpu.chunks(3)) {
         let [start, direction] = *ray;
         let start_m = [start[0] as f64, start[1] as f64, start[2] as f64];
         let direction_unit = [
@@ -344,6 +346,74 @@ fn gpu_layer_marches_match_the_cpu_marches() {
     assert!(
         worst <= 0.0,
         "view path: GPU − CPU exceeds the tolerance by {worst} m"
+    );
+
+    // A camera level with the layer, 20 m above the mid-plane at the
+    // window's centre, looking all round at slants within ±6°: where each
+    // ray first enters a cell.
+    let centre = [corner[0] + 0.5 * side_m, mid_m, corner[1] + 0.5 * side_m];
+    let level_rays: Vec<[[f32; 4]; 2]> = (0..360)
+        .map(|k| {
+            let azimuth = (k as f64).to_radians();
+            let slant = (6.0 * ((k % 13) as f64 / 6.0 - 1.0)).to_radians();
+            [
+                [
+                    centre[0] as f32,
+                    (centre[1] + 20.0) as f32,
+                    centre[2] as f32,
+                    0.0,
+                ],
+                [
+                    (slant.cos() * azimuth.cos()) as f32,
+                    slant.sin() as f32,
+                    (slant.cos() * azimuth.sin()) as f32,
+                    (0.5 * side_m) as f32,
+                ],
+            ]
+        })
+        .collect();
+    let gpu: Vec<f32> = common::run_kernel(
+        &h,
+        &common::Kernel {
+            label: "level entry test",
+            source: &source,
+            entry: "view_path_kernel",
+            input: bytemuck::cast_slice(&level_rays),
+            input_stride: 32,
+            count: level_rays.len(),
+            outputs_per_item: 3,
+            extra: &[common::ExtraGroup {
+                index: 3,
+                layout: h.renderer.frame_resources().cloud_lighting.layout(),
+                group: h.renderer.frame_resources().cloud_lighting.bind_group(),
+            }],
+        },
+    );
+    let (mut entries, mut misses, mut disagreements) = (0, 0, 0);
+    for (ray, gpu_lengths) in level_rays.iter().zip(gpu.chunks(3)) {
+        let [start, direction] = *ray;
+        let cpu = first_entry_m(
+            thickness,
+            mid_m,
+            [start[0] as f64, start[1] as f64, start[2] as f64],
+            [
+                direction[0] as f64,
+                direction[1] as f64,
+                direction[2] as f64,
+            ],
+            direction[3] as f64,
+        );
+        let gpu_entry = gpu_lengths[2] as f64;
+        match cpu {
+            Some(s) if (gpu_entry - s).abs() <= 0.5 + 1e-3 * s => entries += 1,
+            None if gpu_entry < 0.0 => misses += 1,
+            // f32 against f64 can flip a sample lying on the surface.
+            _ => disagreements += 1,
+        }
+    }
+    assert!(
+        disagreements <= 3 && entries > 100,
+        "level entries: {entries} agree, {misses} miss on both, {disagreements} disagree"
     );
     assert!(
         worst_along <= 0.0,

@@ -92,6 +92,55 @@ fn stratus_view_path_m(start_m: vec3<f32>, direction: vec3<f32>, offset_m: f32, 
     return max_length_m;
 }
 
+// The march of stratus_view_entry_m (twins of nimbus_physics::cloud_layer's
+// ENTRY_STEPS, ENTRY_MEAN_STEP_M, ENTRY_STEP_GROWTH and ENTRY_REFINEMENTS).
+const STRATUS_ENTRY_STEPS: u32 = 128u;
+const STRATUS_ENTRY_MEAN_STEP_M: f32 = 150.0;
+const STRATUS_ENTRY_STEP_GROWTH: f32 = 1.03;
+const STRATUS_ENTRY_REFINEMENTS: u32 = 6u;
+
+// Distance, m, along the unit `direction` from `start_m` to where the ray
+// first enters the layer within `max_length_m`: 0 from inside it, −1 if it
+// stays outside. How a camera level with the layer finds what each pixel
+// sees (its tops and bases are edge-on there). GPU twin of
+// nimbus_physics::cloud_layer::first_entry_m.
+fn stratus_view_entry_m(start_m: vec3<f32>, direction: vec3<f32>, max_length_m: f32) -> f32 {
+    let steps = u32(clamp(ceil(max_length_m / STRATUS_ENTRY_MEAN_STEP_M), 4.0, f32(STRATUS_ENTRY_STEPS)));
+    let growth = STRATUS_ENTRY_STEP_GROWTH;
+    var step = max_length_m * (growth - 1.0) / (pow(growth, f32(steps)) - 1.0);
+    var s = 0.0;
+    var g = stratus_inside_m(start_m, 0.0);
+    if (g > 0.0) {
+        return 0.0;
+    }
+    for (var i = 0u; i < steps; i = i + 1u) {
+        let next_s = min(s + step, max_length_m);
+        let next_g = stratus_inside_m(start_m + direction * next_s, 0.0);
+        if (next_g > 0.0) {
+            var a = s;
+            var ga = g;
+            var b = next_s;
+            var gb = next_g;
+            for (var k = 0u; k < STRATUS_ENTRY_REFINEMENTS; k = k + 1u) {
+                let c = 0.5 * (a + b);
+                let gc = stratus_inside_m(start_m + direction * c, 0.0);
+                if (gc > 0.0) {
+                    b = c;
+                    gb = gc;
+                } else {
+                    a = c;
+                    ga = gc;
+                }
+            }
+            return a + (b - a) * (-ga / (gb - ga));
+        }
+        s = next_s;
+        g = next_g;
+        step = step * growth;
+    }
+    return -1.0;
+}
+
 // The march of stratus_cloud_along_ray_m (twins of nimbus_physics::cloud_layer's
 // SUN_PATH_STEPS, SUN_PATH_MEAN_STEP_M and SUN_PATH_STEP_GROWTH).
 const STRATUS_SUN_PATH_STEPS: u32 = 24u;

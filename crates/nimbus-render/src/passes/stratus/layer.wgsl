@@ -1,5 +1,6 @@
 // import shader/cloud_layer_lookup.wgsl
 // import shader/cloud_shadow_lookup.wgsl
+// import shader/fullscreen.wgsl
 // Stratus layer pass: the layer drawn as a displaced grid over the
 // thickness window (built on the GPU from the field: no CPU upload per
 // frame), the surface facing the camera only (the top seen from above, the
@@ -25,20 +26,19 @@ struct LayerVarying {
     @location(1) @interpolate(flat) face: f32,
 }
 
-// The face nearer the camera: +1 the top, −1 the base. Instance 0 draws it;
-// instance 1, drawn only while the camera is level with the layer, the other.
-fn layer_face(instance: u32) -> f32 {
-    let near = select(-1.0, 1.0, frame.camera_position_m.y > stratus.window.x);
-    return select(near, -near, instance == 1u);
+// The face nearer the camera: +1 the top, −1 the base. (A camera level with
+// the layer sees it through `level_fragment` instead.)
+fn layer_face() -> f32 {
+    return select(-1.0, 1.0, frame.camera_position_m.y > stratus.window.x);
 }
 
 @vertex
-fn layer_vertex(@builtin(vertex_index) index: u32, @builtin(instance_index) instance: u32) -> LayerVarying {
+fn layer_vertex(@builtin(vertex_index) index: u32) -> LayerVarying {
     let n = stratus.flags.w;
     let ij = vec2<u32>(index % n, index / n);
     let xz = stratus.window.zw + (vec2<f32>(ij) + 0.5) * (stratus.window.y / f32(n));
     let h = textureLoad(stratus_thickness, vec2<i32>(ij), 0).r;
-    let face = layer_face(instance);
+    let face = layer_face();
     let position = vec3<f32>(xz.x, stratus.window.x + 0.5 * face * h, xz.y);
     var out: LayerVarying;
     out.face = face;
@@ -106,14 +106,70 @@ fn forward_peak_radiance(h: f32, mu_v: f32, theta: f32) -> vec3<f32> {
 
 @fragment
 fn layer_fragment(in: LayerVarying) -> @location(0) vec4<f32> {
-    let xz = in.position_m.xz;
     // The field itself, per pixel: the window's texels (tens of metres)
     // would show as jagged edges on nearby cells; the mesh only carries the
     // coarse relief.
-    let h = layer_thickness_m(stratus, xz);
+    let h = layer_thickness_m(stratus, in.position_m.xz);
     if (h <= 0.05) {
         discard;
     }
+    return shade_layer(in.position_m, in.face, h);
+}
+
+// A camera level with the layer sees the cells' sides, mostly near their
+// thin rims, where the slab of the rim's h (or of the marched path's
+// vertical extent, small for level rays) reflects too little. The light
+// seen there comes from a few mean free paths into the cell along the ray:
+// the point is shaded as the slab of the thickness found that deep.
+const LEVEL_VIEW_DEPTH_MFP: f32 = 2.0;
+
+struct LevelOutput {
+    @location(0) color: vec4<f32>,
+    // The entry point's depth, for the depth test against the terrain.
+    @builtin(frag_depth) depth: f32,
+}
+
+// The layer seen by a camera level with it (within half the thickest cell
+// of the mid-plane, plus 50 m): its tops and bases are edge-on there, and a
+// ray at eye level runs between them through the cells, so drawing the two
+// faces showed a band of clear sky through the layer's middle. Each pixel
+// marches its ray to where it first enters the layer (within the window)
+// and shades that point as the face it lies on.
+@fragment
+fn level_fragment(in: FullscreenOutput) -> LevelOutput {
+    let direction = view_ray_world(in.clip_xy);
+    let camera = frame.camera_position_m;
+    // Out of the layer's height range the ray meets nothing more.
+    let mid = stratus.window.x;
+    let half = 0.5 * stratus.shape.w;
+    let leave_m = select(
+        1e9,
+        (select(mid - half, mid + half, direction.y > 0.0) - camera.y) / direction.y,
+        abs(direction.y) > 1e-6,
+    );
+    let range_m = max(min(leave_m, 0.5 * stratus.window.y), 0.0);
+    let entry_m = stratus_view_entry_m(camera, direction, range_m);
+    if (entry_m < 0.0) {
+        discard;
+    }
+    // From inside a cell (distance 0), the point 1 m ahead.
+    let position_m = camera + direction * max(entry_m, 1.0);
+    let face = select(-1.0, 1.0, position_m.y > mid);
+    // The entry lies on the window's surface |y − y_mid| = h/2; the fine
+    // field there may be thinner, but discarding would open the band again.
+    let h = max(layer_thickness_m(stratus, position_m.xz), max(2.0 * abs(position_m.y - mid), 1.0));
+    var out: LevelOutput;
+    out.color = shade_layer(position_m, face, h);
+    let clip = frame.clip_from_world * vec4<f32>(position_m, 1.0);
+    out.depth = clamp(clip.z / clip.w, 0.0, 1.0);
+    return out;
+}
+
+// The layer's radiance and opacity at `position_m` on the face `face` (+1
+// the top, −1 the base) where its thickness is `h`, pre-exposed, alpha
+// premultiplied.
+fn shade_layer(position_m: vec3<f32>, face: f32, h: f32) -> vec4<f32> {
+    let xz = position_m.xz;
     // The local slab normal, from the thickness gradient: both faces are
     // mid ± h/2, so the slab's upward normal is (−½ ∂h/∂x, 1, −½ ∂h/∂z).
     // Forward differences over a quarter of the finest octave's wavelength.
@@ -122,19 +178,12 @@ fn layer_fragment(in: LayerVarying) -> @location(0) vec4<f32> {
     let dh_dz = (layer_thickness_m(stratus, xz + vec2<f32>(0.0, step_m)) - h) / step_m;
     let up = normalize(vec3<f32>(-0.5 * dh_dx, 1.0, -0.5 * dh_dz));
 
-    let v = normalize(frame.camera_position_m - in.position_m);
+    let v = normalize(frame.camera_position_m - position_m);
     let l = frame.sun_direction;
-    // With both faces drawn (the camera level with the layer), each shows
-    // only where it faces the camera: elsewhere the ray has crossed the
-    // layer through the other face, which shaded the whole slab. (With one
-    // face, its fine-scale normals may turn away from the camera on the
-    // coarse mesh without the ray leaving the cloud: nothing is discarded.)
-    let outward = vec3<f32>(up.x, up.y * in.face, up.z);
-    if (stratus.sizes.w == 1u && dot(outward, v) < 0.0) {
-        discard;
-    }
+    // (The fine-scale normals may turn away from the camera on the coarse
+    // mesh without the ray leaving the cloud: nothing is discarded.)
     // The slab is seen from above on its top face, from below on its base.
-    let viewer_above = in.face > 0.0;
+    let viewer_above = face > 0.0;
     let sun_above = l.y > 0.0;
     // Orders 0–2 are local events: cosines to the local normal. Orders 3+
     // and the diffuse sources are global: cosines to the vertical (§6).
@@ -168,7 +217,7 @@ fn layer_fragment(in: LayerVarying) -> @location(0) vec4<f32> {
     var h_view = h;
     var opacity_path_m = h / mu_v;
     if (marched) {
-        let entry_m = vec3<f32>(xz.x, stratus.window.x + 0.5 * in.face * h, xz.y);
+        let entry_m = vec3<f32>(xz.x, stratus.window.x + 0.5 * face * h, xz.y);
         let direction = -v;
         let mu_v_vertical = max(abs(direction.y), MIN_MU);
         let range_m = min(
@@ -178,6 +227,10 @@ fn layer_fragment(in: LayerVarying) -> @location(0) vec4<f32> {
         let path_m = stratus_view_path_m(entry_m, direction, offset_m, range_m);
         h_view = max(h, path_m * mu_v_vertical);
         opacity_path_m = max(path_m, h_view / mu_v);
+        if (stratus.sizes.w == 1u) {
+            let depth_m = min(path_m, LEVEL_VIEW_DEPTH_MFP / (stratus.extinction.y * (1.0 - stratus.forward_fraction.y)));
+            h_view = max(h_view, stratus_thickness_at(xz + direction.xz * depth_m));
+        }
     }
 
     let kappa = stratus.extinction.rgb;
@@ -189,7 +242,7 @@ fn layer_fragment(in: LayerVarying) -> @location(0) vec4<f32> {
     // Sun light on the lit face. The model's radiances are per unit
     // incident flux on that face: for orders 0–2 the flux through the local
     // surface, for 3+ the flux through the horizontal slab.
-    let lit_face_m = vec3<f32>(in.position_m.x, stratus.window.x + select(-0.5, 0.5, sun_above) * h, in.position_m.z);
+    let lit_face_m = vec3<f32>(position_m.x, stratus.window.x + select(-0.5, 0.5, sun_above) * h, position_m.z);
     // Cumulus between the sun and the layer shade it.
     let sun = sun_irradiance_at(lit_face_m) * cloud_shadow_transmittance(lit_face_m);
     // Other cells between the sun and the lit face shade it (the paper
@@ -260,7 +313,7 @@ fn layer_fragment(in: LayerVarying) -> @location(0) vec4<f32> {
     // that its edge never shows.
     let fade = stratus_window_fade(xz);
     let alpha = (1.0 - exp(-kappa.y * opacity_path_m)) * fade;
-    let ap = stratus_aerial_perspective(in.position_m);
+    let ap = stratus_aerial_perspective(position_m);
     let seen = radiance * fade * ap.a + ap.rgb * alpha;
     return vec4<f32>(min(seen * pre_exposure(), vec3<f32>(frame.max_pre_exposed)), alpha);
 }

@@ -109,6 +109,8 @@ pub struct StratusPass {
     thickness_pipeline: wgpu::ComputePipeline,
     inputs_pipeline: wgpu::ComputePipeline,
     layer_pipeline: wgpu::RenderPipeline,
+    /// The layer seen by a camera level with it (full screen, marched).
+    level_pipeline: wgpu::RenderPipeline,
     resources: Option<Resources>,
     /// The scene's layer, when it has one.
     settings: Option<StratusSettings>,

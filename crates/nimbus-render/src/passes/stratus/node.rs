@@ -30,9 +30,15 @@ impl StratusPass {
         let (Some(resources), Some(_)) = (&self.resources, &self.settings) else {
             return;
         };
-        pass.set_pipeline(&self.layer_pipeline);
         frame.set_on(pass, None);
-        pass.set_index_buffer(resources.indices.slice(..), wgpu::IndexFormat::Uint32);
-        pass.draw_indexed(0..resources.index_count, 0, 0..self.face_count());
+        if self.camera_is_level() {
+            // Tops and bases edge-on: each pixel marches to the layer.
+            pass.set_pipeline(&self.level_pipeline);
+            pass.draw(0..3, 0..1);
+        } else {
+            pass.set_pipeline(&self.layer_pipeline);
+            pass.set_index_buffer(resources.indices.slice(..), wgpu::IndexFormat::Uint32);
+            pass.draw_indexed(0..resources.index_count, 0, 0..1);
+        }
     }
 }

@@ -31,20 +31,17 @@ impl StratusPass {
         &self.current
     }
 
-    /// Faces to draw: the one towards the camera, and the other too while
-    /// the camera is level with the layer (within half the thickest cell of
-    /// its mid-plane, plus a margin), where slopes of both face it.
-    pub(super) fn face_count(&self) -> u32 {
+    /// Whether the camera is level with the layer (within half the thickest
+    /// cell of its mid-plane, plus a margin): its tops and bases are then
+    /// edge-on, and the layer is drawn by marching each pixel's ray instead
+    /// of as the face towards the camera.
+    pub(super) fn camera_is_level(&self) -> bool {
         let Some(settings) = &self.settings else {
-            return 0;
+            return false;
         };
         let mid = self.current.window[0] as f64;
         let reach = 0.5 * settings.thickness_m + 50.0;
-        if (self.camera_height_m - mid).abs() <= reach {
-            2
-        } else {
-            1
-        }
+        (self.camera_height_m - mid).abs() <= reach
     }
 
     /// Whether the scene has a layer to draw.
@@ -170,7 +167,7 @@ impl StratusPass {
                 0,
             ],
         };
-        self.current.sizes[3] = u32::from(self.face_count() == 2);
+        self.current.sizes[3] = u32::from(self.camera_is_level());
         cloud_lighting.write_layer_uniform(queue, &self.current);
         Ok(())
     }

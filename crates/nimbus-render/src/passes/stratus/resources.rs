@@ -78,12 +78,27 @@ impl StratusPass {
             targets: &hdr_target(Some(PREMULTIPLIED_OVER)),
         }
         .create(device);
+        // The camera level with the layer: a full-screen triangle whose
+        // fragments march to the layer and write the entry's depth.
+        let level_pipeline = DrawPipeline {
+            label: "stratus layer (level)",
+            layout: &layer_layout,
+            module: &layer_module,
+            vertex_entry: "fullscreen_vertex",
+            fragment_entry: Some("level_fragment"),
+            vertex_buffers: &[],
+            cull_mode: None,
+            depth: Some(depth_state(false, wgpu::CompareFunction::Greater)),
+            targets: &hdr_target(Some(PREMULTIPLIED_OVER)),
+        }
+        .create(device);
         Self {
             uniform: cloud_lighting.layer_uniform_buffer().clone(),
             compute_layout,
             thickness_pipeline,
             inputs_pipeline,
             layer_pipeline,
+            level_pipeline,
             resources: None,
             settings: None,
             current: StratusUniform::default(),
