@@ -569,6 +569,21 @@ fn bench_prints_one_json_document_with_per_pass_times() {
             .as_f64()
             .is_some_and(|t| t > 0.0)
     );
+    // The render thread's CPU time per frame: prepare and encode, and their
+    // sum, each with median ≤ p95 ≤ max.
+    for key in ["cpu_prepare", "cpu_encode", "cpu_total"] {
+        let stats = &report[key];
+        let [median, p95, max] =
+            ["median_ms", "p95_ms", "max_ms"].map(|k| stats[k].as_f64().expect("a time"));
+        assert!(
+            0.0 < median && median <= p95 && p95 <= max,
+            "{key}: {stats}"
+        );
+    }
+    let total = report["cpu_total"]["max_ms"].as_f64().expect("time");
+    let parts = report["cpu_prepare"]["max_ms"].as_f64().expect("time")
+        + report["cpu_encode"]["max_ms"].as_f64().expect("time");
+    assert!(total <= parts + 1e-9, "{total} > {parts}");
     if report["timestamps_supported"] == true {
         let passes = report["passes"].as_array().expect("passes");
         let names: Vec<&str> = passes.iter().filter_map(|p| p["name"].as_str()).collect();

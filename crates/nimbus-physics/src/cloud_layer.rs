@@ -230,12 +230,7 @@ pub fn path_inside_layer_m(
     direction: [f64; 3],
     max_length_m: f64,
 ) -> f64 {
-    let inside = |s: f64| {
-        let x = start_m[0] + direction[0] * s;
-        let y = start_m[1] + direction[1] * s;
-        let z = start_m[2] + direction[2] * s;
-        0.5 * (thickness_m(x, z) + offset_m) - (y - mid_plane_m).abs()
-    };
+    let inside = signed_distance_along(&thickness_m, offset_m, mid_plane_m, start_m, direction);
     let growth = VIEW_PATH_STEP_GROWTH;
     let mut step = max_length_m * (growth - 1.0) / (growth.powi(VIEW_PATH_STEPS as i32) - 1.0);
     // The start is on the surface: inside by definition, whatever the
@@ -246,22 +241,14 @@ pub fn path_inside_layer_m(
         let next_s = (s + step).min(max_length_m);
         let next_g = inside(next_s);
         if next_g <= 0.0 {
-            // The exit lies in [s, next_s]: bisect the bracket (robust
-            // where h = 0 makes g vanish over a whole stretch of the
-            // mid-plane), then interpolate linearly. g ≥ 0 > next_g fails
-            // only when both are 0 (the ray runs along the surface).
-            let (mut a, mut ga, mut b, mut gb) = (s, g, next_s, next_g);
-            for _ in 0..VIEW_PATH_REFINEMENTS {
-                let c = 0.5 * (a + b);
-                let gc = inside(c);
-                if gc > 0.0 {
-                    (a, ga) = (c, gc);
-                } else {
-                    (b, gb) = (c, gc);
-                }
-            }
-            let fraction = if ga > gb { ga / (ga - gb) } else { 0.0 };
-            return a + (b - a) * fraction;
+            // The exit lies in [s, next_s].
+            return place_crossing(
+                &inside,
+                (s, g),
+                (next_s, next_g),
+                true,
+                VIEW_PATH_REFINEMENTS,
+            );
         }
         s = next_s;
         g = next_g;
@@ -313,12 +300,7 @@ pub fn cloud_along_ray_m(
     direction: [f64; 3],
     max_length_m: f64,
 ) -> f64 {
-    let inside = |s: f64| {
-        let x = start_m[0] + direction[0] * s;
-        let y = start_m[1] + direction[1] * s;
-        let z = start_m[2] + direction[2] * s;
-        0.5 * (thickness_m(x, z) + offset_m) - (y - mid_plane_m).abs()
-    };
+    let inside = signed_distance_along(&thickness_m, offset_m, mid_plane_m, start_m, direction);
     let steps = (max_length_m / SUN_PATH_MEAN_STEP_M)
         .ceil()
         .clamp(2.0, f64::from(SUN_PATH_STEPS)) as i32;
@@ -373,12 +355,7 @@ pub fn first_entry_m(
     direction: [f64; 3],
     max_length_m: f64,
 ) -> Option<f64> {
-    let inside = |s: f64| {
-        let x = start_m[0] + direction[0] * s;
-        let y = start_m[1] + direction[1] * s;
-        let z = start_m[2] + direction[2] * s;
-        0.5 * thickness_m(x, z) - (y - mid_plane_m).abs()
-    };
+    let inside = signed_distance_along(&thickness_m, 0.0, mid_plane_m, start_m, direction);
     let steps = (max_length_m / ENTRY_MEAN_STEP_M)
         .ceil()
         .clamp(4.0, f64::from(ENTRY_STEPS)) as i32;
@@ -392,22 +369,62 @@ pub fn first_entry_m(
         let next_s = (s + step).min(max_length_m);
         let next_g = inside(next_s);
         if next_g > 0.0 {
-            let (mut a, mut ga, mut b, mut gb) = (s, g, next_s, next_g);
-            for _ in 0..ENTRY_REFINEMENTS {
-                let c = 0.5 * (a + b);
-                let gc = inside(c);
-                if gc > 0.0 {
-                    (b, gb) = (c, gc);
-                } else {
-                    (a, ga) = (c, gc);
-                }
-            }
-            return Some(a + (b - a) * (-ga / (gb - ga)));
+            return Some(place_crossing(
+                &inside,
+                (s, g),
+                (next_s, next_g),
+                false,
+                ENTRY_REFINEMENTS,
+            ));
         }
         (s, g) = (next_s, next_g);
         step *= growth;
     }
     None
+}
+
+/// The signed distance inside the layer, h/2 − |y − y_mid| with `offset_m`
+/// added to the thickness, at distance s along the ray from `start_m`:
+/// positive inside, exact (linear) inside a uniform slab.
+fn signed_distance_along<'a>(
+    thickness_m: &'a impl Fn(f64, f64) -> f64,
+    offset_m: f64,
+    mid_plane_m: f64,
+    start_m: [f64; 3],
+    direction: [f64; 3],
+) -> impl Fn(f64) -> f64 + 'a {
+    move |s| {
+        let x = start_m[0] + direction[0] * s;
+        let y = start_m[1] + direction[1] * s;
+        let z = start_m[2] + direction[2] * s;
+        0.5 * (thickness_m(x, z) + offset_m) - (y - mid_plane_m).abs()
+    }
+}
+
+/// Where the signed distance `inside` crosses 0 between `a` and `b` (each
+/// a distance and its signed distance), `a` inside when `a_inside`: the
+/// bracket bisected `refinements` times (robust where h = 0 makes the
+/// distance vanish over a whole stretch of the mid-plane), then the
+/// crossing interpolated linearly (at `a` when both ends are 0: the ray
+/// runs along the surface).
+fn place_crossing(
+    inside: impl Fn(f64) -> f64,
+    (mut a, mut ga): (f64, f64),
+    (mut b, mut gb): (f64, f64),
+    a_inside: bool,
+    refinements: u32,
+) -> f64 {
+    for _ in 0..refinements {
+        let c = 0.5 * (a + b);
+        let gc = inside(c);
+        if (gc > 0.0) == a_inside {
+            (a, ga) = (c, gc);
+        } else {
+            (b, gb) = (c, gc);
+        }
+    }
+    let fraction = if ga != gb { ga / (ga - gb) } else { 0.0 };
+    a + (b - a) * fraction
 }
 
 /// The part of a step inside the layer, from the signed distances `g0`,

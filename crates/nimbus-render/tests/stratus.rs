@@ -295,24 +295,28 @@ fn gpu_layer_marches_match_the_cpu_marches() {
         files.extend(nimbus_render::stratus::DRAWING_LIBRARIES);
         shader::compose(&files) + VIEW_PATH_KERNEL
     };
-    // One ray (two vec4) in, one f32 out.
-    let gpu: Vec<f32> = common::run_kernel(
-        &h,
-        &common::Kernel {
-            label: "view path test",
-            source: &source,
-            entry: "view_path_kernel",
-            input: bytemuck::cast_slice(&rays),
-            input_stride: 32,
-            count: rays.len(),
-            outputs_per_item: 3,
-            extra: &[common::ExtraGroup {
-                index: 3,
-                layout: h.renderer.frame_resources().cloud_lighting.layout(),
-                group: h.renderer.frame_resources().cloud_lighting.bind_group(),
-            }],
-        },
-    );
+    // One ray (two vec4) in, three f32 out: the view path, the cloud along
+    // the ray, the first entry.
+    let marches_on_gpu = |rays: &[[[f32; 4]; 2]]| -> Vec<f32> {
+        common::run_kernel(
+            &h,
+            &common::Kernel {
+                label: "layer marches test",
+                source: &source,
+                entry: "view_path_kernel",
+                input: bytemuck::cast_slice(rays),
+                input_stride: 32,
+                count: rays.len(),
+                outputs_per_item: 3,
+                extra: &[common::ExtraGroup {
+                    index: 3,
+                    layout: h.renderer.frame_resources().cloud_lighting.layout(),
+                    group: h.renderer.frame_resources().cloud_lighting.bind_group(),
+                }],
+            },
+        )
+    };
+    let gpu = marches_on_gpu(&rays);
 
     let (mut worst, mut worst_along, mut side_entries_through_cloud, mut shaded_by_others) =
         (0.0f64, 0.0f64, 0, 0);
@@ -372,23 +376,7 @@ fn gpu_layer_marches_match_the_cpu_marches() {
             ]
         })
         .collect();
-    let gpu: Vec<f32> = common::run_kernel(
-        &h,
-        &common::Kernel {
-            label: "level entry test",
-            source: &source,
-            entry: "view_path_kernel",
-            input: bytemuck::cast_slice(&level_rays),
-            input_stride: 32,
-            count: level_rays.len(),
-            outputs_per_item: 3,
-            extra: &[common::ExtraGroup {
-                index: 3,
-                layout: h.renderer.frame_resources().cloud_lighting.layout(),
-                group: h.renderer.frame_resources().cloud_lighting.bind_group(),
-            }],
-        },
-    );
+    let gpu = marches_on_gpu(&level_rays);
     let (mut entries, mut misses, mut disagreements) = (0, 0, 0);
     for (ray, gpu_lengths) in level_rays.iter().zip(gpu.chunks(3)) {
         let [start, direction] = *ray;

@@ -60,6 +60,18 @@ pub struct HeadlessRenderer {
     /// The renderer.
     pub renderer: Renderer,
     targets: Option<(Target, Target)>,
+    last_cpu: FrameCpuTimes,
+}
+
+/// CPU time the last frame spent in the renderer's two per-frame calls: what
+/// an embedder's render thread pays each frame.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct FrameCpuTimes {
+    /// [`Renderer::prepare_with_camera`] (uniforms, resources that changed,
+    /// CPU-side updates), s.
+    pub prepare_s: f64,
+    /// [`Renderer::encode`] and finishing the command buffer, s.
+    pub encode_s: f64,
 }
 
 impl HeadlessRenderer {
@@ -78,6 +90,7 @@ impl HeadlessRenderer {
             gpu,
             renderer,
             targets: None,
+            last_cpu: FrameCpuTimes::default(),
         })
     }
 
@@ -103,8 +116,10 @@ impl HeadlessRenderer {
         height: u32,
         time_s: f32,
     ) -> Result<f64, HeadlessError> {
+        let prepare_start = std::time::Instant::now();
         self.renderer
             .prepare_with_camera(scene, camera, width, height, time_s)?;
+        let prepare_s = prepare_start.elapsed().as_secs_f64();
         if self.targets.as_ref().map(|(o, _)| o.size()) != Some((width, height)) {
             let output = Target::new(
                 &self.gpu.device,
@@ -129,6 +144,7 @@ impl HeadlessRenderer {
         let Some((output, depth)) = &self.targets else {
             unreachable!("targets were just created")
         };
+        let encode_start = std::time::Instant::now();
         let mut encoder = self.gpu.device.create_command_encoder(&Default::default());
         self.renderer.encode(
             &mut encoder,
@@ -138,13 +154,23 @@ impl HeadlessRenderer {
                 load: TargetLoad::Clear,
             },
         );
+        let commands = encoder.finish();
+        self.last_cpu = FrameCpuTimes {
+            prepare_s,
+            encode_s: encode_start.elapsed().as_secs_f64(),
+        };
         let start = std::time::Instant::now();
-        self.gpu.queue.submit([encoder.finish()]);
+        self.gpu.queue.submit([commands]);
         self.gpu
             .device
             .poll(wgpu::PollType::wait_indefinitely())
             .map_err(|e| HeadlessError::Readback(e.to_string()))?;
         Ok(start.elapsed().as_secs_f64())
+    }
+
+    /// CPU time of the last [`Self::render_frame`]'s `prepare` and `encode`.
+    pub fn last_frame_cpu_times(&self) -> FrameCpuTimes {
+        self.last_cpu
     }
 
     /// Renders a scene and returns the tone-mapped image.

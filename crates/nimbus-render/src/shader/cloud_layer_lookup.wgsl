@@ -52,6 +52,26 @@ fn stratus_inside_m(position_m: vec3<f32>, offset_m: f32) -> f32 {
     return 0.5 * (stratus_thickness_at(position_m.xz) + offset_m) - abs(position_m.y - stratus.window.x);
 }
 
+// Where the signed distance along the ray crosses 0 between the distances
+// a.x and b.x (their signed distances a.y, b.y), a inside when `a_inside`:
+// bisected, then interpolated linearly (twin of
+// nimbus_physics::cloud_layer's place_crossing).
+fn stratus_place_crossing(start_m: vec3<f32>, direction: vec3<f32>, offset_m: f32, a_in: vec2<f32>, b_in: vec2<f32>, a_inside: bool, refinements: u32) -> f32 {
+    var a = a_in;
+    var b = b_in;
+    for (var k = 0u; k < refinements; k = k + 1u) {
+        let c = 0.5 * (a.x + b.x);
+        let gc = stratus_inside_m(start_m + direction * c, offset_m);
+        if ((gc > 0.0) == a_inside) {
+            a = vec2<f32>(c, gc);
+        } else {
+            b = vec2<f32>(c, gc);
+        }
+    }
+    let fraction = select(0.0, a.y / (a.y - b.y), a.y != b.y);
+    return a.x + (b.x - a.x) * fraction;
+}
+
 // Length, m, of the straight path from `start_m` (where a ray enters the
 // layer) along the unit `direction` until it first leaves the layer: the
 // cloud's thickness along the ray, marched through the thickness window
@@ -67,23 +87,7 @@ fn stratus_view_path_m(start_m: vec3<f32>, direction: vec3<f32>, offset_m: f32, 
         let next_s = min(s + step, max_length_m);
         let next_g = stratus_inside_m(start_m + direction * next_s, offset_m);
         if (next_g <= 0.0) {
-            var a = s;
-            var ga = g;
-            var b = next_s;
-            var gb = next_g;
-            for (var k = 0u; k < STRATUS_VIEW_PATH_REFINEMENTS; k = k + 1u) {
-                let c = 0.5 * (a + b);
-                let gc = stratus_inside_m(start_m + direction * c, offset_m);
-                if (gc > 0.0) {
-                    a = c;
-                    ga = gc;
-                } else {
-                    b = c;
-                    gb = gc;
-                }
-            }
-            let fraction = select(0.0, ga / (ga - gb), ga > gb);
-            return a + (b - a) * fraction;
+            return stratus_place_crossing(start_m, direction, offset_m, vec2<f32>(s, g), vec2<f32>(next_s, next_g), true, STRATUS_VIEW_PATH_REFINEMENTS);
         }
         s = next_s;
         g = next_g;
@@ -117,22 +121,7 @@ fn stratus_view_entry_m(start_m: vec3<f32>, direction: vec3<f32>, max_length_m: 
         let next_s = min(s + step, max_length_m);
         let next_g = stratus_inside_m(start_m + direction * next_s, 0.0);
         if (next_g > 0.0) {
-            var a = s;
-            var ga = g;
-            var b = next_s;
-            var gb = next_g;
-            for (var k = 0u; k < STRATUS_ENTRY_REFINEMENTS; k = k + 1u) {
-                let c = 0.5 * (a + b);
-                let gc = stratus_inside_m(start_m + direction * c, 0.0);
-                if (gc > 0.0) {
-                    b = c;
-                    gb = gc;
-                } else {
-                    a = c;
-                    ga = gc;
-                }
-            }
-            return a + (b - a) * (-ga / (gb - ga));
+            return stratus_place_crossing(start_m, direction, 0.0, vec2<f32>(s, g), vec2<f32>(next_s, next_g), false, STRATUS_ENTRY_REFINEMENTS);
         }
         s = next_s;
         g = next_g;

@@ -66,32 +66,28 @@ impl StratusPass {
         let layer_module = shader::create_module(device, "stratus layer", &layer_shader_source());
         let layer_layout = frame.pipeline_layout(device, "stratus layer", None);
         // Blended over what is behind it, depth-tested but not written.
-        let layer_pipeline = DrawPipeline {
-            label: "stratus layer",
-            layout: &layer_layout,
-            module: &layer_module,
-            vertex_entry: "layer_vertex",
-            fragment_entry: Some("layer_fragment"),
-            vertex_buffers: &[],
-            cull_mode: None,
-            depth: Some(depth_state(false, wgpu::CompareFunction::Greater)),
-            targets: &hdr_target(Some(PREMULTIPLIED_OVER)),
-        }
-        .create(device);
+        let draw_pipeline = |label, vertex_entry, fragment_entry| {
+            DrawPipeline {
+                label,
+                layout: &layer_layout,
+                module: &layer_module,
+                vertex_entry,
+                fragment_entry: Some(fragment_entry),
+                vertex_buffers: &[],
+                cull_mode: None,
+                depth: Some(depth_state(false, wgpu::CompareFunction::Greater)),
+                targets: &hdr_target(Some(PREMULTIPLIED_OVER)),
+            }
+            .create(device)
+        };
+        let layer_pipeline = draw_pipeline("stratus layer", "layer_vertex", "layer_fragment");
         // The camera level with the layer: a full-screen triangle whose
         // fragments march to the layer and write the entry's depth.
-        let level_pipeline = DrawPipeline {
-            label: "stratus layer (level)",
-            layout: &layer_layout,
-            module: &layer_module,
-            vertex_entry: "fullscreen_vertex",
-            fragment_entry: Some("level_fragment"),
-            vertex_buffers: &[],
-            cull_mode: None,
-            depth: Some(depth_state(false, wgpu::CompareFunction::Greater)),
-            targets: &hdr_target(Some(PREMULTIPLIED_OVER)),
-        }
-        .create(device);
+        let level_pipeline = draw_pipeline(
+            "stratus layer (level)",
+            "fullscreen_vertex",
+            "level_fragment",
+        );
         Self {
             uniform: cloud_lighting.layer_uniform_buffer().clone(),
             compute_layout,
