@@ -446,6 +446,7 @@ impl Scene {
             toml::de::Deserializer::parse(text).map_err(|e| SceneError::syntax(file, text, &e))?;
         let mut scene: Scene = serde_path_to_error::deserialize(deserializer)
             .map_err(|e| SceneError::from_path_error(file, text, e))?;
+        scene.check_array_lengths(text, file)?;
         // `Path::parent` of a bare file name is the empty path: the current directory.
         scene.base_dir = base_dir
             .filter(|d| !d.as_os_str().is_empty())

@@ -125,6 +125,28 @@ fn stratus_model_is_marched_by_default_and_the_paper_on_request() {
 }
 
 #[test]
+fn arrays_of_the_wrong_length_are_rejected_with_both_lengths() {
+    let m = error_of("[camera]\nposition_m = [0.0, 5000.0, 0.0, 7.0]");
+    assert!(
+        m.contains("camera.position_m")
+            && m.contains("4 values; expected 3")
+            && m.contains("line 2"),
+        "{m}"
+    );
+    let m = error_of("[rain]\n[[rain.areas]]\ncenter_m = [1.0, 2.0, 3.0]\nradius_m = 500.0");
+    assert!(
+        m.contains("rain.areas[0].center_m") && m.contains("3 values; expected 2"),
+        "{m}"
+    );
+    // Lists keep the length given, and every example scene passes.
+    Scene::from_toml_str(
+        "[[rain.areas]]\ncenter_m = [1.0, 2.0]\nradius_m = 500.0\n[[rain.areas]]\ncenter_m = [9.0, 2.0]\nradius_m = 600.0",
+        "scene.toml",
+    )
+    .expect("two areas");
+}
+
+#[test]
 fn syntax_errors_name_the_line() {
     let m = error_of("[camera]\nfov_deg = = 3\n");
     assert!(m.contains("line 2"), "{m}");

@@ -556,3 +556,81 @@ impl Scene {
         Ok(())
     }
 }
+
+impl Scene {
+    /// Rejects arrays whose length differs from what their key holds: a
+    /// fixed-size array (a position, a colour) is read from the first
+    /// values of a longer TOML array and the rest silently dropped. Each
+    /// array of the file is compared with the same key of the scene as read,
+    /// written back (fixed arrays come back at their own length; lists at
+    /// the length given).
+    pub(super) fn check_array_lengths(&self, text: &str, file: &str) -> Result<(), SceneError> {
+        let (Ok(given), Ok(toml::Value::Table(read))) = (
+            toml::from_str::<toml::Table>(text),
+            toml::Value::try_from(self),
+        ) else {
+            return Ok(());
+        };
+        match first_length_mismatch(&given, &read, "") {
+            None => Ok(()),
+            Some((key, found, expected)) => {
+                let last = key.rsplit(['.', ']']).next().unwrap_or(&key).to_owned();
+                let line = text
+                    .lines()
+                    .position(|l| {
+                        let l = l.trim_start();
+                        l.strip_prefix(last.as_str())
+                            .is_some_and(|rest| rest.trim_start().starts_with('='))
+                    })
+                    .map_or(1, |i| i + 1);
+                Err(SceneError::Key {
+                    file: file.to_owned(),
+                    key,
+                    message: format!("{found} values; expected {expected}"),
+                    line,
+                })
+            }
+        }
+    }
+}
+
+/// The first key (dotted, arrays of tables indexed) whose array in `given`
+/// has another length than in `read`: (key, length given, length read).
+fn first_length_mismatch(
+    given: &toml::Table,
+    read: &toml::Table,
+    prefix: &str,
+) -> Option<(String, usize, usize)> {
+    for (name, value) in given {
+        let Some(read_value) = read.get(name) else {
+            continue;
+        };
+        let key = if prefix.is_empty() {
+            name.clone()
+        } else {
+            format!("{prefix}.{name}")
+        };
+        let found = match (value, read_value) {
+            (toml::Value::Table(g), toml::Value::Table(r)) => first_length_mismatch(g, r, &key),
+            (toml::Value::Array(g), toml::Value::Array(r)) if g.len() != r.len() => {
+                Some((key, g.len(), r.len()))
+            }
+            (toml::Value::Array(g), toml::Value::Array(r)) => {
+                g.iter()
+                    .zip(r)
+                    .enumerate()
+                    .find_map(|(i, pair)| match pair {
+                        (toml::Value::Table(g), toml::Value::Table(r)) => {
+                            first_length_mismatch(g, r, &format!("{key}[{i}]"))
+                        }
+                        _ => None,
+                    })
+            }
+            _ => None,
+        };
+        if found.is_some() {
+            return found;
+        }
+    }
+    None
+}
