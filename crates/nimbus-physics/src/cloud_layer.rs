@@ -231,28 +231,16 @@ pub fn path_inside_layer_m(
     max_length_m: f64,
 ) -> f64 {
     let inside = signed_distance_along(&thickness_m, offset_m, mid_plane_m, start_m, direction);
-    let growth = VIEW_PATH_STEP_GROWTH;
-    let mut step = max_length_m * (growth - 1.0) / (growth.powi(VIEW_PATH_STEPS as i32) - 1.0);
     // The start is on the surface: inside by definition, whatever the
     // sampled field says there.
-    let mut s = 0.0;
-    let mut g = inside(0.0).max(0.0);
-    for _ in 0..VIEW_PATH_STEPS {
-        let next_s = (s + step).min(max_length_m);
-        let next_g = inside(next_s);
-        if next_g <= 0.0 {
-            // The exit lies in [s, next_s].
-            return place_crossing(
-                &inside,
-                (s, g),
-                (next_s, next_g),
-                true,
-                VIEW_PATH_REFINEMENTS,
-            );
+    let mut last = (0.0, inside(0.0).max(0.0));
+    for s in step_ends(max_length_m, VIEW_PATH_STEPS, VIEW_PATH_STEP_GROWTH) {
+        let next = (s, inside(s));
+        if next.1 <= 0.0 {
+            // The exit lies in this step.
+            return place_crossing(&inside, last, next, true, VIEW_PATH_REFINEMENTS);
         }
-        s = next_s;
-        g = next_g;
-        step *= growth;
+        last = next;
     }
     max_length_m
 }
@@ -301,19 +289,13 @@ pub fn cloud_along_ray_m(
     max_length_m: f64,
 ) -> f64 {
     let inside = signed_distance_along(&thickness_m, offset_m, mid_plane_m, start_m, direction);
-    let steps = (max_length_m / SUN_PATH_MEAN_STEP_M)
-        .ceil()
-        .clamp(2.0, f64::from(SUN_PATH_STEPS)) as i32;
-    let growth = SUN_PATH_STEP_GROWTH;
-    let mut step = max_length_m * (growth - 1.0) / (growth.powi(steps) - 1.0);
+    let steps = step_count(max_length_m, SUN_PATH_MEAN_STEP_M, 2, SUN_PATH_STEPS);
     let (mut s, mut g) = (0.0, inside(0.0));
     let mut length_m = 0.0;
-    for _ in 0..steps {
-        let next_s = (s + step).min(max_length_m);
+    for next_s in step_ends(max_length_m, steps, SUN_PATH_STEP_GROWTH) {
         let next_g = inside(next_s);
         length_m += (next_s - s) * inside_fraction(g, next_g);
         (s, g) = (next_s, next_g);
-        step *= growth;
     }
     length_m
 }
@@ -356,31 +338,45 @@ pub fn first_entry_m(
     max_length_m: f64,
 ) -> Option<f64> {
     let inside = signed_distance_along(&thickness_m, 0.0, mid_plane_m, start_m, direction);
-    let steps = (max_length_m / ENTRY_MEAN_STEP_M)
-        .ceil()
-        .clamp(4.0, f64::from(ENTRY_STEPS)) as i32;
-    let growth = ENTRY_STEP_GROWTH;
-    let mut step = max_length_m * (growth - 1.0) / (growth.powi(steps) - 1.0);
-    let (mut s, mut g) = (0.0, inside(0.0));
-    if g > 0.0 {
+    let mut last = (0.0, inside(0.0));
+    if last.1 > 0.0 {
         return Some(0.0);
     }
-    for _ in 0..steps {
-        let next_s = (s + step).min(max_length_m);
-        let next_g = inside(next_s);
-        if next_g > 0.0 {
+    let steps = step_count(max_length_m, ENTRY_MEAN_STEP_M, 4, ENTRY_STEPS);
+    for s in step_ends(max_length_m, steps, ENTRY_STEP_GROWTH) {
+        let next = (s, inside(s));
+        if next.1 > 0.0 {
             return Some(place_crossing(
                 &inside,
-                (s, g),
-                (next_s, next_g),
+                last,
+                next,
                 false,
                 ENTRY_REFINEMENTS,
             ));
         }
-        (s, g) = (next_s, next_g);
-        step *= growth;
+        last = next;
     }
     None
+}
+
+/// The far ends of the steps of a march over `max_length_m`: `steps` steps,
+/// each `growth` times the one before (fine near the start, coarse far
+/// along), the last ending at `max_length_m`.
+fn step_ends(max_length_m: f64, steps: u32, growth: f64) -> impl Iterator<Item = f64> {
+    let first = max_length_m * (growth - 1.0) / (growth.powi(steps as i32) - 1.0);
+    (0..steps).scan((0.0, first), move |(s, step), _| {
+        *s = (*s + *step).min(max_length_m);
+        *step *= growth;
+        Some(*s)
+    })
+}
+
+/// Steps of a march over `max_length_m` whose mean step aims at
+/// `mean_step_m`, from `fewest` to `most`.
+fn step_count(max_length_m: f64, mean_step_m: f64, fewest: u32, most: u32) -> u32 {
+    (max_length_m / mean_step_m)
+        .ceil()
+        .clamp(f64::from(fewest), f64::from(most)) as u32
 }
 
 /// The signed distance inside the layer, h/2 − |y − y_mid| with `offset_m`
