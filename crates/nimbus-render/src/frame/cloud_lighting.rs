@@ -91,7 +91,7 @@ pub struct StratusUniform {
     pub radiosity: [f32; 4],
     /// Layer present (0/1), octaves, seed, thickness-window texels per side.
     pub flags: [u32; 4],
-    /// P_S/P² texels, P_F texels, radiosity texels per side, camera level with the layer (0/1: the layer is then found by marching each pixel's ray).
+    /// P_S/P² texels, P_F texels, radiosity texels per side, unused.
     pub sizes: [u32; 4],
     /// View and sun paths marched through the field (1, `stratus.model =
     /// "marched"`) or the paper's slab (0, `"bnl2006"`); three unused.

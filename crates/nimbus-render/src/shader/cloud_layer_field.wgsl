@@ -33,8 +33,7 @@ struct Stratus {
     // texels per side.
     flags: vec4<u32>,
     // x: texels of P_S and P² over 0–180°; y: texels of P_F over 0–θ_f;
-    // z: radiosity texels per side; w: 1 when the camera is level with the
-    // layer (drawn by marching each pixel's ray).
+    // z: radiosity texels per side; w: unused.
     sizes: vec4<u32>,
     // x: 1 when the view and sun paths are marched through the field
     // (stratus.model = "marched"), 0 for the paper's slab (bnl2006);

@@ -113,7 +113,7 @@ fn layer_fragment(in: LayerVarying) -> @location(0) vec4<f32> {
     if (h <= 0.05) {
         discard;
     }
-    return shade_layer(in.position_m, in.face, h);
+    return shade_layer(in.position_m, in.face, h, false);
 }
 
 // A camera level with the layer sees the cells' sides, mostly near their
@@ -159,16 +159,16 @@ fn level_fragment(in: FullscreenOutput) -> LevelOutput {
     // field there may be thinner, but discarding would open the band again.
     let h = max(layer_thickness_m(stratus, position_m.xz), max(2.0 * abs(position_m.y - mid), 1.0));
     var out: LevelOutput;
-    out.color = shade_layer(position_m, face, h);
+    out.color = shade_layer(position_m, face, h, true);
     let clip = frame.clip_from_world * vec4<f32>(position_m, 1.0);
     out.depth = clamp(clip.z / clip.w, 0.0, 1.0);
     return out;
 }
 
 // The layer's radiance and opacity at `position_m` on the face `face` (+1
-// the top, −1 the base) where its thickness is `h`, pre-exposed, alpha
-// premultiplied.
-fn shade_layer(position_m: vec3<f32>, face: f32, h: f32) -> vec4<f32> {
+// the top, −1 the base) where its thickness is `h`, seen by a camera level
+// with the layer when `level`, pre-exposed, alpha premultiplied.
+fn shade_layer(position_m: vec3<f32>, face: f32, h: f32, level: bool) -> vec4<f32> {
     let xz = position_m.xz;
     // The local slab normal, from the thickness gradient: both faces are
     // mid ± h/2, so the slab's upward normal is (−½ ∂h/∂x, 1, −½ ∂h/∂z).
@@ -227,7 +227,7 @@ fn shade_layer(position_m: vec3<f32>, face: f32, h: f32) -> vec4<f32> {
         let path_m = stratus_view_path_m(entry_m, direction, offset_m, range_m);
         h_view = max(h, path_m * mu_v_vertical);
         opacity_path_m = max(path_m, h_view / mu_v);
-        if (stratus.sizes.w == 1u) {
+        if (level) {
             let depth_m = min(path_m, LEVEL_VIEW_DEPTH_MFP / (stratus.extinction.y * (1.0 - stratus.forward_fraction.y)));
             h_view = max(h_view, stratus_thickness_at(xz + direction.xz * depth_m));
         }

@@ -167,7 +167,6 @@ impl StratusPass {
                 0,
             ],
         };
-        self.current.sizes[3] = u32::from(self.camera_is_level());
         cloud_lighting.write_layer_uniform(queue, &self.current);
         Ok(())
     }
