@@ -43,14 +43,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let depth = texture(DEPTH_FORMAT, wgpu::TextureUsages::empty());
 
     // 3. The nimbus renderer, and a scene (here the embedded default; scenes can be edited every frame).
-    let mut renderer = Renderer::new(
-        &device,
-        &queue,
-        &RendererDescriptor {
-            output_format: color_format,
-            timestamps: false,
-        },
-    );
+    let mut renderer = Renderer::new(&device, &queue, &RendererDescriptor::display(color_format));
     let mut scene = Scene::embedded_default();
     scene.sun.azimuth_deg = Some(150.0);
     scene.sun.elevation_deg = Some(35.0);

@@ -22,6 +22,7 @@
 //!    occluders), handed to the passes as [`frame::FrameBindings`].
 //! 5. [`passes`]: one module per pass ([`passes::atmosphere`],
 //!    [`passes::sky`], [`passes::terrain`], [`passes::objects`],
+//!    [`passes::composite`] (the caller's frame in `LinearHdr` output),
 //!    [`passes::stratus`] with its radiosity, [`passes::cumulus`],
 //!    [`passes::rain`], [`passes::exposure`], [`passes::tonemap`]): its
 //!    settings, GPU resources, encode step and WGSL side by side. A pass
@@ -47,7 +48,9 @@ pub use passes::stratus::radiosity;
 pub use passes::{atmosphere, cumulus, exposure, objects, rain, sky, stratus, terrain, tonemap};
 
 pub use self::core::gpu::{AdapterPreference, GpuContext, GpuError};
+pub use frame::{DepthConvention, Projection, View};
 pub use renderer::{
-    FrameTargets, PASS_NAMES, PassId, RenderError, Renderer, RendererDescriptor, TargetLoad,
+    FrameTargets, OutputMode, PASS_NAMES, PassId, RenderError, Renderer, RendererDescriptor,
+    TargetLoad,
 };
 pub use scene::{Scene, SceneError};

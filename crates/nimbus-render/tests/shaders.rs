@@ -89,7 +89,20 @@ fn frame_uniform_matches_wgsl_layout() {
             auto_exposure,
             exposure_compensation_ev,
             adaptation_time_s,
+            view_forward,
+            orthographic_pixel_m,
         ]
+    );
+}
+
+#[test]
+fn composite_uniform_matches_wgsl_layout() {
+    let module = module_named("composite");
+    assert_layout!(
+        module,
+        "CompositeParams",
+        nimbus_render::passes::composite::CompositeUniform,
+        [nimbus_clip_from_caller_clip, caller]
     );
 }
 

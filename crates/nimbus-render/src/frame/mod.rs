@@ -10,11 +10,14 @@ mod bindings;
 pub mod cloud_lighting;
 pub mod cloud_shadow;
 pub mod occluders;
+mod view;
 
 pub use bindings::{
     ATMOSPHERE_GROUP, CLOUD_LIGHTING_GROUP, FRAME_GROUP, FrameBindings, FrameLayouts,
     FrameResources, PASS_GROUP, SetBindGroup,
 };
+
+pub use view::{DepthConvention, MIN_FOV_Y_RAD, Projection, View, ViewError};
 
 use crate::scene::{CameraSettings, Scene};
 use bytemuck::{Pod, Zeroable};
@@ -61,6 +64,10 @@ pub struct FrameUniform {
     pub exposure_compensation_ev: f32,
     /// Adaptation time constant, s.
     pub adaptation_time_s: f32,
+    /// Unit view direction, world space.
+    pub view_forward: [f32; 3],
+    /// Side of a pixel, m, for an orthographic view; 0 for a perspective one.
+    pub orthographic_pixel_m: f32,
 }
 
 /// A pinhole camera in world space.
@@ -262,22 +269,35 @@ impl FrameUniform {
         height: u32,
         time_s: f32,
     ) -> Self {
-        let clip_from_world = camera.clip_from_world();
+        Self::with_view(scene, &View::from_camera(camera), width, height, time_s)
+    }
+
+    /// The uniform for the caller's view with the scene's sun and exposure:
+    /// nimbus's clip space (reverse-Z, infinite far plane for a perspective
+    /// view) whatever the caller's depth convention.
+    pub fn with_view(scene: &Scene, view: &View, width: u32, height: u32, time_s: f32) -> Self {
+        let clip_from_world = view.nimbus_clip_from_world();
         let sun = scene.sun.direction();
+        let pixel_size = view.pixel_size(height) as f32;
+        let orthographic = view.is_orthographic();
         Self {
             clip_from_world: clip_from_world.as_mat4().to_cols_array_2d(),
             world_from_clip: clip_from_world.inverse().as_mat4().to_cols_array_2d(),
-            camera_position_m: camera.position_m.as_vec3().to_array(),
+            camera_position_m: view.position_m().as_vec3().to_array(),
             time_s,
             sun_direction: sun.map(|c| c as f32),
             exposure_scale: exposure_scale_from_ev100(scene.camera.exposure_ev100) as f32,
             viewport_size_px: [width as f32, height as f32],
-            pixel_angle_rad: (2.0 * (camera.fov_y_rad * 0.5).tan() / height.max(1) as f64) as f32,
+            // An orthographic pixel subtends no angle; the shaders that
+            // filter by footprint read `orthographic_pixel_m` instead.
+            pixel_angle_rad: if orthographic { 0.0 } else { pixel_size },
             sun_cos_angular_radius: SOLAR_DISK_ANGULAR_RADIUS_RAD.cos() as f32,
             max_pre_exposed: MAX_PRE_EXPOSED,
             auto_exposure: u32::from(scene.camera.auto_exposure),
             exposure_compensation_ev: scene.camera.exposure_compensation_ev as f32,
             adaptation_time_s: scene.camera.adaptation_time_s as f32,
+            view_forward: view.forward().as_vec3().to_array(),
+            orthographic_pixel_m: if orthographic { pixel_size } else { 0.0 },
         }
     }
 

@@ -9,7 +9,7 @@ pub use layers::{ImageLayers, SKY_DISTANCE_M};
 
 use crate::core::gpu::{AdapterPreference, GpuContext, GpuError};
 use crate::core::targets::{DEPTH_FORMAT, Target};
-use crate::frame::Camera;
+use crate::frame::{Camera, View};
 use crate::renderer::{FrameTargets, RenderError, Renderer, RendererDescriptor, TargetLoad};
 use crate::scene::{Projection, Scene};
 
@@ -81,10 +81,7 @@ impl HeadlessRenderer {
         let renderer = Renderer::new(
             &gpu.device,
             &gpu.queue,
-            &RendererDescriptor {
-                output_format: OUTPUT_FORMAT,
-                timestamps: true,
-            },
+            &RendererDescriptor::display(OUTPUT_FORMAT).with_timestamps(true),
         );
         Ok(Self {
             gpu,
@@ -116,9 +113,21 @@ impl HeadlessRenderer {
         height: u32,
         time_s: f32,
     ) -> Result<f64, HeadlessError> {
+        self.render_frame_with_view(scene, &View::from_camera(camera), width, height, time_s)
+    }
+
+    /// [`Self::render_frame`] seen by a caller's view ([`Renderer::prepare_view`]).
+    pub fn render_frame_with_view(
+        &mut self,
+        scene: &Scene,
+        view: &View,
+        width: u32,
+        height: u32,
+        time_s: f32,
+    ) -> Result<f64, HeadlessError> {
         let prepare_start = std::time::Instant::now();
         self.renderer
-            .prepare_with_camera(scene, camera, width, height, time_s)?;
+            .prepare_view(scene, view, width, height, time_s)?;
         let prepare_s = prepare_start.elapsed().as_secs_f64();
         if self.targets.as_ref().map(|(o, _)| o.size()) != Some((width, height)) {
             let output = Target::new(
@@ -223,8 +232,29 @@ impl HeadlessRenderer {
         })
     }
 
-    /// Renders one view and reads back its radiance (exposure undone) and,
-    /// when asked, its depth buffer (reverse-Z values, 0 at the far plane).
+    /// Renders a scene seen by a caller's view and returns its linear HDR
+    /// radiance (exposure undone) and nimbus's depth buffer (reverse-Z, 0 at
+    /// the far plane), both row-major.
+    pub fn render_view(
+        &mut self,
+        scene: &Scene,
+        view: &View,
+        width: u32,
+        height: u32,
+        time_s: f32,
+    ) -> Result<(HdrImage, Vec<f32>), HeadlessError> {
+        let (pixels, depth) =
+            self.render_hdr_and_depth(scene, view, width, height, time_s, true)?;
+        let image = HdrImage {
+            width,
+            height,
+            pixels,
+        };
+        Ok((image, depth.unwrap_or_default()))
+    }
+
+    /// Renders one camera's view and reads back its radiance (exposure
+    /// undone) and, when asked, its depth buffer (reverse-Z values, 0 at the far plane).
     #[allow(clippy::type_complexity)] // a pair of row-major buffers, named at the call sites
     fn render_view_hdr(
         &mut self,
@@ -235,8 +265,22 @@ impl HeadlessRenderer {
         time_s: f32,
         with_depth: bool,
     ) -> Result<(Vec<[f32; 3]>, Option<Vec<f32>>), HeadlessError> {
+        let view = View::from_camera(camera);
+        self.render_hdr_and_depth(scene, &view, width, height, time_s, with_depth)
+    }
+
+    #[allow(clippy::type_complexity)] // a pair of row-major buffers, named at the call sites
+    fn render_hdr_and_depth(
+        &mut self,
+        scene: &Scene,
+        view: &View,
+        width: u32,
+        height: u32,
+        time_s: f32,
+        with_depth: bool,
+    ) -> Result<(Vec<[f32; 3]>, Option<Vec<f32>>), HeadlessError> {
         check_readback(&self.gpu, width, height, 8)?;
-        self.render_frame_with_camera(scene, camera, width, height, time_s)?;
+        self.render_frame_with_view(scene, view, width, height, time_s)?;
         let depth = if with_depth {
             let Some((_, depth)) = &self.targets else {
                 unreachable!("render_frame creates the targets")

@@ -4,6 +4,7 @@
 //! of passes is `renderer::Renderer::encode`.
 
 pub mod atmosphere;
+pub mod composite;
 pub mod cumulus;
 pub mod exposure;
 pub mod objects;

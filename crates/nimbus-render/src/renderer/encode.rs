@@ -9,8 +9,17 @@ impl Renderer {
     /// shadows, the rain's simulation, then sky, terrain, objects, clouds,
     /// mist and rain into the HDR target, exposure and tone mapping into the
     /// caller's output. Call [`Self::prepare`] first.
+    ///
+    /// In [`super::OutputMode::LinearHdr`] the caller's depth is first
+    /// translated into nimbus's own depth target, the air in front of the
+    /// caller's surfaces drawn, and at the end nimbus's target composited
+    /// over the caller's colour instead of exposure and tone mapping.
     pub fn encode(&self, encoder: &mut wgpu::CommandEncoder, targets: &FrameTargets<'_>) {
         let Some(hdr) = &self.hdr else { return };
+        // The depth every pass tests against and reads: the caller's in
+        // Display mode, nimbus's own (the caller's translated) in LinearHdr.
+        let linear = self.composite.as_ref().zip(self.own_depth.as_ref());
+        let depth = linear.map_or(targets.depth, |(_, own)| &own.view);
         let mut run = PassSet::all();
         let frame = self.frame.bindings();
         // 1. Atmosphere: LUTs, aerial perspective and lighting inputs, where their inputs changed.
@@ -22,12 +31,26 @@ impl Renderer {
                 run.remove(id);
             }
         }
-        let (color_load, depth_load) = match targets.load {
-            TargetLoad::Clear => (
+        let (color_load, depth_load) = match (linear, targets.load) {
+            // Transparent: alpha is the coverage of the caller's pixel.
+            (Some((composite, own)), _) => {
+                composite.encode_depth_import(
+                    &self.device,
+                    encoder,
+                    targets.depth,
+                    &own.view,
+                    &frame,
+                );
+                (
+                    wgpu::LoadOp::Clear(wgpu::Color::TRANSPARENT),
+                    wgpu::LoadOp::Load,
+                )
+            }
+            (None, TargetLoad::Clear) => (
                 wgpu::LoadOp::Clear(wgpu::Color::BLACK),
                 wgpu::LoadOp::Clear(FAR_DEPTH),
             ),
-            TargetLoad::Keep => (wgpu::LoadOp::Load, wgpu::LoadOp::Load),
+            (None, TargetLoad::Keep) => (wgpu::LoadOp::Load, wgpu::LoadOp::Load),
         };
         // 2. The stratus layer's thickness field and ground–cloud radiosity.
         if self.stratus.enabled() {
@@ -88,6 +111,10 @@ impl Renderer {
         if !self.objects.enabled() {
             run.remove(PassId::Objects);
         }
+        if linear.is_some() {
+            run.remove(PassId::Exposure);
+            run.remove(PassId::Tonemap);
+        }
         self.passes_run.store(run.bits(), Ordering::Relaxed);
         // 4. Sky, sun and open sea, at the far plane.
         {
@@ -96,11 +123,32 @@ impl Renderer {
                 "sky",
                 PassId::Sky,
                 hdr,
-                targets.depth,
+                depth,
                 color_load,
                 depth_load,
             );
             self.sky.draw(&mut pass, &frame);
+        }
+        // 4b. The air in front of the caller's surfaces (the only ones in
+        // the depth so far), before nimbus's own surfaces cover some of them.
+        if let Some((composite, own)) = linear {
+            let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+                label: Some("caller aerial perspective"),
+                color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+                    view: &hdr.view,
+                    depth_slice: None,
+                    resolve_target: None,
+                    ops: wgpu::Operations {
+                        load: wgpu::LoadOp::Load,
+                        store: wgpu::StoreOp::Store,
+                    },
+                })],
+                depth_stencil_attachment: None,
+                timestamp_writes: None,
+                occlusion_query_set: None,
+                multiview_mask: None,
+            });
+            composite.draw_aerial(&self.device, &mut pass, &own.view, &frame);
         }
         // 5. Terrain, depth-tested.
         {
@@ -109,7 +157,7 @@ impl Renderer {
                 "terrain",
                 PassId::Terrain,
                 hdr,
-                targets.depth,
+                depth,
                 wgpu::LoadOp::Load,
                 wgpu::LoadOp::Load,
             );
@@ -122,7 +170,7 @@ impl Renderer {
                 "objects",
                 PassId::Objects,
                 hdr,
-                targets.depth,
+                depth,
                 wgpu::LoadOp::Load,
                 wgpu::LoadOp::Load,
             );
@@ -163,7 +211,7 @@ impl Renderer {
                     "cumulus",
                     PassId::Cumulus,
                     hdr,
-                    targets.depth,
+                    depth,
                     wgpu::LoadOp::Load,
                     wgpu::LoadOp::Load,
                 );
@@ -171,7 +219,7 @@ impl Renderer {
             }
             self.cumulus.encode_fringes(
                 encoder,
-                targets.depth,
+                depth,
                 &frame,
                 self.timer
                     .as_ref()
@@ -185,7 +233,7 @@ impl Renderer {
                 "stratus",
                 PassId::Stratus,
                 hdr,
-                targets.depth,
+                depth,
                 wgpu::LoadOp::Load,
                 wgpu::LoadOp::Load,
             );
@@ -205,14 +253,39 @@ impl Renderer {
         // 8b. Rain mist beyond the rain box, over everything (reads the depth).
         if self.rain.mist_enabled() {
             let mut pass = self.overlay_pass(encoder, "rain mist", PassId::RainMist, hdr, None);
-            self.rain.draw_mist(&mut pass, targets.depth, &frame);
+            self.rain.draw_mist(&mut pass, depth, &frame);
         }
         // 8c. Rain streaks and splashes, depth-tested against a read-only
         // depth that they also read, to fade where they meet surfaces.
         if rain {
-            let mut pass =
-                self.overlay_pass(encoder, "rain", PassId::Rain, hdr, Some(targets.depth));
-            self.rain.draw(&mut pass, targets.depth, &frame);
+            let mut pass = self.overlay_pass(encoder, "rain", PassId::Rain, hdr, Some(depth));
+            self.rain.draw(&mut pass, depth, &frame);
+        }
+        // 9–10 in LinearHdr: nimbus's target over the caller's colour; the
+        // caller exposes and tone maps.
+        if let Some((composite, _)) = linear {
+            let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+                label: Some("export"),
+                color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+                    view: targets.output,
+                    depth_slice: None,
+                    resolve_target: None,
+                    ops: wgpu::Operations {
+                        load: wgpu::LoadOp::Load,
+                        store: wgpu::StoreOp::Store,
+                    },
+                })],
+                depth_stencil_attachment: None,
+                timestamp_writes: None,
+                occlusion_query_set: None,
+                multiview_mask: None,
+            });
+            composite.draw_export(&self.device, &mut pass, &hdr.view, &frame);
+            drop(pass);
+            if let Some(timer) = &self.timer {
+                timer.resolve(encoder);
+            }
+            return;
         }
         // 9. Exposure: meter the frame (automatic exposure) or pass the manual EV through.
         {

@@ -16,12 +16,13 @@ pub use registry::{all_modules, map_error_positions};
 
 use crate::core::limits::{self, LimitError};
 use crate::core::mesh::IndexedMesh;
-use crate::core::targets::{HDR_FORMAT, Target};
+use crate::core::targets::{DEPTH_FORMAT, HDR_FORMAT, Target};
 use crate::core::timing::GpuTimer;
 use crate::frame::cloud_shadow::CloudShadowMap;
 use crate::frame::occluders::OccluderGeometry;
-use crate::frame::{FrameResources, FrameUniform};
+use crate::frame::{FrameResources, FrameUniform, View};
 use crate::passes::atmosphere::AtmospherePass;
+use crate::passes::composite::CompositePass;
 use crate::passes::cumulus::CumulusPass;
 use crate::passes::exposure::ExposurePass;
 use crate::passes::objects::ObjectsPass;
@@ -33,14 +34,65 @@ use crate::passes::tonemap::TonemapPass;
 use crate::scene::Scene;
 use std::sync::atomic::{AtomicU32, Ordering};
 
+/// What the renderer writes into the caller's output target.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum OutputMode {
+    /// A finished picture: nimbus draws the whole frame, exposes it and tone
+    /// maps it into the output (any renderable colour format; 8-bit unorm
+    /// formats get sRGB encoding and dithering in the shader). The depth
+    /// target is nimbus's, reverse-Z ([`FrameTargets::depth`]).
+    #[default]
+    Display,
+    /// Linear radiance for the caller's HDR pipeline: W·sr⁻¹·m⁻² per
+    /// channel times the pre-exposure ([`Renderer::set_pre_exposure`]),
+    /// composited over what the caller drew in its `Rgba16Float` (or, on a
+    /// device with [`wgpu::Features::FLOAT32_BLENDABLE`], `Rgba32Float`)
+    /// target: the sky where the caller's depth is at its far plane, the
+    /// clouds, rain and mist and the air in front of the caller's surfaces by
+    /// depth. The caller's depth is read in its own convention (the
+    /// [`crate::frame::View`] given to [`Renderer::prepare_view`]) and never
+    /// written; pixels nimbus does not draw over keep their value. No
+    /// exposure metering, no tone mapping.
+    LinearHdr,
+}
+
 /// How the renderer is set up.
 #[derive(Clone, Copy, Debug)]
+#[non_exhaustive]
 pub struct RendererDescriptor {
-    /// Format of the caller's output target (any renderable colour format;
-    /// 8-bit unorm formats get sRGB encoding and dithering in the shader).
+    /// Format of the caller's output target.
     pub output_format: wgpu::TextureFormat,
+    /// What is written there.
+    pub mode: OutputMode,
     /// Write per-pass GPU timestamps when the device supports them.
     pub timestamps: bool,
+}
+
+impl RendererDescriptor {
+    /// A finished, tone-mapped picture in `output_format` ([`OutputMode::Display`]).
+    pub fn display(output_format: wgpu::TextureFormat) -> Self {
+        Self {
+            output_format,
+            mode: OutputMode::Display,
+            timestamps: false,
+        }
+    }
+
+    /// Linear radiance composited into the caller's HDR target of
+    /// `output_format` ([`OutputMode::LinearHdr`]).
+    pub fn linear_hdr(output_format: wgpu::TextureFormat) -> Self {
+        Self {
+            output_format,
+            mode: OutputMode::LinearHdr,
+            timestamps: false,
+        }
+    }
+
+    /// The same, with per-pass GPU timestamps written or not.
+    pub fn with_timestamps(mut self, timestamps: bool) -> Self {
+        self.timestamps = timestamps;
+        self
+    }
 }
 
 /// Whether a frame starts from cleared targets or keeps what the caller drew.
@@ -59,9 +111,15 @@ pub enum TargetLoad {
 pub struct FrameTargets<'a> {
     /// Output colour view, of the descriptor's `output_format` and the prepared size.
     pub output: &'a wgpu::TextureView,
-    /// Depth view, [`crate::core::targets::DEPTH_FORMAT`], same size; reverse-Z (1 near, 0 far).
+    /// Depth view of the same size. [`OutputMode::Display`]: nimbus's depth
+    /// buffer, [`crate::core::targets::DEPTH_FORMAT`], reverse-Z (1 near, 0
+    /// far), written. [`OutputMode::LinearHdr`]: the caller's depth buffer,
+    /// in the convention of the view given to [`Renderer::prepare_view`],
+    /// any depth format (the view of its depth aspect), bound as a texture
+    /// (`TEXTURE_BINDING` usage) and only read.
     pub depth: &'a wgpu::TextureView,
-    /// Clear or keep the previous contents.
+    /// [`OutputMode::Display`]: clear or keep the previous contents.
+    /// [`OutputMode::LinearHdr`] always keeps the caller's.
     pub load: TargetLoad,
 }
 
@@ -87,6 +145,12 @@ pub enum RenderError {
     /// ([`crate::scene::Scene::check`]).
     #[error(transparent)]
     Scene(#[from] crate::scene::SceneError),
+    /// The caller's view cannot be drawn ([`crate::frame::View::check`]).
+    #[error(transparent)]
+    View(#[from] crate::frame::ViewError),
+    /// The output format cannot be used in the descriptor's mode on this device.
+    #[error("output: {0}")]
+    Output(String),
     /// The caller's occluders are malformed ([`Renderer::set_occluders`]).
     #[error("occluders: {0}")]
     Occluders(String),
@@ -113,7 +177,17 @@ pub struct Renderer {
     cumulus: CumulusPass,
     rain: RainPass,
     tonemap: TonemapPass,
+    /// The caller's frame in [`OutputMode::LinearHdr`] (depth import, air
+    /// in front of the caller's surfaces, export); `None` in `Display`.
+    composite: Option<CompositePass>,
+    mode: OutputMode,
+    output_format: wgpu::TextureFormat,
+    /// Pre-exposure of [`OutputMode::LinearHdr`] output.
+    pre_exposure: f32,
     hdr: Option<Target>,
+    /// nimbus's own depth target in [`OutputMode::LinearHdr`] (the caller's
+    /// depth translated), recreated on resize.
+    own_depth: Option<Target>,
     timer: Option<GpuTimer>,
     /// Pre-exposed value the background (sky, terrain, objects) is replaced
     /// with before the clouds are drawn, if any ([`Self::set_background_override`]).
@@ -145,6 +219,8 @@ impl Renderer {
         let rain = RainPass::new(device, &layouts);
         let tonemap = TonemapPass::new(device, queue, descriptor.output_format);
         let exposure = ExposurePass::new(device, layouts.frame);
+        let composite = (descriptor.mode == OutputMode::LinearHdr)
+            .then(|| CompositePass::new(device, &layouts, descriptor.output_format));
         let timer = if descriptor.timestamps {
             GpuTimer::new(device, queue, PASS_NAMES.len() as u32)
         } else {
@@ -163,7 +239,12 @@ impl Renderer {
             cumulus,
             rain,
             tonemap,
+            composite,
+            mode: descriptor.mode,
+            output_format: descriptor.output_format,
+            pre_exposure: 1.0,
             hdr: None,
+            own_depth: None,
             timer,
             background_override: None,
             passes_run: AtomicU32::new(0),
@@ -222,6 +303,20 @@ impl Renderer {
             .then(|| IndexedMesh::upload(&self.device, "caller occluders", positions_m, indices));
         self.caller_occluders_generation += 1;
         Ok(())
+    }
+
+    /// The value radiance is multiplied by in [`OutputMode::LinearHdr`]
+    /// output (e.g. the caller's exposure of the previous frame, to keep
+    /// values well inside half-float range); 1 by default. Takes effect at
+    /// the next [`Self::prepare_view`]. Ignored in `Display` mode, whose
+    /// exposure is the scene's.
+    pub fn set_pre_exposure(&mut self, pre_exposure: f32) {
+        self.pre_exposure = pre_exposure;
+    }
+
+    /// The output mode the renderer was created with.
+    pub fn output_mode(&self) -> OutputMode {
+        self.mode
     }
 
     /// Replaces, from the next [`Self::encode`] on, what the sky, terrain
@@ -299,10 +394,28 @@ impl Renderer {
         height: u32,
         time_s: f32,
     ) -> Result<(), RenderError> {
+        self.prepare_view(scene, &View::from_camera(camera), width, height, time_s)
+    }
+
+    /// [`Self::prepare`] seen through the caller's view: its pose (any
+    /// orientation) and projection (perspective or orthographic, finite or
+    /// infinite far plane, standard or reverse depth; [`View`]). The scene's
+    /// camera settings other than exposure are not used.
+    pub fn prepare_view(
+        &mut self,
+        scene: &Scene,
+        view: &View,
+        width: u32,
+        height: u32,
+        time_s: f32,
+    ) -> Result<(), RenderError> {
         // The same checks as a scene file's: a scene built in code gets the
         // same one-line errors instead of NaNs or a device error.
         scene.check()?;
+        view.check()?;
         Self::check_size(&self.device, width, height)?;
+        self.check_output()?;
+        let camera = &view.pinhole(height);
         if self.hdr.as_ref().map(Target::size) != Some((width, height)) {
             let hdr = Target::new(
                 &self.device,
@@ -318,7 +431,23 @@ impl Renderer {
                 .set_input(&self.device, &hdr.view, self.exposure.state_buffer());
             self.hdr = Some(hdr);
         }
-        let frame = FrameUniform::with_camera(scene, camera, width, height, time_s);
+        let mut frame = FrameUniform::with_view(scene, view, width, height, time_s);
+        if let Some(composite) = &self.composite {
+            // The caller exposes its frame: nimbus's radiance only pre-exposed.
+            frame.exposure_scale = self.pre_exposure;
+            frame.auto_exposure = 0;
+            composite.prepare(&self.queue, view);
+            if self.own_depth.as_ref().map(Target::size) != Some((width, height)) {
+                self.own_depth = Some(Target::new(
+                    &self.device,
+                    "nimbus depth",
+                    DEPTH_FORMAT,
+                    width,
+                    height,
+                    wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_SRC,
+                ));
+            }
+        }
         self.frame.write_uniform(&self.queue, &frame);
         self.atmosphere.prepare(
             &self.queue,
@@ -375,6 +504,30 @@ impl Renderer {
             &strides,
         )?;
         Ok(())
+    }
+
+    /// Checks that the output format suits the mode on this device.
+    fn check_output(&self) -> Result<(), RenderError> {
+        if self.mode != OutputMode::LinearHdr {
+            return Ok(());
+        }
+        match self.output_format {
+            wgpu::TextureFormat::Rgba16Float => Ok(()),
+            wgpu::TextureFormat::Rgba32Float
+                if self
+                    .device
+                    .features()
+                    .contains(wgpu::Features::FLOAT32_BLENDABLE) =>
+            {
+                Ok(())
+            }
+            wgpu::TextureFormat::Rgba32Float => Err(RenderError::Output(
+                "LinearHdr into Rgba32Float needs the device feature FLOAT32_BLENDABLE (nimbus blends over the caller's colour); use Rgba16Float or request the feature".into(),
+            )),
+            format => Err(RenderError::Output(format!(
+                "LinearHdr into {format:?}: must be Rgba16Float or Rgba32Float"
+            ))),
+        }
     }
 
     /// What stops the rain: the terrain, the static objects and the

@@ -2,7 +2,9 @@
 //! validation test checks and what shader errors are mapped back to files
 //! with.
 
-use crate::passes::{atmosphere, cumulus, exposure, objects, rain, sky, stratus, terrain, tonemap};
+use crate::passes::{
+    atmosphere, composite, cumulus, exposure, objects, rain, sky, stratus, terrain, tonemap,
+};
 use crate::shader;
 
 /// Every composed shader module of the renderer, by name.
@@ -25,6 +27,7 @@ pub fn all_modules() -> Vec<(&'static str, String)> {
         ("cumulus", cumulus::draw_shader_source()),
         ("cumulus shadow", cumulus::shadow_shader_source()),
         ("cumulus composite", cumulus::composite_shader_source()),
+        ("composite", composite::shader_source()),
     ]);
     modules
 }

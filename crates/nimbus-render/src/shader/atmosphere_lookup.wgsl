@@ -37,7 +37,7 @@ fn aerial_perspective(position_m: vec3<f32>) -> vec4<f32> {
     let clip = frame.clip_from_world * vec4<f32>(position_m, 1.0);
     let ndc = clip.xy / max(clip.w, 1e-6);
     let uv = vec2<f32>(0.5 * ndc.x + 0.5, 0.5 - 0.5 * ndc.y);
-    let distance_m = length(position_m - frame.camera_position_m);
+    let distance_m = eye_distance_m(position_m);
     let w = sqrt(clamp(distance_m / AERIAL_PERSPECTIVE_MAX_DISTANCE_M, 0.0, 1.0));
     let first_slice = 0.5 / AERIAL_PERSPECTIVE_SIZE.z;
     var value = textureSampleLevel(aerial_perspective_volume, atmosphere_sampler,

@@ -27,13 +27,74 @@ struct Frame {
     exposure_compensation_ev: f32,
     // Time constant of the eye/camera adaptation in animations, s (0: instant).
     adaptation_time_s: f32,
+    // Unit view direction.
+    view_forward: vec3<f32>,
+    // Side of a pixel, m, for an orthographic view; 0 for a perspective one.
+    orthographic_pixel_m: f32,
 }
 
 @group(0) @binding(0) var<uniform> frame: Frame;
 
+fn is_orthographic() -> bool {
+    return frame.orthographic_pixel_m > 0.0;
+}
+
 // World-space unit view ray through a clip-space position (x, y in [-1, 1]).
 fn view_ray_world(clip_xy: vec2<f32>) -> vec3<f32> {
+    if (is_orthographic()) {
+        return frame.view_forward;
+    }
     // Reverse-Z: depth 1 is the near plane, so this point is finite.
     let near = frame.world_from_clip * vec4<f32>(clip_xy, 1.0, 1.0);
     return normalize(near.xyz / near.w - frame.camera_position_m);
+}
+
+// Where the view ray through a clip-space position starts: the eye, or for
+// an orthographic view the ray's point on the plane of the view's origin.
+fn view_ray_origin_world(clip_xy: vec2<f32>) -> vec3<f32> {
+    if (is_orthographic()) {
+        let near = frame.world_from_clip * vec4<f32>(clip_xy, 1.0, 1.0);
+        let on_near = near.xyz / near.w;
+        return on_near - frame.view_forward * dot(on_near - frame.camera_position_m, frame.view_forward);
+    }
+    return frame.camera_position_m;
+}
+
+// Unit vector from a world point towards the eye (the reverse view
+// direction for an orthographic view).
+fn to_eye_world(position_m: vec3<f32>) -> vec3<f32> {
+    if (is_orthographic()) {
+        return -frame.view_forward;
+    }
+    return normalize(frame.camera_position_m - position_m);
+}
+
+// Distance from the eye to a world point, m (for an orthographic view, from
+// the plane of the view's origin along the view direction).
+fn eye_distance_m(position_m: vec3<f32>) -> f32 {
+    if (is_orthographic()) {
+        return max(dot(position_m - frame.camera_position_m, frame.view_forward), 0.0);
+    }
+    return length(position_m - frame.camera_position_m);
+}
+
+// World point seen at a clip-space position at a (nimbus, reverse-Z) depth.
+fn world_at_depth(clip_xy: vec2<f32>, depth: f32) -> vec3<f32> {
+    let p = frame.world_from_clip * vec4<f32>(clip_xy, max(depth, 1e-7), 1.0);
+    return p.xyz / p.w;
+}
+
+// Distance along the view direction from the eye (for an orthographic view,
+// from the plane of its origin) of a (nimbus, reverse-Z) depth, m.
+fn view_depth_m(depth: f32) -> f32 {
+    return dot(world_at_depth(vec2<f32>(0.0), depth) - frame.camera_position_m, frame.view_forward);
+}
+
+// Side of a pixel's footprint, m, at a distance from the eye, m, on a
+// surface facing the eye.
+fn pixel_footprint_m(distance_m: f32) -> f32 {
+    if (is_orthographic()) {
+        return frame.orthographic_pixel_m;
+    }
+    return distance_m * frame.pixel_angle_rad;
 }

@@ -46,10 +46,9 @@ fn water_normal(position_m: vec3<f32>, footprint_m: f32) -> vec3<f32> {
 // `sun_visibility` is the fraction of the sun's light that reaches it (solar
 // disk above the relief, through any cloud), per channel.
 fn water_radiance(position_m: vec3<f32>, diffuse_albedo: vec3<f32>, sun_visibility: vec3<f32>) -> vec3<f32> {
-    let to_eye_m = frame.camera_position_m - position_m;
-    let to_eye = normalize(to_eye_m);
+    let to_eye = to_eye_world(position_m);
     // Length of a pixel's footprint along the view on a horizontal surface.
-    let footprint_m = length(to_eye_m) * frame.pixel_angle_rad / max(abs(to_eye.y), 0.02);
+    let footprint_m = pixel_footprint_m(eye_distance_m(position_m)) / max(abs(to_eye.y), 0.02);
     let n = water_normal(position_m, footprint_m);
     let cos_v = max(dot(n, to_eye), 1e-3);
     let fresnel = water_fresnel(cos_v);

@@ -746,10 +746,7 @@ fn depth_target(device: &wgpu::Device, width: u32, height: u32) -> Target {
 
 /// The renderer's set-up for a window of the given surface format.
 fn renderer_descriptor(format: wgpu::TextureFormat) -> RendererDescriptor {
-    RendererDescriptor {
-        output_format: format,
-        timestamps: true,
-    }
+    RendererDescriptor::display(format).with_timestamps(true)
 }
 
 /// A render pass on the window's colour alone (the panel, or clearing it).

@@ -24,7 +24,7 @@ fn cumulus_evaluate(in: CumulusVarying) -> CumulusShaded {
         gradient = cumulus_bump_gradient(in.noise_position, h);
     }
     let p = cumulus_point(in, h, gradient);
-    let o = normalize(frame.camera_position_m - in.world_m);
+    let o = to_eye_world(in.world_m);
     let l = frame.sun_direction;
     let terms = cumulus_shade_terms(p, o, l);
     var shadow = stratus_sun_transmittance(in.world_m);
@@ -73,7 +73,7 @@ fn cumulus_fringe_fragment(in: CumulusVarying) -> CumulusFringeOutput {
     if (a >= CUMULUS_OPAQUE_ALPHA || a < 1.0 / 1024.0) {
         discard;
     }
-    let distance_km = length(frame.camera_position_m - in.world_m) * 1e-3;
+    let distance_km = eye_distance_m(in.world_m) * 1e-3;
     let weight = a * clamp(1.0 / (1e-3 + pow(distance_km / 5.0, 3.0)), 1e-2, 1e2);
     var out: CumulusFringeOutput;
     let colour = min(shaded.radiance, vec3<f32>(frame.max_pre_exposed * 1e-2));

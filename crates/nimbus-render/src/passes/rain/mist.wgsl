@@ -122,19 +122,18 @@ fn mist_vertex(@builtin(vertex_index) vertex: u32) -> MistVarying {
 fn mist_fragment(in: MistVarying) -> @location(0) vec4<f32> {
     let direction = view_ray_world(in.clip_xy);
     let depth = textureLoad(scene_depth, vec2<i32>(in.clip_position.xy), 0);
-    // Distance to the surface (reverse-Z, infinite far: z_view = near/depth).
+    let origin = view_ray_origin_world(in.clip_xy);
+    // Distance to the surface (reverse-Z: depth 0 is the far plane).
     var end_m = MIST_MAX_DISTANCE_M;
     if (depth > 0.0) {
-        let forward = view_ray_world(vec2<f32>(0.0));
-        end_m = min(0.5 / depth / max(dot(direction, forward), 1e-3), MIST_MAX_DISTANCE_M);
+        end_m = min(length(world_at_depth(in.clip_xy, depth) - origin), MIST_MAX_DISTANCE_M);
     }
-    let origin = frame.camera_position_m;
     // Stop where the ray rises above the ceiling.
     if (direction.y > 1e-4 && origin.y < rain.drops.w) {
         end_m = min(end_m, (rain.drops.w - origin.y) / direction.y);
     }
     if (origin.y >= rain.drops.w && direction.y >= 0.0) {
-        return vec4<f32>(0.0, 0.0, 0.0, 1.0);
+        return vec4<f32>(0.0);
     }
     let box_m = rain.mist.x;
     let layer_m = rain.mist.y;
@@ -186,5 +185,7 @@ fn mist_fragment(in: MistVarying) -> @location(0) vec4<f32> {
     let radiance = mist_ambient_radiance(origin) * (1.0 - transmittance)
         + lighting.sun_irradiance.xyz * phase * sunlit;
     let inscattered = min(radiance * pre_exposure(), vec3<f32>(frame.max_pre_exposed));
-    return vec4<f32>(inscattered, transmittance);
+    // Premultiplied over: the frame behind is seen through the transmittance
+    // (alpha is the mist's coverage, 1 − T).
+    return vec4<f32>(inscattered, 1.0 - transmittance);
 }

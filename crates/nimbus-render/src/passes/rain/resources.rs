@@ -8,7 +8,7 @@ use super::{
 };
 use crate::core::binding;
 use crate::core::binding::{buffer_entry, uniform_layout_entry};
-use crate::core::pipeline::{DrawPipeline, depth_state, hdr_target};
+use crate::core::pipeline::{DrawPipeline, PREMULTIPLIED_OVER, depth_state, hdr_target};
 use crate::frame::FrameLayouts;
 use nimbus_physics::rain::drop_optics::DropTransfer;
 use nimbus_physics::rain::simulation::MAX_STEPS_PER_FRAME;
@@ -39,34 +39,6 @@ pub(super) fn compute_pipeline(
         cache: None,
     })
 }
-
-/// Premultiplied "over" blending.
-pub(super) const OVER: wgpu::BlendState = wgpu::BlendState {
-    color: wgpu::BlendComponent {
-        src_factor: wgpu::BlendFactor::One,
-        dst_factor: wgpu::BlendFactor::OneMinusSrcAlpha,
-        operation: wgpu::BlendOperation::Add,
-    },
-    alpha: wgpu::BlendComponent {
-        src_factor: wgpu::BlendFactor::Zero,
-        dst_factor: wgpu::BlendFactor::One,
-        operation: wgpu::BlendOperation::Add,
-    },
-};
-
-/// dst·T + src: the mist's in-scattering over the attenuated frame.
-pub(super) const ATTENUATE_AND_ADD: wgpu::BlendState = wgpu::BlendState {
-    color: wgpu::BlendComponent {
-        src_factor: wgpu::BlendFactor::One,
-        dst_factor: wgpu::BlendFactor::SrcAlpha,
-        operation: wgpu::BlendOperation::Add,
-    },
-    alpha: wgpu::BlendComponent {
-        src_factor: wgpu::BlendFactor::Zero,
-        dst_factor: wgpu::BlendFactor::One,
-        operation: wgpu::BlendOperation::Add,
-    },
-};
 
 #[allow(clippy::too_many_arguments)]
 pub(super) fn draw_pipeline(
@@ -193,7 +165,7 @@ impl RainPass {
             "streak_vertex_main",
             "streak_fragment",
             &draw_pipeline_layout,
-            OVER,
+            PREMULTIPLIED_OVER,
             true,
         );
         let splash = draw_pipeline(
@@ -203,7 +175,7 @@ impl RainPass {
             "splash_vertex_main",
             "streak_fragment",
             &draw_pipeline_layout,
-            OVER,
+            PREMULTIPLIED_OVER,
             true,
         );
         let mist_module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
@@ -218,7 +190,7 @@ impl RainPass {
             "mist_vertex",
             "mist_fragment",
             &mist_pipeline_layout,
-            ATTENUATE_AND_ADD,
+            PREMULTIPLIED_OVER,
             false,
         );
         let occlusion_uniform = device.create_buffer(&wgpu::BufferDescriptor {

@@ -52,21 +52,23 @@ fn hash_unit(key: u32) -> f32 {
 fn streak_vertex(head: vec3<f32>, tail_in: vec3<f32>, diameter_m: f32, corner: u32) -> StreakVarying {
     var out: StreakVarying;
     out.head_m = head;
-    // Just beyond the near plane (frame::NEAR_PLANE_M = 0.5 m).
-    let near_w = 0.55;
     var a = frame.clip_from_world * vec4<f32>(head, 1.0);
     var b = frame.clip_from_world * vec4<f32>(tail_in, 1.0);
-    // Keep both ends in front of the camera (clip the segment at a small w).
-    if (a.w < near_w && b.w < near_w) {
+    // Keep both ends just beyond the near plane, where reverse-Z depth z/w
+    // is 1: clip the segment where w − z, linear along it, falls to 5 % of w
+    // (for a perspective view, 1.05 near-plane distances).
+    let a_in = a.w - a.z - 0.05 * a.w;
+    let b_in = b.w - b.z - 0.05 * b.w;
+    if (a_in < 0.0 && b_in < 0.0) {
         out.clip_position = vec4<f32>(2.0, 2.0, 2.0, 1.0);
         out.alpha = 0.0;
         return out;
     }
-    if (a.w < near_w) {
-        a = mix(a, b, (near_w - a.w) / (b.w - a.w));
+    if (a_in < 0.0) {
+        a = mix(a, b, a_in / (a_in - b_in));
     }
-    if (b.w < near_w) {
-        b = mix(b, a, (near_w - b.w) / (a.w - b.w));
+    if (b_in < 0.0) {
+        b = mix(b, a, b_in / (b_in - a_in));
     }
     let half_px = 0.5 * frame.viewport_size_px;
     let a_px = a.xy / a.w * half_px;
@@ -75,8 +77,8 @@ fn streak_vertex(head: vec3<f32>, tail_in: vec3<f32>, diameter_m: f32, corner: u
     let length_px = length(along);
     along = select(vec2<f32>(0.0, 1.0), along / max(length_px, 1e-6), length_px > 1e-3);
     let side = vec2<f32>(-along.y, along.x);
-    let distance_m = max(length(head - frame.camera_position_m), 1e-3);
-    let diameter_px = diameter_m / (distance_m * frame.pixel_angle_rad);
+    let distance_m = max(eye_distance_m(head), 1e-3);
+    let diameter_px = diameter_m / pixel_footprint_m(distance_m);
     let width_px = max(diameter_px, rain.camera_velocity.w);
     out.alpha = min(1.0, 0.25 * PI * diameter_px * diameter_px / (width_px * (length_px + width_px)));
     // Corners: (end, side) for two triangles.
@@ -146,15 +148,10 @@ fn drop_kernel(cos_gamma: f32) -> f32 {
 // Radiance of a drop at `p`, pre-exposed: the sky (or the overcast's
 // radiosity under a stratus layer) and the sun through and off the drop.
 fn drop_radiance(p: vec3<f32>) -> vec3<f32> {
-    let v = normalize(p - frame.camera_position_m);
+    let v = -to_eye_world(p);
     let sky = stratus_ground_irradiance(p, v, sh_convolved(lighting, v, rain.drop_sh_weights.xyz));
     let sun = lighting.sun_irradiance.xyz * stratus_sun_transmittance(p) * drop_kernel(dot(v, frame.sun_direction));
     return (sky + sun) * pre_exposure();
-}
-
-// Distance along the view axis of a reverse-Z depth (infinite far plane).
-fn view_depth_m(depth: f32) -> f32 {
-    return 0.5 / max(depth, 1e-7);
 }
 
 @fragment

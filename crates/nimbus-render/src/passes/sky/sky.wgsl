@@ -34,10 +34,11 @@ fn solar_disk(direction: vec3<f32>) -> vec3<f32> {
 @fragment
 fn sky_fragment(in: FullscreenOutput) -> @location(0) vec4<f32> {
     let direction = view_ray_world(in.clip_xy);
-    let height = frame.camera_position_m.y - params.water_level_m;
+    let origin = view_ray_origin_world(in.clip_xy);
+    let height = origin.y - params.water_level_m;
     if (direction.y < 0.0 && height > 0.0) {
         let distance = height / -direction.y;
-        let sea_point = frame.camera_position_m + direction * distance;
+        let sea_point = origin + direction * distance;
         let sea = water_radiance(sea_point, params.water_albedo.rgb, vec3<f32>(1.0));
         return to_target(apply_aerial_perspective(sea, sea_point));
     }

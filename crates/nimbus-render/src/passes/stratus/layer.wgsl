@@ -138,7 +138,7 @@ struct LevelOutput {
 @fragment
 fn level_fragment(in: FullscreenOutput) -> LevelOutput {
     let direction = view_ray_world(in.clip_xy);
-    let camera = frame.camera_position_m;
+    let camera = view_ray_origin_world(in.clip_xy);
     // Out of the layer's height range the ray meets nothing more.
     let mid = stratus.window.x;
     let half = 0.5 * stratus.shape.w;
@@ -178,7 +178,7 @@ fn shade_layer(position_m: vec3<f32>, face: f32, h: f32, level: bool) -> vec4<f3
     let dh_dz = (layer_thickness_m(stratus, xz + vec2<f32>(0.0, step_m)) - h) / step_m;
     let up = normalize(vec3<f32>(-0.5 * dh_dx, 1.0, -0.5 * dh_dz));
 
-    let v = normalize(frame.camera_position_m - position_m);
+    let v = to_eye_world(position_m);
     let l = frame.sun_direction;
     // (The fine-scale normals may turn away from the camera on the coarse
     // mesh without the ray leaving the cloud: nothing is discarded.)
