@@ -413,3 +413,46 @@ fn a_view_that_cannot_be_drawn_is_refused_with_one_line() {
         .to_string();
     assert!(error.contains("far_m = 5"), "{error}");
 }
+
+#[test]
+fn without_terrain_nothing_is_drawn_below_and_the_flat_grounds_albedo_lights_the_layer() {
+    let mut h = headless();
+    let mut scene = scene();
+    scene.cumulus = None;
+    // Looking down from 150 m over the coast: the terrain fills the lower image.
+    scene.camera.position_m = [-6500.0, 150.0, 2600.0];
+    scene.camera.look_at_m = None;
+    scene.camera.yaw_deg = Some(0.0);
+    scene.camera.pitch_deg = Some(-30.0);
+    let camera = Camera::from_settings(&scene.camera, WIDTH, HEIGHT);
+    let (_, with_terrain) = render_view(&mut h, &scene, &View::from_camera(&camera));
+    assert!(with_terrain.iter().filter(|d| **d > 0.0).count() > (WIDTH * HEIGHT / 2) as usize);
+    scene.ground.terrain = false;
+    let (radiance, without) = render_view(&mut h, &scene, &View::from_camera(&camera));
+    assert!(
+        without.iter().all(|d| *d == 0.0),
+        "something was drawn at a depth"
+    );
+    assert!(radiance.iter().flatten().all(|v| v.is_finite()));
+
+    // Under the layer, looking up: its base is brighter over a bright ground
+    // (ground–cloud radiosity, Bouthors et al. 2006 §5), with no terrain drawn.
+    scene.camera.pitch_deg = Some(40.0);
+    let mean_luminance = |pixels: &[[f32; 3]]| {
+        pixels
+            .iter()
+            .map(|p| 0.2126 * p[0] + 0.7152 * p[1] + 0.0722 * p[2])
+            .sum::<f32>()
+            / pixels.len() as f32
+    };
+    let mut base = |albedo: f64| {
+        scene.ground.albedo = [albedo; 3];
+        let image = h.render_hdr(&scene, WIDTH, HEIGHT, 0.0).expect("render");
+        mean_luminance(&image.pixels)
+    };
+    let (dark, bright) = (base(0.05), base(0.9));
+    assert!(
+        bright > 1.1 * dark,
+        "base over albedo 0.9: {bright}, over 0.05: {dark}"
+    );
+}

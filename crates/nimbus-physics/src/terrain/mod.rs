@@ -239,6 +239,41 @@ pub fn generate(params: &TerrainParams) -> Terrain {
     }
 }
 
+/// A flat ground of one albedo: what lies under the clouds when no relief is
+/// drawn (an embedder's own world). Heights are `height_m` everywhere (no
+/// water: the water level sits below), normals point up, every vertex is
+/// grass-classed with exactly `albedo`, over `extent_m` with `resolution`
+/// cells per side. The radiosity and the ground light read it like a
+/// generated terrain.
+pub fn flat(extent_m: f64, resolution: u32, height_m: f64, albedo: [f32; 3]) -> Terrain {
+    let params = TerrainParams {
+        extent_m,
+        height_scale_m: 0.0,
+        resolution,
+        water_level_m: height_m - 1.0,
+        sand_band_m: 0.0,
+        snow_line_m: f64::MAX,
+        rock_slope_deg: 90.0,
+        albedo: SurfaceAlbedos {
+            water: albedo,
+            sand: albedo,
+            grass: albedo,
+            rock: albedo,
+            snow: albedo,
+        },
+        ..TerrainParams::default()
+    };
+    let n = (resolution as usize + 1).pow(2);
+    Terrain {
+        params,
+        ground_height_m: vec![height_m as f32; n],
+        surface_height_m: vec![height_m as f32; n],
+        surface_normal: vec![[0.0, 1.0, 0.0]; n],
+        surface_class: vec![SurfaceClass::Grass; n],
+        albedo: vec![albedo; n],
+    }
+}
+
 /// Surface class of a point from its ground height (m), the vertical
 /// component of its normal, and its position (for noisy zone boundaries).
 pub fn classify(

@@ -29,7 +29,7 @@ use crate::passes::objects::ObjectsPass;
 use crate::passes::rain::RainPass;
 use crate::passes::sky::{SkyPass, SkySettings};
 use crate::passes::stratus::StratusPass;
-use crate::passes::terrain::TerrainPass;
+use crate::passes::terrain::{Ground, TerrainPass};
 use crate::passes::tonemap::TonemapPass;
 use crate::scene::Scene;
 use std::sync::atomic::{AtomicU32, Ordering};
@@ -462,8 +462,16 @@ impl Renderer {
                 water_albedo: scene.terrain.albedo.water,
             },
         );
-        self.terrain
-            .prepare(&self.device, &self.queue, &scene.terrain)?;
+        let ground = if scene.ground.terrain {
+            Ground::Relief(scene.terrain.clone())
+        } else {
+            Ground::Flat {
+                extent_m: scene.terrain.extent_m,
+                height_m: scene.ground.height_m,
+                albedo: scene.ground.albedo.map(|c| c as f32),
+            }
+        };
+        self.terrain.prepare(&self.device, &self.queue, &ground)?;
         self.terrain.prepare_sun(&self.queue, scene.sun.direction());
         self.objects.prepare(&self.device, scene)?;
         if let Some(terrain) = self.terrain.terrain() {

@@ -58,6 +58,8 @@ pub struct Scene {
     pub atmosphere: AtmosphereParams,
     /// The procedural terrain.
     pub terrain: TerrainParams,
+    /// Whether the terrain is drawn, or the ground is a caller's (`[ground]`).
+    pub ground: GroundSettings,
     /// Cumulus clouds: a field of them placed over the terrain.
     pub cumulus: Option<CumulusSettings>,
     /// Stratiform cloud layer.
@@ -151,6 +153,37 @@ pub enum Projection {
     /// `frame::equirectangular_direction`). The view direction and
     /// `fov_deg` are ignored. Drawn as six cube faces resampled.
     Equirectangular,
+}
+
+/// What lies under the clouds (`[ground]`): the procedural terrain of
+/// `[terrain]`, or, for a program that draws its own world, a flat ground of
+/// one albedo that nimbus does not draw but that still lights the clouds
+/// from below (the stratus layer's ground–cloud radiosity, the ground light).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+#[non_exhaustive]
+pub struct GroundSettings {
+    /// `true`: the terrain is drawn, lit, stops the rain and reflects light
+    /// to the clouds. `false`: nothing is drawn; the ground is flat at
+    /// `height_m` with `albedo`, and the rain stops only on `[[objects]]`
+    /// and the caller's occluders (`Renderer::set_occluders`).
+    pub terrain: bool,
+    /// Linear albedo of the flat ground when `terrain = false`, each in [0, 1].
+    pub albedo: [f64; 3],
+    /// Height of the flat ground when `terrain = false`, m, in [−10000, 10000].
+    pub height_m: f64,
+}
+
+impl Default for GroundSettings {
+    fn default() -> Self {
+        Self {
+            terrain: true,
+            // A mixed land surface's broadband albedo (grass 0.15–0.25,
+            // forest 0.1–0.15, soil 0.1–0.2: Oke, Boundary Layer Climates, 1987, table 1.1).
+            albedo: [0.15, 0.15, 0.15],
+            height_m: 0.0,
+        }
+    }
 }
 
 impl Default for CameraSettings {

@@ -449,6 +449,10 @@ impl Scene {
             c.vector(&format!("terrain.albedo.{name}"), &rgb, 0.0, 1.0)?;
         }
 
+        let g = &self.ground;
+        c.vector("ground.albedo", &g.albedo, 0.0, 1.0)?;
+        c.closed("ground.height_m", g.height_m, -10_000.0, 10_000.0)?;
+
         if let Some(cu) = &self.cumulus {
             c.closed("cumulus.coverage", cu.coverage, 0.0, 1.0)?;
             c.closed("cumulus.base_m", cu.base_m, 0.0, 10_000.0)?;

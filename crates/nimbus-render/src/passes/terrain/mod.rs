@@ -70,10 +70,57 @@ pub fn build_mesh(terrain: &Terrain) -> (Vec<TerrainVertex>, Vec<u32>) {
 
 pub use crate::core::mesh::grid_indices;
 
+/// What the terrain pass prepares: the procedural relief, drawn, or a
+/// flat ground of one albedo that is not drawn (a caller's world stands on
+/// it) but that the stratus radiosity and the ground light read.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Ground {
+    /// The relief of these parameters.
+    Relief(TerrainParams),
+    /// A flat ground: side length and height, m, and linear albedo.
+    Flat {
+        /// Side of the square it covers, centred on the origin, m.
+        extent_m: f64,
+        /// Its height, m.
+        height_m: f64,
+        /// Its linear albedo.
+        albedo: [f32; 3],
+    },
+}
+
+/// Cells per side of a flat ground's grid: it has no relief to resolve,
+/// only the radiosity grid's texels to cover.
+const FLAT_GROUND_RESOLUTION: u32 = 64;
+
+impl Ground {
+    fn generate(&self) -> Terrain {
+        match self {
+            Ground::Relief(params) => terrain::generate(params),
+            Ground::Flat {
+                extent_m,
+                height_m,
+                albedo,
+            } => terrain::flat(*extent_m, FLAT_GROUND_RESOLUTION, *height_m, *albedo),
+        }
+    }
+
+    fn resolution(&self) -> u32 {
+        match self {
+            Ground::Relief(params) => params.resolution,
+            Ground::Flat { .. } => FLAT_GROUND_RESOLUTION,
+        }
+    }
+
+    /// Whether it is drawn and stops the rain.
+    pub fn is_drawn(&self) -> bool {
+        matches!(self, Ground::Relief(_))
+    }
+}
+
 /// GPU resources of the terrain for one set of parameters.
 #[derive(Debug)]
 struct TerrainMesh {
-    params: TerrainParams,
+    ground: Ground,
     /// The CPU terrain, kept to recompute the sun visibility when the sun moves.
     terrain: Terrain,
     triangles: IndexedMesh,
@@ -147,17 +194,17 @@ impl TerrainPass {
         &mut self,
         device: &wgpu::Device,
         queue: &wgpu::Queue,
-        params: &TerrainParams,
+        ground: &Ground,
     ) -> Result<(), LimitError> {
-        if self.mesh.as_ref().is_some_and(|m| &m.params == params) {
+        if self.mesh.as_ref().is_some_and(|m| &m.ground == ground) {
             return Ok(());
         }
-        let side = params.resolution as u64 + 1;
-        let what = format!("terrain.resolution = {}", params.resolution);
+        let side = ground.resolution() as u64 + 1;
+        let what = format!("terrain.resolution = {}", ground.resolution());
         let vertex_bytes = side * side * std::mem::size_of::<TerrainVertex>() as u64;
         limits::check_buffer_size(device, &what, vertex_bytes)?;
         limits::check_buffer_size(device, &what, (side - 1) * (side - 1) * 6 * 4)?;
-        let terrain = terrain::generate(params);
+        let terrain = ground.generate();
         let (vertices, indices) = build_mesh(&terrain);
         let mesh = IndexedMesh::upload(device, "terrain", &vertices, &indices);
         let side = terrain.vertices_per_side() as u32;
@@ -217,7 +264,7 @@ impl TerrainPass {
         });
         self.generation += 1;
         self.mesh = Some(TerrainMesh {
-            params: params.clone(),
+            ground: ground.clone(),
             terrain,
             triangles: mesh,
             albedo,
@@ -284,12 +331,15 @@ impl TerrainPass {
     pub fn occluder_geometry(&self) -> Option<OccluderGeometry<'_>> {
         self.mesh
             .as_ref()
+            .filter(|m| m.ground.is_drawn())
             .map(|m| OccluderGeometry::of_mesh::<TerrainVertex>(&m.triangles))
     }
 
     /// Records the draw into `pass`.
     pub fn draw(&self, pass: &mut wgpu::RenderPass<'_>, frame: &FrameBindings<'_>) {
-        let Some(mesh) = &self.mesh else { return };
+        let Some(mesh) = self.mesh.as_ref().filter(|m| m.ground.is_drawn()) else {
+            return;
+        };
         pass.set_pipeline(&self.pipeline);
         frame.set_on(pass, Some(&mesh.bind_group));
         mesh.triangles.draw(pass);
