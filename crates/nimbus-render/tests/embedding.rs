@@ -456,3 +456,11 @@ fn without_terrain_nothing_is_drawn_below_and_the_flat_grounds_albedo_lights_the
         "base over albedo 0.9: {bright}, over 0.05: {dark}"
     );
 }
+
+/// docs/embedding.md promises that a renderer can move to another thread.
+#[test]
+fn the_renderer_can_move_between_threads() {
+    fn assert_send<T: Send>() {}
+    assert_send::<Renderer>();
+    assert_send::<View>();
+}

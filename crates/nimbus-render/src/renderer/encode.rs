@@ -132,22 +132,8 @@ impl Renderer {
         // 4b. The air in front of the caller's surfaces (the only ones in
         // the depth so far), before nimbus's own surfaces cover some of them.
         if let Some((composite, own)) = linear {
-            let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
-                label: Some("caller aerial perspective"),
-                color_attachments: &[Some(wgpu::RenderPassColorAttachment {
-                    view: &hdr.view,
-                    depth_slice: None,
-                    resolve_target: None,
-                    ops: wgpu::Operations {
-                        load: wgpu::LoadOp::Load,
-                        store: wgpu::StoreOp::Store,
-                    },
-                })],
-                depth_stencil_attachment: None,
-                timestamp_writes: None,
-                occlusion_query_set: None,
-                multiview_mask: None,
-            });
+            let mut pass =
+                Self::colour_pass(encoder, "caller aerial perspective", &hdr.view, None, None);
             composite.draw_aerial(&self.device, &mut pass, &own.view, &frame);
         }
         // 5. Terrain, depth-tested.
@@ -264,22 +250,7 @@ impl Renderer {
         // 9–10 in LinearHdr: nimbus's target over the caller's colour; the
         // caller exposes and tone maps.
         if let Some((composite, _)) = linear {
-            let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
-                label: Some("export"),
-                color_attachments: &[Some(wgpu::RenderPassColorAttachment {
-                    view: targets.output,
-                    depth_slice: None,
-                    resolve_target: None,
-                    ops: wgpu::Operations {
-                        load: wgpu::LoadOp::Load,
-                        store: wgpu::StoreOp::Store,
-                    },
-                })],
-                depth_stencil_attachment: None,
-                timestamp_writes: None,
-                occlusion_query_set: None,
-                multiview_mask: None,
-            });
+            let mut pass = Self::colour_pass(encoder, "export", targets.output, None, None);
             composite.draw_export(&self.device, &mut pass, &hdr.view, &frame);
             drop(pass);
             if let Some(timer) = &self.timer {
@@ -336,10 +307,23 @@ impl Renderer {
         hdr: &Target,
         read_only_depth: Option<&wgpu::TextureView>,
     ) -> wgpu::RenderPass<'e> {
+        let timestamps = self.timer.as_ref().map(|t| t.pass_writes(id.timer_index()));
+        Self::colour_pass(encoder, label, &hdr.view, read_only_depth, timestamps)
+    }
+
+    /// A pass drawing over `view` as it is (colour loaded and kept), with a
+    /// depth attached read-only when given.
+    fn colour_pass<'e>(
+        encoder: &'e mut wgpu::CommandEncoder,
+        label: &str,
+        view: &wgpu::TextureView,
+        read_only_depth: Option<&wgpu::TextureView>,
+        timestamp_writes: Option<wgpu::RenderPassTimestampWrites<'_>>,
+    ) -> wgpu::RenderPass<'e> {
         encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
             label: Some(label),
             color_attachments: &[Some(wgpu::RenderPassColorAttachment {
-                view: &hdr.view,
+                view,
                 depth_slice: None,
                 resolve_target: None,
                 ops: wgpu::Operations {
@@ -354,7 +338,7 @@ impl Renderer {
                     stencil_ops: None,
                 }
             }),
-            timestamp_writes: self.timer.as_ref().map(|t| t.pass_writes(id.timer_index())),
+            timestamp_writes,
             occlusion_query_set: None,
             multiview_mask: None,
         })

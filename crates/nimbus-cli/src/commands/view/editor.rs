@@ -14,7 +14,7 @@ pub const GROUPS: [(&str, &[&str]); 9] = [
     ("Time and place", &["sun"]),
     ("Camera", &["camera"]),
     ("Sky", &["atmosphere"]),
-    ("Terrain", &["terrain", "objects"]),
+    ("Terrain", &["terrain", "ground", "objects"]),
     ("Stratus", &["stratus"]),
     ("Cumulus", &["cumulus"]),
     ("Rain", &["rain"]),
