@@ -160,17 +160,12 @@ impl View {
                 near_m,
                 far_m,
             } => {
-                let max_fov = 179f64.to_radians();
-                if !(fov_y_rad > 0.0 && fov_y_rad <= max_fov) {
-                    return Err(ViewError(format!(
-                        "fov_y_rad = {fov_y_rad}: must be in (0, {max_fov:.4}] (179°)"
-                    )));
-                }
-                // Below about 1e-4 rad the pinhole's f32 transforms lose the
+                // Below 1e-4 rad the pinhole's f32 transforms lose the
                 // pixel; such a view is a telescope's, not a sky renderer's.
-                if fov_y_rad < MIN_FOV_Y_RAD {
+                let max_fov = 179f64.to_radians();
+                if !(MIN_FOV_Y_RAD..=max_fov).contains(&fov_y_rad) {
                     return Err(ViewError(format!(
-                        "fov_y_rad = {fov_y_rad}: must be at least {MIN_FOV_Y_RAD:e}"
+                        "fov_y_rad = {fov_y_rad}: must be in [{MIN_FOV_Y_RAD:e}, {max_fov:.4}] (179°)"
                     )));
                 }
                 positive("aspect", aspect)?;
