@@ -48,8 +48,16 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     scene.sun.azimuth_deg = Some(150.0);
     scene.sun.elevation_deg = Some(35.0);
 
-    // 4. Each frame: prepare, encode, submit.
+    // 4. Each frame: prepare, encode, submit. `prepare` never blocks: the
+    // cumulus shapes, optics tables and terrain are made on worker threads
+    // and frames leave them out until they are ready. A render loop just
+    // keeps drawing; this program, which saves one frame, waits for them.
     renderer.prepare(&scene, width, height, 0.0)?;
+    while !renderer.is_ready() {
+        eprintln!("waiting for {}", renderer.pending_work().join(", "));
+        renderer.wait_for_precompute();
+        renderer.prepare(&scene, width, height, 0.0)?;
+    }
     let mut encoder = device.create_command_encoder(&Default::default());
     let (color_view, depth_view) = (
         color.create_view(&Default::default()),

@@ -42,7 +42,7 @@ pub mod renderer;
 pub mod scene;
 pub mod shader;
 
-pub use self::core::{binding, gpu, targets, timing};
+pub use self::core::{binding, cache, gpu, targets, timing};
 pub use frame::occluders;
 pub use passes::stratus::radiosity;
 pub use passes::{atmosphere, cumulus, exposure, objects, rain, sky, stratus, terrain, tonemap};
@@ -50,7 +50,7 @@ pub use passes::{atmosphere, cumulus, exposure, objects, rain, sky, stratus, ter
 pub use self::core::gpu::{AdapterPreference, GpuContext, GpuError};
 pub use frame::{DepthConvention, Projection, View};
 pub use renderer::{
-    FrameTargets, OutputMode, PASS_NAMES, PassId, RenderError, Renderer, RendererDescriptor,
-    TargetLoad,
+    FrameTargets, OccluderDepth, OutputMode, PASS_NAMES, PassId, Precompute, RenderError, Renderer,
+    RendererDescriptor, TargetLoad,
 };
 pub use scene::{Scene, SceneError};

@@ -5,11 +5,16 @@
 use glam::{DMat4, DVec3};
 use nimbus_render::frame::Camera;
 use nimbus_render::headless::{HeadlessRenderer, read_texture};
-use nimbus_render::targets::{DEPTH_FORMAT, Target};
+use nimbus_render::targets::Target;
 use nimbus_render::{
-    AdapterPreference, DepthConvention, FrameTargets, Projection, Renderer, RendererDescriptor,
-    Scene, TargetLoad, View,
+    AdapterPreference, DepthConvention, FrameTargets, Precompute, Projection, Renderer,
+    RendererDescriptor, Scene, TargetLoad, View,
 };
+
+#[path = "support/caller_depth.rs"]
+mod support;
+
+use support::DepthRect;
 
 const WIDTH: u32 = 64;
 const HEIGHT: u32 = 36;
@@ -47,77 +52,14 @@ fn caller_colour(h: &HeadlessRenderer, pixels: &[[f32; 4]]) -> Target {
     target
 }
 
-/// A caller's depth buffer as the caller's own pipeline leaves it: cleared
-/// to `far_depth`, and when given, a wall covering the lower half of the
-/// image at depth `wall_depth` (depth buffers cannot be written by copies).
+/// A caller's depth buffer cleared to `far_depth`, and when given, a wall
+/// covering the lower half of the image at depth `wall_depth`.
 fn caller_depth(h: &HeadlessRenderer, far_depth: f32, wall_depth: Option<f32>) -> Target {
-    let device = &h.gpu.device;
-    let target = Target::new(
-        device,
-        "caller depth",
-        DEPTH_FORMAT,
-        WIDTH,
-        HEIGHT,
-        wgpu::TextureUsages::TEXTURE_BINDING,
-    );
-    let source = format!(
-        "@vertex fn wall(@builtin(vertex_index) i: u32) -> @builtin(position) vec4<f32> {{
-            let x = select(-1.0, 1.0, i == 1u || i == 2u || i == 4u);
-            let y = select(-1.0, 0.0, i == 2u || i == 4u || i == 5u);
-            return vec4<f32>(x, y, {}, 1.0);
-        }}",
-        wall_depth.unwrap_or(far_depth)
-    );
-    let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
-        label: Some("caller wall"),
-        source: wgpu::ShaderSource::Wgsl(source.into()),
+    let wall = wall_depth.map(|depth| DepthRect {
+        ndc: [-1.0, -1.0, 1.0, 0.0],
+        depth,
     });
-    let pipeline = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
-        label: Some("caller wall"),
-        layout: None,
-        vertex: wgpu::VertexState {
-            module: &module,
-            entry_point: Some("wall"),
-            compilation_options: Default::default(),
-            buffers: &[],
-        },
-        primitive: Default::default(),
-        depth_stencil: Some(wgpu::DepthStencilState {
-            format: DEPTH_FORMAT,
-            depth_write_enabled: Some(true),
-            depth_compare: Some(wgpu::CompareFunction::Always),
-            stencil: Default::default(),
-            bias: Default::default(),
-        }),
-        multisample: Default::default(),
-        fragment: None,
-        multiview_mask: None,
-        cache: None,
-    });
-    let mut encoder = device.create_command_encoder(&Default::default());
-    {
-        let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
-            label: Some("caller depth"),
-            color_attachments: &[],
-            depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
-                view: &target.view,
-                depth_ops: Some(wgpu::Operations {
-                    load: wgpu::LoadOp::Clear(far_depth),
-                    store: wgpu::StoreOp::Store,
-                }),
-                stencil_ops: None,
-            }),
-            timestamp_writes: None,
-            occlusion_query_set: None,
-            multiview_mask: None,
-        });
-        if wall_depth.is_some() {
-            pass.set_pipeline(&pipeline);
-            pass.draw(0..6, 0..1);
-        }
-    }
-    h.gpu.queue.submit([encoder.finish()]);
-    target
+    support::caller_depth(h, WIDTH, HEIGHT, far_depth, wall)
 }
 
 fn write(h: &HeadlessRenderer, texture: &wgpu::Texture, bytes: &[u8], bytes_per_pixel: u32) {
@@ -168,7 +110,8 @@ fn linear_renderer(h: &HeadlessRenderer) -> Renderer {
     Renderer::new(
         &h.gpu.device,
         &h.gpu.queue,
-        &RendererDescriptor::linear_hdr(wgpu::TextureFormat::Rgba16Float),
+        &RendererDescriptor::linear_hdr(wgpu::TextureFormat::Rgba16Float)
+            .with_precompute(Precompute::Blocking),
     )
 }
 

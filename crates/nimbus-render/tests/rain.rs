@@ -9,6 +9,13 @@ use nimbus_render::rain::{DropGpu, rain_box, rain_params, rain_zones};
 
 use nimbus_render::scene::Scene;
 
+#[path = "support/caller_depth.rs"]
+mod support;
+
+use glam::{DMat4, DVec3};
+use nimbus_render::{DepthConvention, OccluderDepth, Projection, View};
+use support::DepthRect;
+
 fn headless() -> HeadlessRenderer {
     HeadlessRenderer::new(AdapterPreference::Auto).unwrap_or_else(|e| {
         panic!("{e}: install a Vulkan driver (e.g. Debian's mesa-vulkan-drivers) to run GPU tests")
@@ -519,5 +526,70 @@ fn the_callers_occluders_stop_the_rain() {
     assert_eq!(
         error.to_string(),
         "occluders: index 2 is 7: must be less than the 4 positions"
+    );
+
+    // The same roof as the caller's depth buffer seen from above
+    // (`Renderer::set_occluder_depth`): a 40 m orthographic map from 100 m
+    // up, standard depth, the roof drawn into it and nothing else.
+    let mut h = headless();
+    let above = View {
+        world_from_view: DMat4::look_to_rh(
+            DVec3::new(-5300.0, 100.0, 1000.0),
+            DVec3::NEG_Y,
+            DVec3::NEG_Z,
+        )
+        .inverse(),
+        projection: Projection::Orthographic {
+            height_m: 40.0,
+            aspect: 1.0,
+            near_m: 0.0,
+            far_m: 200.0,
+        },
+        depth: DepthConvention::Standard,
+    };
+    let clip_from_world = above.caller_clip_from_view() * above.view_from_world();
+    let ndc = |p: [f64; 3]| clip_from_world.project_point3(DVec3::from_array(p));
+    let (a, b) = (ndc(roof[0].map(f64::from)), ndc(roof[2].map(f64::from)));
+    let depth_map = support::caller_depth(
+        &h,
+        256,
+        256,
+        1.0,
+        Some(DepthRect {
+            ndc: [
+                a.x.min(b.x) as f32,
+                a.y.min(b.y) as f32,
+                a.x.max(b.x) as f32,
+                a.y.max(b.y) as f32,
+            ],
+            depth: a.z as f32,
+        }),
+    );
+    h.renderer
+        .set_occluder_depth(Some(OccluderDepth {
+            depth: &depth_map.view,
+            width: 256,
+            height: 256,
+            view: above,
+        }))
+        .expect("a depth from above");
+    let (under, open) = under_the_roof(&mut h);
+    assert_eq!(
+        under, 0,
+        "{under} drops under the roof of the caller's depth ({open} in the open)"
+    );
+    assert!(open > 50, "{open} drops in the open");
+    let error = h
+        .renderer
+        .set_occluder_depth(Some(OccluderDepth {
+            depth: &depth_map.view,
+            width: 1,
+            height: 256,
+            view: above,
+        }))
+        .expect_err("one texel wide");
+    assert_eq!(
+        error.to_string(),
+        "occluders: depth from above of 1 × 256 texels: must be at least 2 × 2"
     );
 }

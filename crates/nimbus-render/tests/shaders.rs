@@ -107,6 +107,17 @@ fn composite_uniform_matches_wgsl_layout() {
 }
 
 #[test]
+fn depth_occluder_uniform_matches_wgsl_layout() {
+    let module = module_named("rain depth occluder");
+    assert_layout!(
+        module,
+        "DepthOccluder",
+        nimbus_render::rain::DepthOccluderUniform,
+        [world_from_clip, grid, depths]
+    );
+}
+
+#[test]
 fn atmosphere_and_lighting_match_wgsl_layout() {
     let module = module_named("terrain");
     assert_layout!(

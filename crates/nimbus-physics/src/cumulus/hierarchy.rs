@@ -106,7 +106,7 @@ pub fn paper_roots() -> Vec<RootBlob> {
 }
 
 /// Errors in the parameters.
-#[derive(Debug, thiserror::Error, PartialEq)]
+#[derive(Clone, Debug, thiserror::Error, PartialEq)]
 pub enum CumulusError {
     /// A value out of its range.
     #[error("{key} = {value}: {allowed}")]

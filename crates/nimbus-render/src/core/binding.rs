@@ -82,6 +82,24 @@ pub fn uniform_layout_entry(
     buffer_entry(binding, wgpu::BufferBindingType::Uniform, size, visibility)
 }
 
+/// A layout entry for a depth texture (`texture_depth_2d` and the like).
+pub fn depth_texture_entry(
+    binding: u32,
+    dimension: wgpu::TextureViewDimension,
+    visibility: wgpu::ShaderStages,
+) -> wgpu::BindGroupLayoutEntry {
+    wgpu::BindGroupLayoutEntry {
+        binding,
+        visibility,
+        ty: wgpu::BindingType::Texture {
+            sample_type: wgpu::TextureSampleType::Depth,
+            view_dimension: dimension,
+            multisampled: false,
+        },
+        count: None,
+    }
+}
+
 /// A layout entry for a float texture of any dimension.
 pub fn texture_entry(
     binding: u32,

@@ -3,6 +3,7 @@
 //! and pipeline helpers, the device-limit checks and the on-disk cache.
 //! Imports nothing of the crate's other layers (see `tests/layering.rs`).
 
+pub mod background;
 pub mod binding;
 pub mod cache;
 pub mod gpu;

@@ -31,7 +31,9 @@ use crate::scene::StratusSettings;
 use bytemuck::{Pod, Zeroable};
 use nimbus_physics::optics::dsd::SizeDistribution;
 use nimbus_physics::optics::tables::{CloudOpticsParams, CloudOpticsTables};
+use std::collections::HashMap;
 use std::path::PathBuf;
+use std::sync::{Arc, Mutex, OnceLock};
 
 /// Half-angle θ_f of the forward peak, degrees (Bouthors 2006, §4.1).
 pub const FORWARD_PEAK_DEG: f64 = 5.0;
@@ -56,11 +58,28 @@ pub fn optics_params(settings: &StratusSettings) -> CloudOpticsParams {
     }
 }
 
-/// A layer's optical tables: loaded from the cache or computed (and
-/// cached; a cache that cannot be written only costs the computation).
-pub fn load_optics(params: &CloudOpticsParams) -> CloudOpticsTables {
-    CloudOpticsTables::load_or_compute(&optics_cache_dir(), params)
-        .unwrap_or_else(|_| CloudOpticsTables::compute(params))
+/// A layer's optical tables: from this process's memory, else loaded from
+/// the disk cache, else computed (and cached; a cache that cannot be
+/// written only costs the computation). One computation at a time per
+/// process: the stratus layer's and the cumulus forward peak's workers,
+/// asking for the same droplets at once, compute them once.
+pub fn load_optics(params: &CloudOpticsParams) -> Arc<CloudOpticsTables> {
+    type Memory = Mutex<HashMap<u64, Arc<CloudOpticsTables>>>;
+    static MEMORY: OnceLock<Memory> = OnceLock::new();
+    let mut memory = MEMORY
+        .get_or_init(Default::default)
+        .lock()
+        .unwrap_or_else(|e| e.into_inner());
+    let key = params.cache_hash();
+    if let Some(tables) = memory.get(&key).filter(|t| t.params == *params) {
+        return tables.clone();
+    }
+    let tables = Arc::new(
+        CloudOpticsTables::load_or_compute(&optics_cache_dir(), params)
+            .unwrap_or_else(|_| CloudOpticsTables::compute(params)),
+    );
+    memory.insert(key, tables.clone());
+    tables
 }
 
 /// Texels of the P_S and P² tables over 0–180°.

@@ -102,16 +102,7 @@ impl CloudShadowMap {
                 visibility,
                 std::mem::size_of::<CloudShadowUniform>() as u64,
             ),
-            wgpu::BindGroupLayoutEntry {
-                binding: 1,
-                visibility,
-                ty: wgpu::BindingType::Texture {
-                    sample_type: wgpu::TextureSampleType::Depth,
-                    view_dimension: wgpu::TextureViewDimension::D2Array,
-                    multisampled: false,
-                },
-                count: None,
-            },
+            binding::depth_texture_entry(1, wgpu::TextureViewDimension::D2Array, visibility),
         ]
     }
 

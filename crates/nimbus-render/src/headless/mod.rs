@@ -10,7 +10,9 @@ pub use layers::{ImageLayers, SKY_DISTANCE_M};
 use crate::core::gpu::{AdapterPreference, GpuContext, GpuError};
 use crate::core::targets::{DEPTH_FORMAT, Target};
 use crate::frame::{Camera, View};
-use crate::renderer::{FrameTargets, RenderError, Renderer, RendererDescriptor, TargetLoad};
+use crate::renderer::{
+    FrameTargets, Precompute, RenderError, Renderer, RendererDescriptor, TargetLoad,
+};
 use crate::scene::{Projection, Scene};
 
 /// Format of the tone-mapped output.
@@ -81,7 +83,9 @@ impl HeadlessRenderer {
         let renderer = Renderer::new(
             &gpu.device,
             &gpu.queue,
-            &RendererDescriptor::display(OUTPUT_FORMAT).with_timestamps(true),
+            &RendererDescriptor::display(OUTPUT_FORMAT)
+                .with_timestamps(true)
+                .with_precompute(Precompute::Blocking),
         );
         Ok(Self {
             gpu,

@@ -4,6 +4,10 @@ use super::{FrameTargets, PassId, PassSet, Renderer, TargetLoad};
 use crate::core::targets::{FAR_DEPTH, Target};
 use std::sync::atomic::Ordering;
 
+/// Set in `Renderer::lighting_recorded` when `encode_lighting` recorded
+/// the frame's lighting (the other bits: the passes it ran).
+const LIGHTING_RECORDED: u32 = 1 << 31;
+
 impl Renderer {
     /// Records the frame: the atmosphere's LUTs, the clouds' lighting and
     /// shadows, the rain's simulation, then sky, terrain, objects, clouds,
@@ -20,17 +24,15 @@ impl Renderer {
         // Display mode, nimbus's own (the caller's translated) in LinearHdr.
         let linear = self.composite.as_ref().zip(self.own_depth.as_ref());
         let depth = linear.map_or(targets.depth, |(_, own)| &own.view);
-        let mut run = PassSet::all();
         let frame = self.frame.bindings();
-        // 1. Atmosphere: LUTs, aerial perspective and lighting inputs, where their inputs changed.
-        let atmosphere_run = self
-            .atmosphere
-            .encode(encoder, frame.frame, self.timer.as_ref(), 0);
-        for (id, ran) in PassId::ATMOSPHERE.into_iter().zip(atmosphere_run) {
-            if !ran {
-                run.remove(id);
-            }
-        }
+        // 1–3. The lighting work, unless `encode_lighting` recorded it already.
+        let recorded = self.lighting_recorded.swap(0, Ordering::Relaxed);
+        let mut run = if recorded & LIGHTING_RECORDED != 0 {
+            PassSet::from_bits(recorded & !LIGHTING_RECORDED)
+        } else {
+            self.record_lighting(encoder)
+        };
+        let rain = self.rain.enabled();
         let (color_load, depth_load) = match (linear, targets.load) {
             // Transparent: alpha is the coverage of the caller's pixel.
             (Some((composite, own)), _) => {
@@ -52,52 +54,6 @@ impl Renderer {
             ),
             (None, TargetLoad::Keep) => (wgpu::LoadOp::Load, wgpu::LoadOp::Load),
         };
-        // 2. The stratus layer's thickness field and ground–cloud radiosity.
-        if self.stratus.enabled() {
-            let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
-                label: Some("stratus lighting"),
-                timestamp_writes: self
-                    .timer
-                    .as_ref()
-                    .map(|t| t.compute_pass_writes(PassId::StratusLighting.timer_index())),
-            });
-            self.stratus.encode_compute(&mut pass, &frame);
-        } else {
-            run.remove(PassId::StratusLighting);
-            run.remove(PassId::Stratus);
-        }
-        // 3. The cumulus shadow map (cleared to "no cloud" when there is none).
-        self.cumulus.encode_shadow(
-            encoder,
-            &frame,
-            self.frame.cloud_lighting.shadow(),
-            self.timer
-                .as_ref()
-                .map(|t| (t.query_set(), PassId::CumulusShadow.timer_index())),
-        );
-        if !self.cumulus.shadow_enabled() {
-            run.remove(PassId::CumulusShadow);
-        }
-        // 3b. The rain: its shadow map when needed, the steps since the last
-        // frame, and the list of drops in view.
-        let rain = self.rain.enabled();
-        if rain {
-            self.rain.encode_simulation(
-                encoder,
-                &frame,
-                &self.occluders(),
-                self.timer
-                    .as_ref()
-                    .map(|t| t.compute_pass_writes(PassId::RainSimulation.timer_index())),
-            );
-        } else {
-            for id in [PassId::RainSimulation, PassId::Rain] {
-                run.remove(id);
-            }
-        }
-        if !self.rain.mist_enabled() {
-            run.remove(PassId::RainMist);
-        }
         let cumulus = self.cumulus.enabled();
         if !cumulus {
             for id in [
@@ -295,6 +251,81 @@ impl Renderer {
         if let Some(timer) = &self.timer {
             timer.resolve(encoder);
         }
+    }
+
+    /// Records the frame's lighting work: the atmosphere's LUTs and lighting
+    /// inputs (where they changed), the stratus layer's thickness and
+    /// radiosity, the cumulus shadow map and the rain's simulation: what
+    /// the caller's own pipelines read through nimbus's WGSL include
+    /// ([`crate::shader::lighting_include`]). Record it before drawing
+    /// them, so that they see this frame's cloud shadows; [`Self::encode`]
+    /// then does not record it again. Call after [`Self::prepare_view`].
+    pub fn encode_lighting(&self, encoder: &mut wgpu::CommandEncoder) {
+        let run = self.record_lighting(encoder);
+        self.lighting_recorded
+            .store(run.bits() | LIGHTING_RECORDED, Ordering::Relaxed);
+    }
+
+    /// Steps 1–3 of the frame; returns every pass with those that had
+    /// nothing to do removed.
+    fn record_lighting(&self, encoder: &mut wgpu::CommandEncoder) -> PassSet {
+        let mut run = PassSet::all();
+        let frame = self.frame.bindings();
+        // 1. Atmosphere: LUTs, aerial perspective and lighting inputs, where their inputs changed.
+        let atmosphere_run = self
+            .atmosphere
+            .encode(encoder, frame.frame, self.timer.as_ref(), 0);
+        for (id, ran) in PassId::ATMOSPHERE.into_iter().zip(atmosphere_run) {
+            if !ran {
+                run.remove(id);
+            }
+        }
+        // 2. The stratus layer's thickness field and ground–cloud radiosity.
+        if self.stratus.enabled() {
+            let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                label: Some("stratus lighting"),
+                timestamp_writes: self
+                    .timer
+                    .as_ref()
+                    .map(|t| t.compute_pass_writes(PassId::StratusLighting.timer_index())),
+            });
+            self.stratus.encode_compute(&mut pass, &frame);
+        } else {
+            run.remove(PassId::StratusLighting);
+            run.remove(PassId::Stratus);
+        }
+        // 3. The cumulus shadow map (cleared to "no cloud" when there is none).
+        self.cumulus.encode_shadow(
+            encoder,
+            &frame,
+            self.frame.cloud_lighting.shadow(),
+            self.timer
+                .as_ref()
+                .map(|t| (t.query_set(), PassId::CumulusShadow.timer_index())),
+        );
+        if !self.cumulus.shadow_enabled() {
+            run.remove(PassId::CumulusShadow);
+        }
+        // 3b. The rain: its shadow map when needed, the steps since the last
+        // frame, and the list of drops in view.
+        if self.rain.enabled() {
+            self.rain.encode_simulation(
+                encoder,
+                &frame,
+                &self.occluders(),
+                self.timer
+                    .as_ref()
+                    .map(|t| t.compute_pass_writes(PassId::RainSimulation.timer_index())),
+            );
+        } else {
+            for id in [PassId::RainSimulation, PassId::Rain] {
+                run.remove(id);
+            }
+        }
+        if !self.rain.mist_enabled() {
+            run.remove(PassId::RainMist);
+        }
+        run
     }
 
     /// A pass drawing over the HDR target as it is (colour loaded and kept),

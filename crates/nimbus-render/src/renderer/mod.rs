@@ -14,6 +14,7 @@ mod registry;
 pub use pass_id::{PASS_NAMES, PassId, PassSet};
 pub use registry::{all_modules, map_error_positions};
 
+pub use crate::core::background::Precompute;
 use crate::core::limits::{self, LimitError};
 use crate::core::mesh::IndexedMesh;
 use crate::core::targets::{DEPTH_FORMAT, HDR_FORMAT, Target};
@@ -66,6 +67,9 @@ pub struct RendererDescriptor {
     pub mode: OutputMode,
     /// Write per-pass GPU timestamps when the device supports them.
     pub timestamps: bool,
+    /// Where precomputation (cumulus shapes, optics tables, terrain) runs:
+    /// on worker threads by default, so that `prepare` never stalls.
+    pub precompute: Precompute,
 }
 
 impl RendererDescriptor {
@@ -75,6 +79,7 @@ impl RendererDescriptor {
             output_format,
             mode: OutputMode::Display,
             timestamps: false,
+            precompute: Precompute::Background,
         }
     }
 
@@ -85,12 +90,19 @@ impl RendererDescriptor {
             output_format,
             mode: OutputMode::LinearHdr,
             timestamps: false,
+            precompute: Precompute::Background,
         }
     }
 
     /// The same, with per-pass GPU timestamps written or not.
     pub fn with_timestamps(mut self, timestamps: bool) -> Self {
         self.timestamps = timestamps;
+        self
+    }
+
+    /// The same, with precomputation on worker threads or inline.
+    pub fn with_precompute(mut self, precompute: Precompute) -> Self {
+        self.precompute = precompute;
         self
     }
 }
@@ -121,6 +133,20 @@ pub struct FrameTargets<'a> {
     /// [`OutputMode::Display`]: clear or keep the previous contents.
     /// [`OutputMode::LinearHdr`] always keeps the caller's.
     pub load: TargetLoad,
+}
+
+/// The caller's depth buffer of its world seen from above
+/// ([`Renderer::set_occluder_depth`]).
+#[derive(Clone, Copy, Debug)]
+pub struct OccluderDepth<'a> {
+    /// The view of the depth aspect of the caller's depth texture.
+    pub depth: &'a wgpu::TextureView,
+    /// Its width, texels.
+    pub width: u32,
+    /// Its height, texels.
+    pub height: u32,
+    /// The view it was rendered through (pose, projection, depth convention).
+    pub view: View,
 }
 
 /// Why a frame cannot be prepared.
@@ -194,11 +220,16 @@ pub struct Renderer {
     background_override: Option<f32>,
     /// Which passes the last [`Renderer::encode`] recorded ([`PassSet`] bits).
     passes_run: AtomicU32,
+    /// Set by [`Renderer::encode_lighting`] for the next [`Renderer::encode`]:
+    /// a flag bit and the lighting passes it ran.
+    lighting_recorded: AtomicU32,
     /// The caller's occluders ([`Self::set_occluders`]), positions only.
     caller_occluders: Option<IndexedMesh>,
     /// Counts the calls of [`Self::set_occluders`] (the rain redraws its
     /// occlusion map when it changes).
     caller_occluders_generation: u64,
+    /// Where precomputation runs ([`RendererDescriptor::precompute`]).
+    precompute: Precompute,
 }
 
 impl Renderer {
@@ -248,8 +279,10 @@ impl Renderer {
             timer,
             background_override: None,
             passes_run: AtomicU32::new(0),
+            lighting_recorded: AtomicU32::new(0),
             caller_occluders: None,
             caller_occluders_generation: 0,
+            precompute: descriptor.precompute,
         }
     }
 
@@ -301,6 +334,40 @@ impl Renderer {
         )?;
         self.caller_occluders = (!indices.is_empty())
             .then(|| IndexedMesh::upload(&self.device, "caller occluders", positions_m, indices));
+        self.caller_occluders_generation += 1;
+        Ok(())
+    }
+
+    /// The caller's world as a depth buffer seen from above, stopping the
+    /// rain and casting its rain shadow beside nimbus's terrain, the
+    /// `[[objects]]` and [`Self::set_occluders`]' triangles: `depth` (the
+    /// view of a depth texture's depth aspect, any depth format, with
+    /// `TEXTURE_BINDING` usage) of `width` × `height` texels, rendered
+    /// through `view` (typically orthographic, straight down, over the
+    /// rain's surroundings; any projection and depth convention). Texels at
+    /// the view's far plane are open sky; the rest is a height field, so
+    /// what is under an overhang counts as solid. Call again whenever its
+    /// contents change (the rain shadow map is redrawn); `None` removes it.
+    /// Errors: a view that cannot be drawn, a size under 2 × 2.
+    pub fn set_occluder_depth(
+        &mut self,
+        depth: Option<OccluderDepth<'_>>,
+    ) -> Result<(), RenderError> {
+        if let Some(d) = &depth {
+            d.view.check()?;
+            if d.width < 2 || d.height < 2 {
+                return Err(RenderError::Occluders(format!(
+                    "depth from above of {} × {} texels: must be at least 2 × 2",
+                    d.width, d.height
+                )));
+            }
+        }
+        self.rain.set_depth_occluder(
+            &self.queue,
+            depth
+                .as_ref()
+                .map(|d| (d.depth, &d.view, d.width, d.height)),
+        );
         self.caller_occluders_generation += 1;
         Ok(())
     }
@@ -471,19 +538,21 @@ impl Renderer {
                 albedo: scene.ground.albedo.map(|c| c as f32),
             }
         };
-        self.terrain.prepare(&self.device, &self.queue, &ground)?;
-        self.terrain.prepare_sun(&self.queue, scene.sun.direction());
+        let precompute = self.precompute;
+        self.terrain
+            .prepare(&self.device, &self.queue, &ground, precompute)?;
+        self.terrain
+            .prepare_sun(&self.queue, scene.sun.direction(), precompute);
         self.objects.prepare(&self.device, scene)?;
-        if let Some(terrain) = self.terrain.terrain() {
-            self.stratus.prepare(
-                &self.device,
-                &self.queue,
-                scene,
-                terrain,
-                time_s,
-                &mut self.frame.cloud_lighting,
-            )?;
-        }
+        self.stratus.prepare(
+            &self.device,
+            &self.queue,
+            scene,
+            self.terrain.terrain(),
+            time_s,
+            &mut self.frame.cloud_lighting,
+            precompute,
+        )?;
         self.cumulus.prepare(
             &self.device,
             &self.queue,
@@ -492,6 +561,7 @@ impl Renderer {
             self.frame.cloud_lighting.shadow(),
             width,
             height,
+            precompute,
         )?;
         let occluders = self.occluders();
         let strides: Vec<u64> = occluders.iter().map(|g| g.vertex_stride).collect();
@@ -512,6 +582,42 @@ impl Renderer {
             &strides,
         )?;
         Ok(())
+    }
+
+    /// The precomputation under way on worker threads, by name (e.g.
+    /// "cumulus shapes", "stratus optics", "terrain"): empty once every
+    /// part of the last prepared scene is drawn as it should be. Under
+    /// [`Precompute::Background`] a frame prepared while work is pending
+    /// leaves out what is not ready (no cumulus before its shapes, no layer
+    /// before its optics, no terrain before it is generated) and the next
+    /// [`Self::prepare_view`] after it finishes picks it up.
+    pub fn pending_work(&self) -> Vec<&'static str> {
+        self.terrain
+            .pending()
+            .chain(self.stratus.pending())
+            .chain(self.cumulus.pending())
+            .collect()
+    }
+
+    /// Whether nothing is pending ([`Self::pending_work`] is empty).
+    pub fn is_ready(&self) -> bool {
+        self.pending_work().is_empty()
+    }
+
+    /// Blocks until the work under way has finished. Work that depends on
+    /// it (the terrain's sun visibility, the layer's radiosity grid) starts
+    /// at the next prepare: to render one complete frame, repeat
+    /// `prepare_view`, `wait_for_precompute` until [`Self::is_ready`] (or
+    /// create the renderer with [`Precompute::Blocking`]).
+    pub fn wait_for_precompute(&mut self) {
+        self.terrain.wait();
+        self.stratus.wait();
+        self.cumulus.wait();
+    }
+
+    /// Where the next frames' precomputation runs.
+    pub fn set_precompute(&mut self, precompute: Precompute) {
+        self.precompute = precompute;
     }
 
     /// Checks that the output format suits the mode on this device.

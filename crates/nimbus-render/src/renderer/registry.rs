@@ -19,6 +19,7 @@ pub fn all_modules() -> Vec<(&'static str, String)> {
         ("rain streaks", rain::streaks_shader_source()),
         ("rain mist", rain::mist_shader_source()),
         ("rain shadow map", rain::occluders_shader_source()),
+        ("rain depth occluder", rain::depth_occluder_shader_source()),
         ("exposure", exposure::shader_source()),
         ("tonemap", tonemap::shader_source()),
         ("radiosity", stratus::radiosity::shader_source()),
@@ -28,6 +29,7 @@ pub fn all_modules() -> Vec<(&'static str, String)> {
         ("cumulus shadow", cumulus::shadow_shader_source()),
         ("cumulus composite", cumulus::composite_shader_source()),
         ("composite", composite::shader_source()),
+        ("nimbus lighting include", crate::shader::lighting_include()),
     ]);
     modules
 }

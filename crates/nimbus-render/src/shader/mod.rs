@@ -239,6 +239,25 @@ pub const CLOUD_SHADOW_LOOKUP: WgslFile = WgslFile {
     source: include_str!("cloud_shadow_lookup.wgsl"),
 };
 
+/// nimbus's lighting for the caller's own pipelines: the stable functions
+/// `nimbus_sun_visibility`, `nimbus_sun_direction`, `nimbus_sun_irradiance`,
+/// `nimbus_lambert_radiance`, `nimbus_pre_exposure` ([`lighting_include`]).
+pub const NIMBUS_LIGHTING: WgslFile = WgslFile {
+    name: "shader/nimbus_lighting.wgsl",
+    source: include_str!("nimbus_lighting.wgsl"),
+};
+
+/// The WGSL a caller's pipeline starts with to light its surfaces as
+/// nimbus lights its own (the sun through the atmosphere and the clouds'
+/// shadows, the sky's or the cloud layer's ambient light): the functions of
+/// `shader/nimbus_lighting.wgsl` and everything they need, composed. The
+/// pipeline's layout: nimbus's groups 0, 2 and 3 and the caller's group 1
+/// ([`crate::frame::FrameLayouts::pipeline_layout`]); bound with
+/// [`crate::frame::FrameBindings::set_on`]. See docs/embedding.md.
+pub fn lighting_include() -> String {
+    compose(&[NIMBUS_LIGHTING])
+}
+
 /// Every shared WGSL file: what imports resolve against.
 pub const LIBRARY: [WgslFile; 11] = [
     COMMON,

@@ -66,16 +66,11 @@ pub struct CompositePass {
 }
 
 fn depth_entry(binding: u32) -> wgpu::BindGroupLayoutEntry {
-    wgpu::BindGroupLayoutEntry {
+    binding::depth_texture_entry(
         binding,
-        visibility: wgpu::ShaderStages::FRAGMENT,
-        ty: wgpu::BindingType::Texture {
-            sample_type: wgpu::TextureSampleType::Depth,
-            view_dimension: wgpu::TextureViewDimension::D2,
-            multisampled: false,
-        },
-        count: None,
-    }
+        wgpu::TextureViewDimension::D2,
+        wgpu::ShaderStages::FRAGMENT,
+    )
 }
 
 impl CompositePass {

@@ -22,10 +22,13 @@
 
 pub mod variants;
 
+use crate::core::background::Deferred;
 pub use crate::frame::cloud_shadow::{CloudShadowMap, CloudShadowUniform, SHADOW_MAP_SIZE};
 use crate::scene::CumulusSettings;
 use crate::shader::{self, WgslFile};
 use glam::DVec3;
+use nimbus_physics::cumulus::forward_peak::ForwardPeakTable;
+use nimbus_physics::optics::tables::CloudOpticsParams;
 use std::ops::Range;
 use std::sync::Arc;
 use variants::{CumulusVariant, VariantParams};
@@ -136,6 +139,9 @@ struct FringeTargets {
     composite_group: wgpu::BindGroup,
 }
 
+/// The shape variants, or why they could not be made.
+type ShapesResult = Result<Vec<Arc<CumulusVariant>>, variants::VariantError>;
+
 /// Why the cumulus cannot be prepared.
 #[derive(Debug, thiserror::Error)]
 pub enum CumulusError {
@@ -184,6 +190,10 @@ pub struct CumulusPass {
     composite_layout: wgpu::BindGroupLayout,
     fringe: Option<FringeTargets>,
     variants: Option<(VariantParams, Vec<GpuVariant>)>,
+    /// The shapes generated or loaded (a worker thread's work).
+    shapes: Deferred<VariantParams, ShapesResult>,
+    /// The forward-peak table of the droplets (from their Mie tables).
+    forward_peak: Deferred<CloudOpticsParams, Arc<ForwardPeakTable>>,
     field: Option<(FieldKey, Vec<FieldCloud>)>,
     /// The field's clouds where the wind has carried them this frame.
     moved: Vec<FieldCloud>,

@@ -9,6 +9,7 @@ use super::{
     CumulusError, CumulusPass, Draw, FieldKey, GpuLod, GpuVariant, SHADOW_FILTER_TEXELS,
     SHADOW_LOD, variants,
 };
+use crate::core::background::Precompute;
 use crate::frame::FrameUniform;
 use crate::frame::cloud_lighting::{load_optics, optics_params};
 use crate::frame::cloud_shadow::{CloudShadowMap, CloudShadowUniform, SHADOW_MAP_SIZE};
@@ -17,23 +18,42 @@ use glam::{DVec3, Vec3};
 use nimbus_physics::cumulus::cloud_field::{CloudFieldParams, CloudInstance, place_clouds};
 use nimbus_physics::cumulus::forward_peak::{self, ForwardPeakTable};
 use nimbus_physics::cumulus::shading::CLOUD_ASYMMETRY;
+use std::sync::Arc;
 use wgpu::util::DeviceExt;
 
 impl CumulusPass {
-    /// Computes and uploads the forward-peak table F(θ, τ) when the
-    /// droplets change: from the stratus layer's droplet size distribution
-    /// (the default one without a layer; the same phase function `nimbus
-    /// export` gives the cumulus volumes), its optical tables cached on disk.
-    fn update_forward_peak(&mut self, queue: &wgpu::Queue, scene: &Scene) {
+    /// Computes (on a worker thread under [`Precompute::Background`]) and
+    /// uploads the forward-peak table F(θ, τ) when the droplets change:
+    /// from the stratus layer's droplet size distribution (the default one
+    /// without a layer; the same phase function `nimbus export` gives the
+    /// cumulus volumes), its optical tables cached on disk. Whether the
+    /// table of this scene's droplets is uploaded.
+    fn update_forward_peak(
+        &mut self,
+        queue: &wgpu::Queue,
+        scene: &Scene,
+        precompute: Precompute,
+    ) -> bool {
         let params = match &scene.stratus {
             Some(layer) => optics_params(layer),
             None => optics_params(&StratusSettings::default()),
         };
         let key = params.cache_hash();
         if self.forward_peak_key == Some(key) {
-            return;
+            return true;
         }
-        let table = ForwardPeakTable::from_optics(&load_optics(&params));
+        let job = params.clone();
+        let Some((ready, table)) =
+            self.forward_peak
+                .request(params.clone(), precompute, move || {
+                    Arc::new(ForwardPeakTable::from_optics(&load_optics(&job)))
+                })
+        else {
+            return false;
+        };
+        if *ready != params {
+            return false;
+        }
         queue.write_texture(
             self.forward_peak_table.as_image_copy(),
             bytemuck::cast_slice(&table.rgba_texels()),
@@ -45,6 +65,29 @@ impl CumulusPass {
             self.forward_peak_table.size(),
         );
         self.forward_peak_key = Some(key);
+        true
+    }
+
+    /// The work under way on worker threads.
+    pub fn pending(&self) -> impl Iterator<Item = &'static str> {
+        [self.shapes.pending(), self.forward_peak.pending()]
+            .into_iter()
+            .flatten()
+    }
+
+    /// Blocks until the work under way has finished (the next
+    /// [`Self::prepare`] uploads it).
+    pub fn wait(&mut self) {
+        self.shapes.wait();
+        self.forward_peak.wait();
+    }
+
+    /// Nothing drawn this frame: no clouds, no shadow.
+    fn disable(&mut self, queue: &wgpu::Queue, shadow_map: &CloudShadowMap) {
+        self.moved.clear();
+        self.enabled = false;
+        self.shadow_enabled = false;
+        shadow_map.write(queue, &CloudShadowUniform::default());
     }
 
     /// Whether the frame has clouds to draw.
@@ -96,7 +139,9 @@ impl CumulusPass {
     }
 
     /// Generates (or loads) the shapes, places the field, and selects and
-    /// uploads this frame's instances and shadow transform.
+    /// uploads this frame's instances and shadow transform. Under
+    /// [`Precompute::Background`] the shapes and the forward-peak table are
+    /// made on worker threads and no cloud is drawn until both are ready.
     #[allow(clippy::too_many_arguments)]
     pub fn prepare(
         &mut self,
@@ -107,26 +152,42 @@ impl CumulusPass {
         shadow_map: &CloudShadowMap,
         width: u32,
         height: u32,
+        precompute: Precompute,
     ) -> Result<(), CumulusError> {
         self.draws.clear();
         self.shadow_draws.clear();
         let Some(settings) = &scene.cumulus else {
-            self.moved.clear();
-            self.enabled = false;
-            self.shadow_enabled = false;
-            shadow_map.write(queue, &CloudShadowUniform::default());
+            self.disable(queue, shadow_map);
             return Ok(());
         };
-        if settings.shading.forward_peak > 0.0 {
-            self.update_forward_peak(queue, scene);
-        }
         let params = VariantParams {
             count: settings.variants,
             seed: settings.shape_seed,
             levels_of_detail: settings.levels_of_detail,
         };
+        // Both requested before either is waited for, so that they run side by side.
+        let job = params.clone();
+        let shapes = self
+            .shapes
+            .request(params.clone(), precompute, move || {
+                variants::load_or_generate(&crate::core::cache::cache_dir(), &job)
+            })
+            .filter(|(ready, _)| **ready == params)
+            .map(|(_, shapes)| shapes.clone());
+        let peak_ready = settings.shading.forward_peak <= 0.0
+            || self.update_forward_peak(queue, scene, precompute);
+        let shapes = match shapes {
+            Some(shapes) => shapes?,
+            None => {
+                self.disable(queue, shadow_map);
+                return Ok(());
+            }
+        };
+        if !peak_ready {
+            self.disable(queue, shadow_map);
+            return Ok(());
+        }
         if self.variants.as_ref().map(|v| &v.0) != Some(&params) {
-            let shapes = variants::load_or_generate(&crate::core::cache::cache_dir(), &params)?;
             let gpu = shapes
                 .into_iter()
                 .map(|shape| GpuVariant {

@@ -6,6 +6,7 @@ use super::{
     CumulusPass, FORWARD_PEAK_TEXTURE, composite_shader_source, draw_shader_source,
     shadow_shader_source,
 };
+use crate::core::background::Deferred;
 use crate::core::binding;
 use crate::core::pipeline::{DrawPipeline, PREMULTIPLIED_OVER, depth_state, hdr_target};
 use crate::frame::FrameLayouts;
@@ -201,6 +202,8 @@ impl CumulusPass {
             composite_layout,
             fringe: None,
             variants: None,
+            shapes: Deferred::new("cumulus shapes"),
+            forward_peak: Deferred::new("cumulus forward peak"),
             field: None,
             moved: Vec::new(),
             instances: None,

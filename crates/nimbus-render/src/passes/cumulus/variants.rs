@@ -110,7 +110,7 @@ impl VariantParams {
 }
 
 /// Why a variant could not be made.
-#[derive(Debug, thiserror::Error)]
+#[derive(Clone, Debug, thiserror::Error)]
 pub enum VariantError {
     /// The generator refused the parameters.
     #[error("cumulus variant {index}: {source}")]

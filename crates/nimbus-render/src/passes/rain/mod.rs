@@ -22,12 +22,14 @@ use nimbus_physics::rain::zones::RainZones;
 
 pub use nimbus_physics::rain::simulation::STEP_S;
 
+mod depth_occluder;
 mod gpu_types;
 mod node;
 mod prepare;
 mod resources;
 mod settings;
 
+pub use depth_occluder::{DepthOccluderUniform, MAX_GRID_VERTICES, depth_occluder_shader_source};
 pub use gpu_types::{
     DropGpu, RainSegmentUniform, RainStepUniform, RainUniform, WindPrimitiveUniform,
     drops_per_buffer,
@@ -354,6 +356,8 @@ pub struct RainPass {
     occluders_layout: wgpu::PipelineLayout,
     /// Rain shadow map pipelines, one per vertex stride of the occluders.
     occluders: Vec<(u64, wgpu::RenderPipeline)>,
+    /// The caller's depth from above, drawn into the rain shadow map.
+    depth_occluder: depth_occluder::DepthOccluderDraw,
     occlusion_texture: wgpu::Texture,
     state: Option<RainState>,
     plan: FramePlan,

@@ -45,6 +45,7 @@ impl RainPass {
                     geometry.draw(&mut pass);
                 }
             }
+            self.depth_occluder.draw(&mut pass);
         }
         let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
             label: Some("rain simulation"),

@@ -1,5 +1,6 @@
 //! The rain pass's pipelines and bind-group layouts, created once.
 
+use super::depth_occluder::DepthOccluderDraw;
 use super::gpu_types::{RainSegmentUniform, RainStepUniform, RainUniform};
 use super::{
     DROP_BYTES, FramePlan, OCCLUSION_MAP_SIZE, RainPass, SPLASH_BYTES, STEP_STRIDE,
@@ -76,17 +77,9 @@ impl RainPass {
         let segment_size = std::mem::size_of::<RainSegmentUniform>() as u64;
         let read = Storage { read_only: true };
         let write = Storage { read_only: false };
-        let depth_texture =
-            |binding: u32, visibility: wgpu::ShaderStages| wgpu::BindGroupLayoutEntry {
-                binding,
-                visibility,
-                ty: wgpu::BindingType::Texture {
-                    sample_type: wgpu::TextureSampleType::Depth,
-                    view_dimension: wgpu::TextureViewDimension::D2,
-                    multisampled: false,
-                },
-                count: None,
-            };
+        let depth_texture = |binding: u32, visibility: wgpu::ShaderStages| {
+            binding::depth_texture_entry(binding, wgpu::TextureViewDimension::D2, visibility)
+        };
         let simulation_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("rain simulation"),
             entries: &[
@@ -262,6 +255,7 @@ impl RainPass {
             occluders_module,
             occluders_layout,
             occluders: Vec::new(),
+            depth_occluder: DepthOccluderDraw::new(device, &occlusion_layout),
             occlusion_texture,
             state: None,
             plan: FramePlan::default(),
@@ -294,6 +288,19 @@ impl RainPass {
             targets: &[],
         }
         .create(device)
+    }
+
+    /// The caller's depth buffer of its world seen from above through
+    /// `view` (`width` × `height` texels; the view of its depth aspect,
+    /// `TEXTURE_BINDING` usage) drawn into the rain shadow map with the
+    /// occluders' triangles, or none. The map is redrawn when the renderer's
+    /// occluder generation changes.
+    pub fn set_depth_occluder(
+        &mut self,
+        queue: &wgpu::Queue,
+        depth: Option<(&wgpu::TextureView, &crate::frame::View, u32, u32)>,
+    ) {
+        self.depth_occluder.set(&self.device, queue, depth);
     }
 
     /// Whether the current scene has rain.

@@ -24,10 +24,12 @@
 
 pub mod radiosity;
 
+use crate::core::background::Deferred;
 use crate::passes::stratus::radiosity::{RadiosityError, RadiosityPass};
 use crate::scene::StratusSettings;
 use crate::shader::{self, WgslFile};
-use nimbus_physics::optics::tables::CloudOpticsParams;
+use nimbus_physics::optics::tables::{CloudOpticsParams, CloudOpticsTables};
+use std::sync::Arc;
 
 pub use crate::frame::cloud_lighting::{PEAK_TEXELS, PHASE_TEXELS, StratusUniform};
 
@@ -118,6 +120,8 @@ pub struct StratusPass {
     current: StratusUniform,
     /// The camera's height this frame, m.
     camera_height_m: f64,
+    /// The layer's droplet optics (Mie tables; seconds when not cached).
+    optics_tables: Deferred<CloudOpticsParams, Arc<CloudOpticsTables>>,
 }
 
 /// Errors of the pass.

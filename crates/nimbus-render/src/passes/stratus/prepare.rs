@@ -5,9 +5,11 @@ use super::{
     FORWARD_PEAK_DEG, PEAK_TEXELS, PHASE_TEXELS, RadiosityGrid, ResourceKey, Resources,
     StratusError, StratusPass, StratusUniform, cloud_layer_field,
 };
+use crate::core::background::Precompute;
 use crate::frame::cloud_lighting::{CloudLayerResources, CloudLighting};
 use crate::passes::stratus::radiosity::RadiosityPass;
 use crate::scene::{Scene, StratusShadingModel};
+use nimbus_physics::optics::tables::CloudOpticsTables;
 use nimbus_physics::terrain::Terrain;
 use nimbus_physics::transport::stratus::OneDimensionalTable;
 use wgpu::util::DeviceExt;
@@ -44,26 +46,65 @@ impl StratusPass {
         (self.camera_height_m - mid).abs() <= reach
     }
 
-    /// Whether the scene has a layer to draw.
+    /// Whether the scene has a layer to draw (and what it needs is ready).
     pub fn enabled(&self) -> bool {
         self.settings.is_some()
+    }
+
+    /// The work under way on a worker thread, if any.
+    pub fn pending(&self) -> Option<&'static str> {
+        self.optics_tables.pending()
+    }
+
+    /// Blocks until the work under way has finished (the next
+    /// [`Self::prepare`] uses it).
+    pub fn wait(&mut self) {
+        self.optics_tables.wait();
     }
 
     /// Builds what changed and writes the frame's uniform: the layer's
     /// field at `time_s`, the window around the camera, the 1-D model at
     /// the sun's zenith angle. What it builds is bound in the frame's
     /// `cloud_lighting` (group 3), and its uniform and phase tables written there.
+    ///
+    /// The droplets' optics tables are computed on a worker thread under
+    /// [`Precompute::Background`]; until they (and the terrain, `None`)
+    /// are ready the layer is not drawn.
+    #[allow(clippy::too_many_arguments)]
     pub fn prepare(
         &mut self,
         device: &wgpu::Device,
         queue: &wgpu::Queue,
         scene: &Scene,
-        terrain: &Terrain,
+        terrain: Option<&Terrain>,
         time_s: f32,
         cloud_lighting: &mut CloudLighting,
+        precompute: Precompute,
     ) -> Result<(), StratusError> {
-        self.settings = scene.stratus.clone();
         self.camera_height_m = scene.camera.position_m[1];
+        let wanted = scene.stratus.as_ref().map(optics_params);
+        let tables = match wanted {
+            Some(params) => {
+                let job = params.clone();
+                match self
+                    .optics_tables
+                    .request(params.clone(), precompute, move || load_optics(&job))
+                {
+                    Some((ready, tables)) if *ready == params => Some(tables.clone()),
+                    _ => None,
+                }
+            }
+            None => None,
+        };
+        // Drawn only once what it needs is ready (and without a layer: the
+        // smallest resources keep the bindings valid, built below).
+        let ready = scene.stratus.is_none() || (tables.is_some() && terrain.is_some());
+        self.settings = scene.stratus.clone().filter(|_| ready);
+        if !ready && self.resources.is_some() {
+            self.current = StratusUniform::default();
+            cloud_lighting.write_layer_uniform(queue, &self.current);
+            return Ok(());
+        }
         let settings = self.settings.clone();
         let mid_plane_m = settings
             .as_ref()
@@ -74,10 +115,14 @@ impl StratusPass {
             resolution: settings.as_ref().map_or(16, |s| s.resolution),
             mid_plane_m: settings.as_ref().map(|_| mid_plane_m),
             optics: settings.as_ref().map(optics_params),
-            terrain: settings.as_ref().map(|_| terrain.params.clone()),
+            terrain: settings
+                .as_ref()
+                .and(terrain)
+                .map(|terrain| terrain.params.clone()),
         };
         if self.resources.as_ref().map(|r| &r.key) != Some(&key) {
-            let (resources, phase_tables) = self.build(device, queue, key, terrain)?;
+            let (resources, phase_tables) =
+                self.build(device, queue, key, terrain, tables.as_deref())?;
             if let Some(texels) = phase_tables {
                 cloud_lighting.write_phase_tables(queue, &texels);
             }
@@ -178,7 +223,8 @@ impl StratusPass {
         device: &wgpu::Device,
         queue: &wgpu::Queue,
         key: ResourceKey,
-        terrain: &Terrain,
+        terrain: Option<&Terrain>,
+        tables: Option<&CloudOpticsTables>,
     ) -> Result<(Resources, Option<PhaseTexels>), StratusError> {
         let n = key.resolution;
         let thickness = device.create_texture(&wgpu::TextureDescriptor {
@@ -202,10 +248,11 @@ impl StratusPass {
         // change, not every frame.
         let grid = key
             .mid_plane_m
-            .map(|mid_plane_m| RadiosityGrid::new(terrain, mid_plane_m));
+            .zip(terrain)
+            .map(|(mid_plane_m, terrain)| RadiosityGrid::new(terrain, mid_plane_m));
         let radiosity_size = grid.map_or(8, |g| g.size);
         let radiosity = RadiosityPass::new(device, radiosity_size)?;
-        if let Some(grid) = &grid {
+        if let (Some(grid), Some(terrain)) = (&grid, terrain) {
             let rho: Vec<[f32; 4]> = grid
                 .ground_reflectance(terrain)
                 .iter()
@@ -217,9 +264,8 @@ impl StratusPass {
                 bytemuck::cast_slice(&rho),
             );
         }
-        let (phase, optics) = match &key.optics {
-            Some(params) => {
-                let tables = load_optics(params);
+        let (phase, optics) = match tables.filter(|_| key.optics.is_some()) {
+            Some(tables) => {
                 let mut texels: Vec<[f32; 4]> = Vec::new();
                 for table in [
                     &tables.peak_removed,

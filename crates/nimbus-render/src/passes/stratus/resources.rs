@@ -1,6 +1,7 @@
 //! The stratus pass's layouts and pipelines, created once.
 
 use super::{StratusPass, StratusUniform, compute_shader_source, layer_shader_source};
+use crate::core::background::Deferred;
 use crate::core::binding;
 use crate::core::pipeline::{DrawPipeline, PREMULTIPLIED_OVER, depth_state, hdr_target};
 use crate::frame::FrameLayouts;
@@ -99,6 +100,7 @@ impl StratusPass {
             settings: None,
             current: StratusUniform::default(),
             camera_height_m: 0.0,
+            optics_tables: Deferred::new("stratus optics"),
         }
     }
 }

@@ -9,6 +9,7 @@
 //! (`RadiosityGrid::ground_reflectance`), and the rain stops on the
 //! terrain's triangles ([`TerrainPass::occluder_geometry`]), not on the map.
 
+use crate::core::background::{Deferred, Precompute};
 use crate::core::binding;
 use crate::core::limits::{self, LimitError};
 use crate::core::mesh::IndexedMesh;
@@ -18,6 +19,7 @@ use crate::frame::{FrameBindings, FrameLayouts};
 use crate::shader::{self, WgslFile};
 use bytemuck::{Pod, Zeroable};
 use nimbus_physics::terrain::{self, Terrain, TerrainParams};
+use std::sync::Arc;
 use wgpu::util::DeviceExt;
 
 const TERRAIN_WGSL: WgslFile = WgslFile {
@@ -122,7 +124,7 @@ impl Ground {
 struct TerrainMesh {
     ground: Ground,
     /// The CPU terrain, kept to recompute the sun visibility when the sun moves.
-    terrain: Terrain,
+    terrain: Arc<Terrain>,
     triangles: IndexedMesh,
     albedo: wgpu::Texture,
     albedo_view: wgpu::TextureView,
@@ -141,6 +143,41 @@ pub struct TerrainPass {
     mesh: Option<TerrainMesh>,
     /// Incremented whenever the mesh is rebuilt (the rain redraws its shadow map).
     generation: u64,
+    /// The ground generated and meshed (a worker thread's work).
+    generated: Deferred<Ground, GeneratedGround>,
+    /// The sun-visibility texels of (mesh generation, sun direction).
+    sun_visibility: Deferred<(u64, [f64; 3]), Vec<u8>>,
+}
+
+/// A ground generated and meshed on the CPU, ready to upload.
+#[derive(Debug)]
+struct GeneratedGround {
+    terrain: Arc<Terrain>,
+    vertices: Vec<TerrainVertex>,
+    indices: Vec<u32>,
+    albedo_texels: Vec<[u8; 4]>,
+}
+
+impl GeneratedGround {
+    fn of(ground: &Ground) -> Self {
+        let terrain = ground.generate();
+        let (vertices, indices) = build_mesh(&terrain);
+        let albedo_texels = terrain.albedo_rgba8();
+        Self {
+            terrain: Arc::new(terrain),
+            vertices,
+            indices,
+            albedo_texels,
+        }
+    }
+}
+
+/// The sun's visibility over the terrain as R8 texels.
+fn sun_visibility_texels(terrain: &Terrain, sun_direction: [f64; 3]) -> Vec<u8> {
+    terrain::sun_visibility(terrain, sun_direction)
+        .iter()
+        .map(|v| (v.clamp(0.0, 1.0) * 255.0).round() as u8)
+        .collect()
 }
 
 impl TerrainPass {
@@ -184,10 +221,14 @@ impl TerrainPass {
             sampler,
             mesh: None,
             generation: 0,
+            generated: Deferred::new("terrain"),
+            sun_visibility: Deferred::new("terrain sun visibility"),
         }
     }
 
-    /// Generates and uploads the terrain when its parameters changed.
+    /// Generates the terrain when its parameters changed (on a worker
+    /// thread under [`Precompute::Background`]: until it is ready nothing is
+    /// drawn) and uploads it once generated.
     ///
     /// The mesh's buffer sizes are checked against the device's limit first.
     pub fn prepare(
@@ -195,6 +236,7 @@ impl TerrainPass {
         device: &wgpu::Device,
         queue: &wgpu::Queue,
         ground: &Ground,
+        precompute: Precompute,
     ) -> Result<(), LimitError> {
         if self.mesh.as_ref().is_some_and(|m| &m.ground == ground) {
             return Ok(());
@@ -204,11 +246,24 @@ impl TerrainPass {
         let vertex_bytes = side * side * std::mem::size_of::<TerrainVertex>() as u64;
         limits::check_buffer_size(device, &what, vertex_bytes)?;
         limits::check_buffer_size(device, &what, (side - 1) * (side - 1) * 6 * 4)?;
-        let terrain = ground.generate();
-        let (vertices, indices) = build_mesh(&terrain);
-        let mesh = IndexedMesh::upload(device, "terrain", &vertices, &indices);
+        let job = ground.clone();
+        let Some((built_ground, built)) =
+            self.generated.request(ground.clone(), precompute, move || {
+                GeneratedGround::of(&job)
+            })
+        else {
+            return Ok(());
+        };
+        if self
+            .mesh
+            .as_ref()
+            .is_some_and(|m| &m.ground == built_ground)
+        {
+            return Ok(());
+        }
+        let terrain = built.terrain.clone();
+        let mesh = IndexedMesh::upload(device, "terrain", &built.vertices, &built.indices);
         let side = terrain.vertices_per_side() as u32;
-        let texels = terrain.albedo_rgba8();
         let albedo = device.create_texture_with_data(
             queue,
             &wgpu::TextureDescriptor {
@@ -226,7 +281,7 @@ impl TerrainPass {
                 view_formats: &[],
             },
             wgpu::util::TextureDataOrder::LayerMajor,
-            bytemuck::cast_slice(&texels),
+            bytemuck::cast_slice(&built.albedo_texels),
         );
         let albedo_view = albedo.create_view(&Default::default());
         let sun_visibility = device.create_texture(&wgpu::TextureDescriptor {
@@ -264,7 +319,7 @@ impl TerrainPass {
         });
         self.generation += 1;
         self.mesh = Some(TerrainMesh {
-            ground: ground.clone(),
+            ground: built_ground.clone(),
             terrain,
             triangles: mesh,
             albedo,
@@ -277,21 +332,36 @@ impl TerrainPass {
     }
 
     /// Recomputes the sun-visibility map (terrain shadows) when the sun has
-    /// moved or the terrain was regenerated. Call after [`Self::prepare`].
-    pub fn prepare_sun(&mut self, queue: &wgpu::Queue, sun_direction: [f64; 3]) {
+    /// moved or the terrain was regenerated (on a worker thread under
+    /// [`Precompute::Background`]: the previous map stays until the new one
+    /// is ready, and the terrain is not drawn before its first). Call after
+    /// [`Self::prepare`].
+    pub fn prepare_sun(
+        &mut self,
+        queue: &wgpu::Queue,
+        sun_direction: [f64; 3],
+        precompute: Precompute,
+    ) {
         let Some(mesh) = &mut self.mesh else { return };
         if mesh.sun_direction == Some(sun_direction) {
             return;
         }
-        let visibility = terrain::sun_visibility(&mesh.terrain, sun_direction);
-        let texels: Vec<u8> = visibility
-            .iter()
-            .map(|v| (v.clamp(0.0, 1.0) * 255.0).round() as u8)
-            .collect();
+        let terrain = mesh.terrain.clone();
+        let key = (self.generation, sun_direction);
+        let Some(((generation, direction), visibility)) =
+            self.sun_visibility.request(key, precompute, move || {
+                sun_visibility_texels(&terrain, sun_direction)
+            })
+        else {
+            return;
+        };
+        if *generation != self.generation || mesh.sun_direction == Some(*direction) {
+            return;
+        }
         let side = mesh.terrain.vertices_per_side() as u32;
         queue.write_texture(
             mesh.sun_visibility.as_image_copy(),
-            &texels,
+            visibility,
             wgpu::TexelCopyBufferLayout {
                 offset: 0,
                 bytes_per_row: Some(side),
@@ -303,12 +373,26 @@ impl TerrainPass {
                 depth_or_array_layers: 1,
             },
         );
-        mesh.sun_direction = Some(sun_direction);
+        mesh.sun_direction = Some(*direction);
+    }
+
+    /// The work under way on a worker thread, if any.
+    pub fn pending(&self) -> impl Iterator<Item = &'static str> {
+        [self.generated.pending(), self.sun_visibility.pending()]
+            .into_iter()
+            .flatten()
+    }
+
+    /// Blocks until the work under way has finished (the next
+    /// [`Self::prepare`] uploads it).
+    pub fn wait(&mut self) {
+        self.generated.wait();
+        self.sun_visibility.wait();
     }
 
     /// The CPU terrain, once prepared.
     pub fn terrain(&self) -> Option<&Terrain> {
-        self.mesh.as_ref().map(|m| &m.terrain)
+        self.mesh.as_ref().map(|m| m.terrain.as_ref())
     }
 
     /// The albedo map (RGB albedo, A water mask), once prepared.
@@ -337,7 +421,12 @@ impl TerrainPass {
 
     /// Records the draw into `pass`.
     pub fn draw(&self, pass: &mut wgpu::RenderPass<'_>, frame: &FrameBindings<'_>) {
-        let Some(mesh) = self.mesh.as_ref().filter(|m| m.ground.is_drawn()) else {
+        // Not before its first sun visibility: an unwritten map is all shadow.
+        let Some(mesh) = self
+            .mesh
+            .as_ref()
+            .filter(|m| m.ground.is_drawn() && m.sun_direction.is_some())
+        else {
             return;
         };
         pass.set_pipeline(&self.pipeline);
