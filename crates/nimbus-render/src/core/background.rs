@@ -136,7 +136,7 @@ mod tests {
         let (release, gate) = mpsc::channel::<()>();
         assert!(
             d.request(1, Precompute::Background, move || {
-                gate.recv().unwrap();
+                gate.recv().expect("released");
                 10
             })
             .is_none()
@@ -147,14 +147,14 @@ mod tests {
             d.request(1, Precompute::Background, || unreachable!())
                 .is_none()
         );
-        release.send(()).unwrap();
+        release.send(()).expect("worker waiting");
         d.wait();
         assert_eq!(d.pending(), None);
         assert_eq!(d.ready(), Some((&1, &10)));
         // A new key: the old value stays until the new one is computed.
         let (release, gate) = mpsc::channel::<()>();
         let got = d.request(2, Precompute::Background, move || {
-            gate.recv().unwrap();
+            gate.recv().expect("released");
             20
         });
         assert_eq!(got, Some((&1, &10)));
@@ -163,7 +163,7 @@ mod tests {
             d.request(3, Precompute::Background, || unreachable!()),
             Some((&1, &10))
         );
-        release.send(()).unwrap();
+        release.send(()).expect("worker waiting");
         d.wait();
         assert_eq!(d.ready(), Some((&2, &20)));
         d.request(3, Precompute::Background, || 30);
