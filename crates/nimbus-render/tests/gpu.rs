@@ -14,6 +14,9 @@ use nimbus_render::headless::{HeadlessRenderer, Rgba8Image};
 use nimbus_render::{AdapterPreference, Scene};
 use std::path::PathBuf;
 
+#[path = "../examples/embed_world.rs"]
+mod embed_world;
+
 const GOLDEN_WIDTH: u32 = 160;
 const GOLDEN_HEIGHT: u32 = 90;
 
@@ -121,6 +124,44 @@ fn assert_matches_golden(name: &str, image: &Rgba8Image) {
             dir.display()
         );
     }
+}
+
+/// The example of a program drawing its own world (issue 26): nimbus's sky,
+/// clouds and rain composited in `LinearHdr` over the program's ground,
+/// boxes and roof, which nimbus's WGSL include lights. Its golden image,
+/// and the clouds' shadow reaching the program's ground through the include.
+#[test]
+fn golden_embedded_world_example() {
+    let h = headless();
+    let (device, queue) = (&h.gpu.device, &h.gpu.queue);
+    let scene = Scene::from_toml_str(embed_world::WORLD_SCENE, "embed_world.toml").expect("scene");
+    let (width, height) = (320, 180);
+    let (pixels, radiance) =
+        embed_world::render_world(device, queue, &scene, width, height, 10.0).expect("render");
+    assert_matches_golden(
+        "embed-world",
+        &Rgba8Image {
+            width,
+            height,
+            pixels,
+        },
+    );
+    // The same world under a clear sky: the program's ground in the sun.
+    let mut clear = scene.clone();
+    clear.stratus = None;
+    clear.cumulus = None;
+    let (_, clear_radiance) =
+        embed_world::render_world(device, queue, &clear, width, height, 10.0).expect("render");
+    // The bottom rows are the program's ground, near the camera.
+    let ground = |image: &[[f32; 4]]| {
+        let rows = &image[(width * (height - 10)) as usize..];
+        rows.iter().map(|p| p[1]).sum::<f32>() / rows.len() as f32
+    };
+    let (shaded, sunlit) = (ground(&radiance), ground(&clear_radiance));
+    assert!(
+        shaded < 0.6 * sunlit,
+        "ground under the clouds {shaded} vs in the sun {sunlit}: the include's shadow is missing"
+    );
 }
 
 #[test]

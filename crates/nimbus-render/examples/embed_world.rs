@@ -1,0 +1,597 @@
+//! nimbus inside your own renderer: your world, your camera, your HDR target
+//! and tone mapping; nimbus adds the sky, the clouds, the rain and the air.
+//!
+//! The program draws a ground plane, a few boxes and a shelter's roof with
+//! its own pipeline, lit by nimbus's sun and sky through nimbus's WGSL
+//! include (so the boxes receive the clouds' shadows), into its own
+//! `Rgba16Float` target and depth buffer (standard depth, finite far plane).
+//! nimbus, in `OutputMode::LinearHdr`, composites linear radiance over it
+//! by depth; the roof and boxes stop the rain (`Renderer::set_occluders`).
+//! Then the program tone maps its target itself. Run with
+//! `cargo run --release -p nimbus-render --example embed_world -- [out.png]`.
+
+use glam::{DVec3, Mat4};
+use nimbus_render::frame::FrameResources;
+use nimbus_render::{
+    DepthConvention, FrameTargets, Projection, Renderer, RendererDescriptor, Scene, TargetLoad,
+    View,
+};
+use wgpu::util::DeviceExt;
+
+/// The scene nimbus draws around the program's world: no terrain of its
+/// own (the program's ground stands in for it, albedo given for the cloud
+/// layer's radiosity), cumulus under a broken layer, steady rain.
+pub const WORLD_SCENE: &str = r#"
+[sun]
+azimuth_deg = 200.0
+elevation_deg = 30.0
+
+[ground]
+terrain = false
+albedo = [0.10, 0.12, 0.07]
+
+[stratus]
+base_m = 1600.0
+thickness_m = 300.0
+coverage = 0.45
+feature_size_m = 3000.0
+seed = 5
+
+[cumulus]
+coverage = 0.25
+base_m = 600.0
+seed = 11
+
+[wind]
+speed_m_s = 6.0
+from_deg = 250.0
+
+[rain]
+intensity_mm_h = 4.0
+"#;
+
+/// The program's colour format (nimbus composites into it).
+const HDR_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba16Float;
+/// The program's depth format; standard depth, 1 at its far plane.
+const DEPTH_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
+/// What the program's tone mapping writes.
+const DISPLAY_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba8UnormSrgb;
+
+/// The program's vertex: world position, normal, linear albedo.
+#[repr(C)]
+#[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
+struct WorldVertex {
+    position_m: [f32; 3],
+    normal: [f32; 3],
+    albedo: [f32; 3],
+}
+
+/// The program's world: a 4 km ground plane, three boxes and a roof
+/// (6 m × 4 m, 3 m up, on no posts: the rain under it is what it stops).
+fn world_geometry() -> (Vec<WorldVertex>, Vec<u32>) {
+    let mut vertices = Vec::new();
+    let mut indices = Vec::new();
+    let mut quad = |corners: [[f32; 3]; 4], normal: [f32; 3], albedo: [f32; 3]| {
+        let first = vertices.len() as u32;
+        vertices.extend(corners.map(|position_m| WorldVertex {
+            position_m,
+            normal,
+            albedo,
+        }));
+        indices.extend([0, 1, 2, 0, 2, 3].map(|i| first + i));
+    };
+    let ground = 2000.0;
+    quad(
+        [
+            [-ground, 0.0, ground],
+            [ground, 0.0, ground],
+            [ground, 0.0, -ground],
+            [-ground, 0.0, -ground],
+        ],
+        [0.0, 1.0, 0.0],
+        [0.10, 0.12, 0.07],
+    );
+    let boxes = [
+        ([-8.0, 0.0, -10.0], [4.0, 6.0, 4.0], [0.55, 0.52, 0.48]),
+        ([6.0, 0.0, -20.0], [5.0, 10.0, 5.0], [0.45, 0.20, 0.15]),
+        ([20.0, 0.0, -45.0], [8.0, 14.0, 8.0], [0.60, 0.60, 0.62]),
+    ];
+    for (min, size, albedo) in boxes {
+        let [x0, y0, z0] = min;
+        let [x1, y1, z1] = [x0 + size[0], y0 + size[1], z0 + size[2]];
+        quad(
+            [[x0, y1, z1], [x1, y1, z1], [x1, y1, z0], [x0, y1, z0]],
+            [0.0, 1.0, 0.0],
+            albedo,
+        );
+        quad(
+            [[x0, y0, z1], [x1, y0, z1], [x1, y1, z1], [x0, y1, z1]],
+            [0.0, 0.0, 1.0],
+            albedo,
+        );
+        quad(
+            [[x1, y0, z0], [x0, y0, z0], [x0, y1, z0], [x1, y1, z0]],
+            [0.0, 0.0, -1.0],
+            albedo,
+        );
+        quad(
+            [[x1, y0, z1], [x1, y0, z0], [x1, y1, z0], [x1, y1, z1]],
+            [1.0, 0.0, 0.0],
+            albedo,
+        );
+        quad(
+            [[x0, y0, z0], [x0, y0, z1], [x0, y1, z1], [x0, y1, z0]],
+            [-1.0, 0.0, 0.0],
+            albedo,
+        );
+    }
+    // The roof, both faces lit as the one seen (the shader flips the normal).
+    quad(
+        [
+            [-14.0, 3.0, 6.0],
+            [-8.0, 3.0, 6.0],
+            [-8.0, 3.0, 2.0],
+            [-14.0, 3.0, 2.0],
+        ],
+        [0.0, 1.0, 0.0],
+        [0.30, 0.25, 0.22],
+    );
+    (vertices, indices)
+}
+
+/// The program's camera: standing 2 m up, looking at the boxes.
+pub fn world_view(width: u32, height: u32) -> View {
+    View {
+        world_from_view: glam::DMat4::look_at_rh(
+            DVec3::new(-4.0, 2.0, 22.0),
+            DVec3::new(4.0, 6.0, -20.0),
+            DVec3::Y,
+        )
+        .inverse(),
+        projection: Projection::Perspective {
+            fov_y_rad: 65f64.to_radians(),
+            aspect: f64::from(width) / f64::from(height),
+            near_m: 0.1,
+            far_m: Some(20_000.0),
+        },
+        depth: DepthConvention::Standard,
+    }
+}
+
+/// The program's own shader: nimbus's lighting include, then its world
+/// (group 1: its camera) and its tone mapping.
+fn world_shader() -> String {
+    nimbus_render::shader::lighting_include()
+        + r#"
+@group(1) @binding(0) var<uniform> program_clip_from_world: mat4x4<f32>;
+
+struct WorldIn {
+    @location(0) position_m: vec3<f32>,
+    @location(1) normal: vec3<f32>,
+    @location(2) albedo: vec3<f32>,
+}
+
+struct WorldOut {
+    @builtin(position) clip: vec4<f32>,
+    @location(0) position_m: vec3<f32>,
+    @location(1) normal: vec3<f32>,
+    @location(2) albedo: vec3<f32>,
+}
+
+@vertex
+fn world_vertex(v: WorldIn) -> WorldOut {
+    var out: WorldOut;
+    out.clip = program_clip_from_world * vec4<f32>(v.position_m, 1.0);
+    out.position_m = v.position_m;
+    out.normal = v.normal;
+    out.albedo = v.albedo;
+    return out;
+}
+
+@fragment
+fn world_fragment(in: WorldOut, @builtin(front_facing) front: bool) -> @location(0) vec4<f32> {
+    let n = select(-1.0, 1.0, front) * normalize(in.normal);
+    // Linear radiance, pre-exposed as nimbus's own output is.
+    let radiance = nimbus_lambert_radiance(in.albedo, in.position_m, n) * nimbus_pre_exposure();
+    return vec4<f32>(radiance, 1.0);
+}
+"#
+}
+
+const TONEMAP_WGSL: &str = r#"
+@group(0) @binding(0) var hdr: texture_2d<f32>;
+
+@vertex
+fn fullscreen(@builtin(vertex_index) i: u32) -> @builtin(position) vec4<f32> {
+    let uv = vec2<f32>(f32((i << 1u) & 2u), f32(i & 2u));
+    return vec4<f32>(uv * 2.0 - 1.0, 0.0, 1.0);
+}
+
+// The program's tone mapping: Reinhard on each channel (the display
+// target's format does the sRGB encoding).
+@fragment
+fn tonemap(@builtin(position) p: vec4<f32>) -> @location(0) vec4<f32> {
+    let c = textureLoad(hdr, vec2<i32>(p.xy), 0).rgb;
+    return vec4<f32>(c / (1.0 + c), 1.0);
+}
+"#;
+
+fn texture(
+    device: &wgpu::Device,
+    format: wgpu::TextureFormat,
+    width: u32,
+    height: u32,
+    usage: wgpu::TextureUsages,
+) -> wgpu::Texture {
+    device.create_texture(&wgpu::TextureDescriptor {
+        label: None,
+        size: wgpu::Extent3d {
+            width,
+            height,
+            depth_or_array_layers: 1,
+        },
+        mip_level_count: 1,
+        sample_count: 1,
+        dimension: wgpu::TextureDimension::D2,
+        format,
+        usage: wgpu::TextureUsages::RENDER_ATTACHMENT | usage,
+        view_formats: &[],
+    })
+}
+
+/// The program's pipelines and its world on the GPU.
+struct Program {
+    world: wgpu::RenderPipeline,
+    camera: wgpu::Buffer,
+    camera_group: wgpu::BindGroup,
+    vertices: wgpu::Buffer,
+    indices: wgpu::Buffer,
+    index_count: u32,
+    tonemap: wgpu::RenderPipeline,
+    tonemap_layout: wgpu::BindGroupLayout,
+}
+
+impl Program {
+    fn new(device: &wgpu::Device, nimbus: &FrameResources) -> Self {
+        let (vertices, indices) = world_geometry();
+        let camera = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("program camera"),
+            size: 64,
+            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        let camera_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("program camera"),
+            entries: &[wgpu::BindGroupLayoutEntry {
+                binding: 0,
+                visibility: wgpu::ShaderStages::VERTEX,
+                ty: wgpu::BindingType::Buffer {
+                    ty: wgpu::BufferBindingType::Uniform,
+                    has_dynamic_offset: false,
+                    min_binding_size: None,
+                },
+                count: None,
+            }],
+        });
+        let camera_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("program camera"),
+            layout: &camera_layout,
+            entries: &[wgpu::BindGroupEntry {
+                binding: 0,
+                resource: camera.as_entire_binding(),
+            }],
+        });
+        // nimbus's groups 0, 2, 3 around the program's group 1.
+        let layout = nimbus
+            .layouts()
+            .pipeline_layout(device, "program world", Some(&camera_layout));
+        let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+            label: Some("program world"),
+            source: wgpu::ShaderSource::Wgsl(world_shader().into()),
+        });
+        let world = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+            label: Some("program world"),
+            layout: Some(&layout),
+            vertex: wgpu::VertexState {
+                module: &module,
+                entry_point: Some("world_vertex"),
+                compilation_options: Default::default(),
+                buffers: &[Some(wgpu::VertexBufferLayout {
+                    array_stride: std::mem::size_of::<WorldVertex>() as u64,
+                    step_mode: wgpu::VertexStepMode::Vertex,
+                    attributes: &wgpu::vertex_attr_array![0 => Float32x3, 1 => Float32x3, 2 => Float32x3],
+                })],
+            },
+            primitive: Default::default(),
+            depth_stencil: Some(wgpu::DepthStencilState {
+                format: DEPTH_FORMAT,
+                depth_write_enabled: Some(true),
+                depth_compare: Some(wgpu::CompareFunction::Less),
+                stencil: Default::default(),
+                bias: Default::default(),
+            }),
+            multisample: Default::default(),
+            fragment: Some(wgpu::FragmentState {
+                module: &module,
+                entry_point: Some("world_fragment"),
+                compilation_options: Default::default(),
+                targets: &[Some(HDR_FORMAT.into())],
+            }),
+            multiview_mask: None,
+            cache: None,
+        });
+        let tonemap_module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+            label: Some("program tone mapping"),
+            source: wgpu::ShaderSource::Wgsl(TONEMAP_WGSL.into()),
+        });
+        let tonemap = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+            label: Some("program tone mapping"),
+            layout: None,
+            vertex: wgpu::VertexState {
+                module: &tonemap_module,
+                entry_point: Some("fullscreen"),
+                compilation_options: Default::default(),
+                buffers: &[],
+            },
+            primitive: Default::default(),
+            depth_stencil: None,
+            multisample: Default::default(),
+            fragment: Some(wgpu::FragmentState {
+                module: &tonemap_module,
+                entry_point: Some("tonemap"),
+                compilation_options: Default::default(),
+                targets: &[Some(DISPLAY_FORMAT.into())],
+            }),
+            multiview_mask: None,
+            cache: None,
+        });
+        let tonemap_layout = tonemap.get_bind_group_layout(0);
+        Self {
+            world,
+            camera,
+            camera_group,
+            vertices: device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some("program world"),
+                contents: bytemuck::cast_slice(&vertices),
+                usage: wgpu::BufferUsages::VERTEX,
+            }),
+            indices: device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some("program world"),
+                contents: bytemuck::cast_slice(&indices),
+                usage: wgpu::BufferUsages::INDEX,
+            }),
+            index_count: indices.len() as u32,
+            tonemap,
+            tonemap_layout,
+        }
+    }
+}
+
+/// Renders one frame of the program's world with nimbus's sky, clouds and
+/// rain at `time_s`, tone mapped; returns its RGBA8 (sRGB) pixels and its
+/// linear pre-exposed radiance.
+pub fn render_world(
+    device: &wgpu::Device,
+    queue: &wgpu::Queue,
+    scene: &Scene,
+    width: u32,
+    height: u32,
+    time_s: f32,
+) -> Result<(Vec<u8>, Vec<[f32; 4]>), Box<dyn std::error::Error>> {
+    // 1. nimbus, compositing linear radiance into the program's HDR target.
+    let mut renderer = Renderer::new(device, queue, &RendererDescriptor::linear_hdr(HDR_FORMAT));
+    // The program's exposure (EV100 14, a bright overcast day), shared with nimbus.
+    let pre_exposure = 683.0 / (1.2 * 2f32.powi(14));
+    renderer.set_pre_exposure(pre_exposure);
+    // The program's world stops the rain.
+    let (vertices, indices) = world_geometry();
+    let positions: Vec<[f32; 3]> = vertices.iter().map(|v| v.position_m).collect();
+    renderer.set_occluders(&positions, &indices)?;
+    let program = Program::new(device, renderer.frame_resources());
+    let view = world_view(width, height);
+    let clip_from_world = (view.caller_clip_from_view() * view.view_from_world()).as_mat4();
+    queue.write_buffer(
+        &program.camera,
+        0,
+        bytemuck::cast_slice(&Mat4::to_cols_array(&clip_from_world)),
+    );
+
+    // 2. The program's targets: its HDR colour and depth (nimbus reads the
+    // depth, so TEXTURE_BINDING), and its display target.
+    let hdr = texture(
+        device,
+        HDR_FORMAT,
+        width,
+        height,
+        wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_SRC,
+    );
+    let depth = texture(
+        device,
+        DEPTH_FORMAT,
+        width,
+        height,
+        wgpu::TextureUsages::TEXTURE_BINDING,
+    );
+    let display = texture(
+        device,
+        DISPLAY_FORMAT,
+        width,
+        height,
+        wgpu::TextureUsages::COPY_SRC,
+    );
+    let (hdr_view, depth_view, display_view) = (
+        hdr.create_view(&Default::default()),
+        depth.create_view(&Default::default()),
+        display.create_view(&Default::default()),
+    );
+
+    // 3. Prepare: the rain runs from a few seconds before the frame so that
+    // the drops have filled the rain box; the shapes and tables are made
+    // on worker threads, waited for here (a render loop would not wait).
+    for t in [time_s - 2.0, time_s - 1.0, time_s] {
+        renderer.prepare_view(scene, &view, width, height, t)?;
+        while !renderer.is_ready() {
+            renderer.wait_for_precompute();
+            renderer.prepare_view(scene, &view, width, height, t)?;
+        }
+        if t < time_s {
+            let mut encoder = device.create_command_encoder(&Default::default());
+            renderer.encode_lighting(&mut encoder);
+            queue.submit([encoder.finish()]);
+        }
+    }
+
+    // 4. The frame: nimbus's lighting (shadows, rain), the program's world
+    // lit through the include, nimbus over it, the program's tone mapping.
+    let mut encoder = device.create_command_encoder(&Default::default());
+    renderer.encode_lighting(&mut encoder);
+    {
+        let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+            label: Some("program world"),
+            color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+                view: &hdr_view,
+                depth_slice: None,
+                resolve_target: None,
+                ops: wgpu::Operations {
+                    load: wgpu::LoadOp::Clear(wgpu::Color::BLACK),
+                    store: wgpu::StoreOp::Store,
+                },
+            })],
+            depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
+                view: &depth_view,
+                depth_ops: Some(wgpu::Operations {
+                    load: wgpu::LoadOp::Clear(1.0),
+                    store: wgpu::StoreOp::Store,
+                }),
+                stencil_ops: None,
+            }),
+            timestamp_writes: None,
+            occlusion_query_set: None,
+            multiview_mask: None,
+        });
+        pass.set_pipeline(&program.world);
+        renderer
+            .frame_resources()
+            .bindings()
+            .set_on(&mut pass, Some(&program.camera_group));
+        pass.set_vertex_buffer(0, program.vertices.slice(..));
+        pass.set_index_buffer(program.indices.slice(..), wgpu::IndexFormat::Uint32);
+        pass.draw_indexed(0..program.index_count, 0, 0..1);
+    }
+    renderer.encode(
+        &mut encoder,
+        &FrameTargets {
+            output: &hdr_view,
+            depth: &depth_view,
+            load: TargetLoad::Keep,
+        },
+    );
+    {
+        let group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("program tone mapping"),
+            layout: &program.tonemap_layout,
+            entries: &[wgpu::BindGroupEntry {
+                binding: 0,
+                resource: wgpu::BindingResource::TextureView(&hdr_view),
+            }],
+        });
+        let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+            label: Some("program tone mapping"),
+            color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+                view: &display_view,
+                depth_slice: None,
+                resolve_target: None,
+                ops: wgpu::Operations {
+                    load: wgpu::LoadOp::Clear(wgpu::Color::BLACK),
+                    store: wgpu::StoreOp::Store,
+                },
+            })],
+            depth_stencil_attachment: None,
+            timestamp_writes: None,
+            occlusion_query_set: None,
+            multiview_mask: None,
+        });
+        pass.set_pipeline(&program.tonemap);
+        pass.set_bind_group(0, &group, &[]);
+        pass.draw(0..3, 0..1);
+    }
+    let display_pixels = read_back(device, queue, encoder, &display, 4)?;
+    let radiance = read_back(
+        device,
+        queue,
+        device.create_command_encoder(&Default::default()),
+        &hdr,
+        8,
+    )?;
+    let radiance = bytemuck::cast_slice::<u8, half::f16>(&radiance)
+        .chunks(4)
+        .map(|c| [0, 1, 2, 3].map(|k| c[k].to_f32() / pre_exposure))
+        .collect();
+    Ok((display_pixels, radiance))
+}
+
+/// Copies `texture` out after the work in `encoder`; rows unpadded.
+fn read_back(
+    device: &wgpu::Device,
+    queue: &wgpu::Queue,
+    mut encoder: wgpu::CommandEncoder,
+    texture: &wgpu::Texture,
+    bytes_per_pixel: u32,
+) -> Result<Vec<u8>, Box<dyn std::error::Error>> {
+    let (width, height) = (texture.width(), texture.height());
+    let row = width * bytes_per_pixel;
+    let padded_row = row.div_ceil(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT)
+        * wgpu::COPY_BYTES_PER_ROW_ALIGNMENT;
+    let buffer = device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("program readback"),
+        size: u64::from(padded_row * height),
+        usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+        mapped_at_creation: false,
+    });
+    encoder.copy_texture_to_buffer(
+        texture.as_image_copy(),
+        wgpu::TexelCopyBufferInfo {
+            buffer: &buffer,
+            layout: wgpu::TexelCopyBufferLayout {
+                offset: 0,
+                bytes_per_row: Some(padded_row),
+                rows_per_image: None,
+            },
+        },
+        texture.size(),
+    );
+    queue.submit([encoder.finish()]);
+    buffer.map_async(wgpu::MapMode::Read, .., |_| {});
+    device.poll(wgpu::PollType::wait_indefinitely())?;
+    let pixels = buffer
+        .get_mapped_range(..)?
+        .chunks(padded_row as usize)
+        .flat_map(|r| r[..row as usize].to_vec())
+        .collect();
+    Ok(pixels)
+}
+
+#[allow(dead_code)] // The golden test includes this file and calls `render_world`.
+fn main() -> Result<(), Box<dyn std::error::Error>> {
+    let output_path = std::env::args()
+        .nth(1)
+        .unwrap_or_else(|| "embed_world.png".to_owned());
+    let (width, height) = (960u32, 540u32);
+    let instance =
+        wgpu::Instance::new(wgpu::InstanceDescriptor::new_without_display_handle_from_env());
+    let adapter =
+        pollster::block_on(instance.request_adapter(&wgpu::RequestAdapterOptions::default()))?;
+    let (device, queue) =
+        pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor::default()))?;
+    let scene = Scene::from_toml_str(WORLD_SCENE, "embed_world.toml")?;
+    let (pixels, _) = render_world(&device, &queue, &scene, width, height, 10.0)?;
+    image::save_buffer(
+        &output_path,
+        &pixels,
+        width,
+        height,
+        image::ExtendedColorType::Rgba8,
+    )?;
+    println!("wrote {output_path}");
+    Ok(())
+}
