@@ -282,9 +282,10 @@ impl Program {
             }],
         });
         // nimbus's groups 0, 2, 3 around the program's group 1.
-        let layout = nimbus
-            .layouts()
-            .pipeline_layout(device, "program world", Some(&camera_layout));
+        let layout =
+            nimbus
+                .layouts()
+                .pipeline_layout(device, "program world", Some(&camera_layout));
         let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
             label: Some("program world"),
             source: wgpu::ShaderSource::Wgsl(world_shader().into()),
@@ -367,9 +368,12 @@ impl Program {
     }
 }
 
+/// One rendered frame: the tone-mapped RGBA8 (sRGB) pixels and the linear
+/// radiance (RGBA, W·sr⁻¹·m⁻², the pre-exposure undone), row-major.
+pub type WorldFrame = (Vec<u8>, Vec<[f32; 4]>);
+
 /// Renders one frame of the program's world with nimbus's sky, clouds and
-/// rain at `time_s`, tone mapped; returns its RGBA8 (sRGB) pixels and its
-/// linear pre-exposed radiance.
+/// rain at `time_s`, tone mapped.
 pub fn render_world(
     device: &wgpu::Device,
     queue: &wgpu::Queue,
@@ -377,7 +381,7 @@ pub fn render_world(
     width: u32,
     height: u32,
     time_s: f32,
-) -> Result<(Vec<u8>, Vec<[f32; 4]>), Box<dyn std::error::Error>> {
+) -> Result<WorldFrame, Box<dyn std::error::Error>> {
     // 1. nimbus, compositing linear radiance into the program's HDR target.
     let mut renderer = Renderer::new(device, queue, &RendererDescriptor::linear_hdr(HDR_FORMAT));
     // The program's exposure (EV100 14, a bright overcast day), shared with nimbus.
@@ -540,8 +544,8 @@ fn read_back(
 ) -> Result<Vec<u8>, Box<dyn std::error::Error>> {
     let (width, height) = (texture.width(), texture.height());
     let row = width * bytes_per_pixel;
-    let padded_row = row.div_ceil(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT)
-        * wgpu::COPY_BYTES_PER_ROW_ALIGNMENT;
+    let padded_row =
+        row.div_ceil(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT) * wgpu::COPY_BYTES_PER_ROW_ALIGNMENT;
     let buffer = device.create_buffer(&wgpu::BufferDescriptor {
         label: Some("program readback"),
         size: u64::from(padded_row * height),

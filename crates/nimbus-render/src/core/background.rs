@@ -109,6 +109,13 @@ impl<K: PartialEq, V: Send + 'static> Deferred<K, V> {
         }
     }
 
+    /// Takes a finished computation's result without asking for anything,
+    /// and returns the newest ready value.
+    pub fn poll(&mut self) -> Option<(&K, &V)> {
+        self.collect(false);
+        self.ready()
+    }
+
     /// Blocks until the computation under way, if any, has finished.
     pub fn wait(&mut self) {
         self.collect(true);

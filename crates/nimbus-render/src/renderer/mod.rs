@@ -580,6 +580,7 @@ impl Renderer {
             &footprints,
             generation,
             &strides,
+            precompute,
         )?;
         Ok(())
     }
@@ -596,6 +597,7 @@ impl Renderer {
             .pending()
             .chain(self.stratus.pending())
             .chain(self.cumulus.pending())
+            .chain(self.rain.pending())
             .collect()
     }
 
@@ -613,6 +615,7 @@ impl Renderer {
         self.terrain.wait();
         self.stratus.wait();
         self.cumulus.wait();
+        self.rain.wait();
     }
 
     /// Where the next frames' precomputation runs.

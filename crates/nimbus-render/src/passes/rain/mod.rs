@@ -12,6 +12,7 @@
 //! view (`visibility.wgsl`); [`RainPass::draw`] draws the streaks (indirect)
 //! and splashes; [`RainPass::draw_mist`] lays the mist over the frame.
 
+use crate::core::background::Deferred;
 use crate::core::limits::LimitError;
 use crate::scene::{FileStamp, RainBoxKind, RainSettings, Scene};
 use crate::shader::{self, WgslFile};
@@ -356,6 +357,8 @@ pub struct RainPass {
     occluders_layout: wgpu::PipelineLayout,
     /// Rain shadow map pipelines, one per vertex stride of the occluders.
     occluders: Vec<(u64, wgpu::RenderPipeline)>,
+    /// The rain-zone map of drifting clouds, made on a worker thread.
+    zones_job: Deferred<ZonesKey, RainZones>,
     /// The caller's depth from above, drawn into the rain shadow map.
     depth_occluder: depth_occluder::DepthOccluderDraw,
     occlusion_texture: wgpu::Texture,

@@ -10,6 +10,7 @@ use super::{
     RainError, RainKey, RainPass, RainState, SPLASH_BYTES, SPLASH_CAPACITY, STEP_STRIDE,
     SharedBuffers, ZONE_MAP_SIZE, ZonesKey,
 };
+use crate::core::background::Precompute;
 use crate::core::{binding, limits};
 use crate::frame::Camera;
 use crate::scene::Scene;
@@ -225,6 +226,7 @@ impl RainPass {
         cumulus_footprints_m: &[[f32; 3]],
         occluder_generations: [u64; 3],
         occluder_strides: &[u64],
+        precompute: Precompute,
     ) -> Result<(), RainError> {
         for &stride in occluder_strides {
             if !self.occluders.iter().any(|(s, _)| *s == stride) {
@@ -278,10 +280,27 @@ impl RainPass {
         state.wind.mean_m_s = wind.mean_m_s;
         state.wind.primitives = wind.primitives;
         if state.zones_key != zones_key {
-            state.zone_map = zone_map();
-            let factors = bytemuck::cast_slice(&state.zone_map.factors);
-            queue.write_buffer(&state.shared.zones, 0, factors);
-            state.zones_key = zones_key;
+            // The map follows drifting clouds every frame and costs
+            // milliseconds: made on a worker thread (the newest finished one
+            // is used, a frame or so late) unless precomputation blocks.
+            let idle = self.zones_job.poll().is_none_or(|(k, _)| *k != zones_key)
+                && self.zones_job.pending().is_none();
+            if idle || precompute == Precompute::Blocking {
+                let (scene, settings) = (scene.clone(), settings.clone());
+                let footprints = cumulus_footprints_m.to_vec();
+                let t = time_s as f64;
+                self.zones_job.request(zones_key, precompute, move || {
+                    rain_zones(&scene, &settings, t, &footprints)
+                });
+            }
+            if let Some((key, map)) = self.zones_job.ready()
+                && *key != state.zones_key
+            {
+                state.zone_map = map.clone();
+                let factors = bytemuck::cast_slice(&state.zone_map.factors);
+                queue.write_buffer(&state.shared.zones, 0, factors);
+                state.zones_key = key.clone();
+            }
         }
         let wanted = nimbus_physics::rain::simulation::expected_drop_count(
             params.intensity_mm_h,

@@ -7,6 +7,7 @@ use super::{
     mist_shader_source, occluders_shader_source, simulation_shader_source, streaks_shader_source,
     visibility_shader_source,
 };
+use crate::core::background::Deferred;
 use crate::core::binding;
 use crate::core::binding::{buffer_entry, uniform_layout_entry};
 use crate::core::pipeline::{DrawPipeline, PREMULTIPLIED_OVER, depth_state, hdr_target};
@@ -256,6 +257,7 @@ impl RainPass {
             occluders_layout,
             occluders: Vec::new(),
             depth_occluder: DepthOccluderDraw::new(device, &occlusion_layout),
+            zones_job: Deferred::new("rain zones"),
             occlusion_texture,
             state: None,
             plan: FramePlan::default(),
@@ -301,6 +303,16 @@ impl RainPass {
         depth: Option<(&wgpu::TextureView, &crate::frame::View, u32, u32)>,
     ) {
         self.depth_occluder.set(&self.device, queue, depth);
+    }
+
+    /// The work under way on a worker thread, if any.
+    pub fn pending(&self) -> Option<&'static str> {
+        self.zones_job.pending()
+    }
+
+    /// Blocks until the work under way has finished.
+    pub fn wait(&mut self) {
+        self.zones_job.wait();
     }
 
     /// Whether the current scene has rain.
