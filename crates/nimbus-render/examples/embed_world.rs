@@ -368,12 +368,23 @@ impl Program {
     }
 }
 
-/// One rendered frame: the tone-mapped RGBA8 (sRGB) pixels and the linear
-/// radiance (RGBA, W·sr⁻¹·m⁻², the pre-exposure undone), row-major.
-pub type WorldFrame = (Vec<u8>, Vec<[f32; 4]>);
+/// The last rendered frame: the tone-mapped RGBA8 (sRGB) pixels and the
+/// linear radiance (RGBA, W·sr⁻¹·m⁻², the pre-exposure undone), row-major;
+/// with timestamps, each frame's GPU time per nimbus pass, ms, in
+/// `PASS_NAMES` order (`None`: not run that frame).
+pub struct WorldFrame {
+    /// Tone-mapped pixels, RGBA8 sRGB.
+    pub pixels: Vec<u8>,
+    /// Linear radiance, RGBA.
+    pub radiance: Vec<[f32; 4]>,
+    /// Per frame, nimbus's pass times, ms (empty without timestamps).
+    pub pass_times_ms: Vec<Vec<Option<f64>>>,
+}
 
-/// Renders one frame of the program's world with nimbus's sky, clouds and
-/// rain at `time_s`, tone mapped.
+/// Renders `frames` frames of the program's world with nimbus's sky, clouds
+/// and rain, the last at `time_s` (1/30 s apart), tone mapped; with nimbus's
+/// per-pass GPU times when `timestamps` and the device has them.
+#[allow(clippy::too_many_arguments)]
 pub fn render_world(
     device: &wgpu::Device,
     queue: &wgpu::Queue,
@@ -381,9 +392,15 @@ pub fn render_world(
     width: u32,
     height: u32,
     time_s: f32,
+    frames: u32,
+    timestamps: bool,
 ) -> Result<WorldFrame, Box<dyn std::error::Error>> {
     // 1. nimbus, compositing linear radiance into the program's HDR target.
-    let mut renderer = Renderer::new(device, queue, &RendererDescriptor::linear_hdr(HDR_FORMAT));
+    let mut renderer = Renderer::new(
+        device,
+        queue,
+        &RendererDescriptor::linear_hdr(HDR_FORMAT).with_timestamps(timestamps),
+    );
     // The program's exposure (EV100 14, a bright overcast day), shared with nimbus.
     let pre_exposure = 683.0 / (1.2 * 2f32.powi(14));
     renderer.set_pre_exposure(pre_exposure);
@@ -432,13 +449,15 @@ pub fn render_world(
     // 3. Prepare: the rain runs from a few seconds before the frame so that
     // the drops have filled the rain box; the shapes and tables are made
     // on worker threads, waited for here (a render loop would not wait).
-    for t in [time_s - 2.0, time_s - 1.0, time_s] {
+    let frames = frames.max(1);
+    let first_s = time_s - (frames - 1) as f32 / 30.0;
+    for t in [first_s - 2.0, first_s - 1.0, first_s] {
         renderer.prepare_view(scene, &view, width, height, t)?;
         while !renderer.is_ready() {
             renderer.wait_for_precompute();
             renderer.prepare_view(scene, &view, width, height, t)?;
         }
-        if t < time_s {
+        if t < first_s {
             let mut encoder = device.create_command_encoder(&Default::default());
             renderer.encode_lighting(&mut encoder);
             queue.submit([encoder.finish()]);
@@ -447,79 +466,96 @@ pub fn render_world(
 
     // 4. The frame: nimbus's lighting (shadows, rain), the program's world
     // lit through the include, nimbus over it, the program's tone mapping.
-    let mut encoder = device.create_command_encoder(&Default::default());
-    renderer.encode_lighting(&mut encoder);
-    {
-        let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
-            label: Some("program world"),
-            color_attachments: &[Some(wgpu::RenderPassColorAttachment {
-                view: &hdr_view,
-                depth_slice: None,
-                resolve_target: None,
-                ops: wgpu::Operations {
-                    load: wgpu::LoadOp::Clear(wgpu::Color::BLACK),
-                    store: wgpu::StoreOp::Store,
-                },
-            })],
-            depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
-                view: &depth_view,
-                depth_ops: Some(wgpu::Operations {
-                    load: wgpu::LoadOp::Clear(1.0),
-                    store: wgpu::StoreOp::Store,
+    let mut pass_times_ms = Vec::new();
+    let mut frame = 0;
+    let encoder = loop {
+        let t = first_s + frame as f32 / 30.0;
+        renderer.prepare_view(scene, &view, width, height, t)?;
+        let mut encoder = device.create_command_encoder(&Default::default());
+        renderer.encode_lighting(&mut encoder);
+        {
+            let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+                label: Some("program world"),
+                color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+                    view: &hdr_view,
+                    depth_slice: None,
+                    resolve_target: None,
+                    ops: wgpu::Operations {
+                        load: wgpu::LoadOp::Clear(wgpu::Color::BLACK),
+                        store: wgpu::StoreOp::Store,
+                    },
+                })],
+                depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
+                    view: &depth_view,
+                    depth_ops: Some(wgpu::Operations {
+                        load: wgpu::LoadOp::Clear(1.0),
+                        store: wgpu::StoreOp::Store,
+                    }),
+                    stencil_ops: None,
                 }),
-                stencil_ops: None,
-            }),
-            timestamp_writes: None,
-            occlusion_query_set: None,
-            multiview_mask: None,
-        });
-        pass.set_pipeline(&program.world);
-        renderer
-            .frame_resources()
-            .bindings()
-            .set_on(&mut pass, Some(&program.camera_group));
-        pass.set_vertex_buffer(0, program.vertices.slice(..));
-        pass.set_index_buffer(program.indices.slice(..), wgpu::IndexFormat::Uint32);
-        pass.draw_indexed(0..program.index_count, 0, 0..1);
-    }
-    renderer.encode(
-        &mut encoder,
-        &FrameTargets {
-            output: &hdr_view,
-            depth: &depth_view,
-            load: TargetLoad::Keep,
-        },
-    );
-    {
-        let group = device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("program tone mapping"),
-            layout: &program.tonemap_layout,
-            entries: &[wgpu::BindGroupEntry {
-                binding: 0,
-                resource: wgpu::BindingResource::TextureView(&hdr_view),
-            }],
-        });
-        let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
-            label: Some("program tone mapping"),
-            color_attachments: &[Some(wgpu::RenderPassColorAttachment {
-                view: &display_view,
-                depth_slice: None,
-                resolve_target: None,
-                ops: wgpu::Operations {
-                    load: wgpu::LoadOp::Clear(wgpu::Color::BLACK),
-                    store: wgpu::StoreOp::Store,
-                },
-            })],
-            depth_stencil_attachment: None,
-            timestamp_writes: None,
-            occlusion_query_set: None,
-            multiview_mask: None,
-        });
-        pass.set_pipeline(&program.tonemap);
-        pass.set_bind_group(0, &group, &[]);
-        pass.draw(0..3, 0..1);
-    }
+                timestamp_writes: None,
+                occlusion_query_set: None,
+                multiview_mask: None,
+            });
+            pass.set_pipeline(&program.world);
+            renderer
+                .frame_resources()
+                .bindings()
+                .set_on(&mut pass, Some(&program.camera_group));
+            pass.set_vertex_buffer(0, program.vertices.slice(..));
+            pass.set_index_buffer(program.indices.slice(..), wgpu::IndexFormat::Uint32);
+            pass.draw_indexed(0..program.index_count, 0, 0..1);
+        }
+        renderer.encode(
+            &mut encoder,
+            &FrameTargets {
+                output: &hdr_view,
+                depth: &depth_view,
+                load: TargetLoad::Keep,
+            },
+        );
+        {
+            let group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+                label: Some("program tone mapping"),
+                layout: &program.tonemap_layout,
+                entries: &[wgpu::BindGroupEntry {
+                    binding: 0,
+                    resource: wgpu::BindingResource::TextureView(&hdr_view),
+                }],
+            });
+            let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+                label: Some("program tone mapping"),
+                color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+                    view: &display_view,
+                    depth_slice: None,
+                    resolve_target: None,
+                    ops: wgpu::Operations {
+                        load: wgpu::LoadOp::Clear(wgpu::Color::BLACK),
+                        store: wgpu::StoreOp::Store,
+                    },
+                })],
+                depth_stencil_attachment: None,
+                timestamp_writes: None,
+                occlusion_query_set: None,
+                multiview_mask: None,
+            });
+            pass.set_pipeline(&program.tonemap);
+            pass.set_bind_group(0, &group, &[]);
+            pass.draw(0..3, 0..1);
+        }
+        if frame + 1 == frames {
+            break encoder;
+        }
+        queue.submit([encoder.finish()]);
+        if let Some(times) = renderer.read_pass_times_ms() {
+            pass_times_ms.push(times);
+        }
+        frame += 1;
+    };
     let display_pixels = read_back(device, queue, encoder, &display, 4)?;
+    if let Some(times) = renderer.read_pass_times_ms() {
+        pass_times_ms.push(times);
+    }
     let radiance = read_back(
         device,
         queue,
@@ -531,7 +567,11 @@ pub fn render_world(
         .chunks(4)
         .map(|c| [0, 1, 2, 3].map(|k| c[k].to_f32() / pre_exposure))
         .collect();
-    Ok((display_pixels, radiance))
+    Ok(WorldFrame {
+        pixels: display_pixels,
+        radiance,
+        pass_times_ms,
+    })
 }
 
 /// Copies `texture` out after the work in `encoder`; rows unpadded.
@@ -577,21 +617,63 @@ fn read_back(
 
 #[allow(dead_code)] // The golden test includes this file and calls `render_world`.
 fn main() -> Result<(), Box<dyn std::error::Error>> {
-    let output_path = std::env::args()
-        .nth(1)
+    // `embed_world [out.png] [--timings FRAMES]`: with --timings, nimbus's
+    // per-pass GPU times over that many frames (median, ms) on standard error.
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    let timings = args
+        .iter()
+        .position(|a| a == "--timings")
+        .and_then(|i| args.get(i + 1))
+        .map(|n| n.parse::<u32>())
+        .transpose()?;
+    let output_path = args
+        .first()
+        .filter(|a| !a.starts_with("--"))
+        .cloned()
         .unwrap_or_else(|| "embed_world.png".to_owned());
     let (width, height) = (960u32, 540u32);
     let instance =
         wgpu::Instance::new(wgpu::InstanceDescriptor::new_without_display_handle_from_env());
     let adapter =
         pollster::block_on(instance.request_adapter(&wgpu::RequestAdapterOptions::default()))?;
-    let (device, queue) =
-        pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor::default()))?;
+    // Timestamps where the adapter has them (for --timings).
+    let features = adapter.features()
+        & (wgpu::Features::TIMESTAMP_QUERY | wgpu::Features::TIMESTAMP_QUERY_INSIDE_ENCODERS);
+    let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
+        required_features: features,
+        ..Default::default()
+    }))?;
     let scene = Scene::from_toml_str(WORLD_SCENE, "embed_world.toml")?;
-    let (pixels, _) = render_world(&device, &queue, &scene, width, height, 10.0)?;
+    let frames = timings.unwrap_or(1);
+    let frame = render_world(
+        &device,
+        &queue,
+        &scene,
+        width,
+        height,
+        10.0,
+        frames,
+        timings.is_some(),
+    )?;
+    for (i, name) in nimbus_render::PASS_NAMES.iter().enumerate() {
+        let mut times: Vec<f64> = frame
+            .pass_times_ms
+            .iter()
+            .filter_map(|frame| frame[i])
+            .collect();
+        if times.is_empty() {
+            continue;
+        }
+        times.sort_by(f64::total_cmp);
+        eprintln!(
+            "{name:<20} median {:8.3} ms over {} frames",
+            times[times.len() / 2],
+            times.len()
+        );
+    }
     image::save_buffer(
         &output_path,
-        &pixels,
+        &frame.pixels,
         width,
         height,
         image::ExtendedColorType::Rgba8,

@@ -3,8 +3,10 @@
 //! the caller's colour by its depth.
 
 use glam::{DMat4, DVec3};
+use nimbus_physics::terrain::AlbedoMap;
 use nimbus_render::frame::Camera;
 use nimbus_render::headless::{HeadlessRenderer, read_texture};
+use nimbus_render::scene::GroundAlbedoMap;
 use nimbus_render::targets::Target;
 use nimbus_render::{
     AdapterPreference, DepthConvention, FrameTargets, Precompute, Projection, Renderer,
@@ -397,6 +399,41 @@ fn without_terrain_nothing_is_drawn_below_and_the_flat_grounds_albedo_lights_the
     assert!(
         bright > 1.1 * dark,
         "base over albedo 0.9: {bright}, over 0.05: {dark}"
+    );
+
+    // The same through an albedo map (`ground.albedo_map`, given in code):
+    // a uniform 0.9 map lights the base as the value 0.9 does, and a map
+    // bright only far from here (its eastern eighth) as a dark ground does.
+    scene.ground.albedo = [0.05; 3];
+    let mut with_map = |texels: Vec<[f32; 3]>| {
+        scene.ground.albedo_map = Some(GroundAlbedoMap::new(AlbedoMap {
+            width: 8,
+            height: 1,
+            texels,
+        }));
+        let image = h.render_hdr(&scene, WIDTH, HEIGHT, 0.0).expect("render");
+        mean_luminance(&image.pixels)
+    };
+    let uniform = with_map(vec![[0.9; 3]; 8]);
+    let mut far_east = vec![[0.05; 3]; 8];
+    far_east[7] = [0.9; 3];
+    let far = with_map(far_east);
+    assert!(
+        (uniform - bright).abs() < 0.01 * bright,
+        "uniform map {uniform} vs value {bright}"
+    );
+    assert!(
+        far < dark + 0.2 * (bright - dark),
+        "map bright far away {far}: dark ground {dark}, bright {bright}"
+    );
+    scene.ground.albedo_map = Some(GroundAlbedoMap::new(AlbedoMap {
+        width: 2,
+        height: 2,
+        texels: vec![[0.5; 3]; 3],
+    }));
+    assert_eq!(
+        scene.check().expect_err("3 texels for 2 × 2").to_string(),
+        "scene: ground.albedo_map = 3 texels: width × height = 4"
     );
 }
 

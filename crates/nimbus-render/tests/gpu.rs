@@ -136,8 +136,10 @@ fn golden_embedded_world_example() {
     let (device, queue) = (&h.gpu.device, &h.gpu.queue);
     let scene = Scene::from_toml_str(embed_world::WORLD_SCENE, "embed_world.toml").expect("scene");
     let (width, height) = (320, 180);
-    let (pixels, radiance) =
-        embed_world::render_world(device, queue, &scene, width, height, 10.0).expect("render");
+    let embed_world::WorldFrame {
+        pixels, radiance, ..
+    } = embed_world::render_world(device, queue, &scene, width, height, 10.0, 1, false)
+        .expect("render");
     assert_matches_golden(
         "embed-world",
         &Rgba8Image {
@@ -150,8 +152,10 @@ fn golden_embedded_world_example() {
     let mut clear = scene.clone();
     clear.stratus = None;
     clear.cumulus = None;
-    let (_, clear_radiance) =
-        embed_world::render_world(device, queue, &clear, width, height, 10.0).expect("render");
+    let clear_radiance =
+        embed_world::render_world(device, queue, &clear, width, height, 10.0, 1, false)
+            .expect("render")
+            .radiance;
     // The bottom rows are the program's ground, near the camera.
     let ground = |image: &[[f32; 4]]| {
         let rows = &image[(width * (height - 10)) as usize..];

@@ -3,7 +3,7 @@
 
 use clap::Args;
 use nimbus_render::headless::HeadlessRenderer;
-use nimbus_render::{PASS_NAMES, Precompute};
+use nimbus_render::{PASS_NAMES, PassId, Precompute};
 use serde::Serialize;
 
 /// Largest frame count of one benchmark.
@@ -142,7 +142,11 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
             PASS_NAMES
                 .iter()
                 .zip(&per_pass)
-                .map(|(name, series)| PassReport {
+                .zip(PassId::ALL)
+                // The bench draws a finished picture (Display): the passes of
+                // a caller's frame (LinearHdr) never run, so are not listed.
+                .filter(|(_, id)| !id.only_in_linear_hdr())
+                .map(|((name, series), _)| PassReport {
                     name,
                     frames: series.len(),
                     stats: (!series.is_empty()).then(|| Stats::of(series)),

@@ -239,6 +239,66 @@ pub fn generate(params: &TerrainParams) -> Terrain {
     }
 }
 
+/// A map of linear albedo over a square ground: `width` × `height` texels,
+/// row-major, row 0 at the smallest z (north), column 0 at the smallest x
+/// (west), texel centres at (i + ½)/width of the side.
+#[derive(Clone, Debug, PartialEq)]
+pub struct AlbedoMap {
+    /// Texels per row.
+    pub width: u32,
+    /// Rows.
+    pub height: u32,
+    /// Linear RGB albedo per texel, each in [0, 1].
+    pub texels: Vec<[f32; 3]>,
+}
+
+impl AlbedoMap {
+    /// Bilinear albedo at (u, v) ∈ [0, 1]² of the square (u along x, v along
+    /// z), clamped to the edge texels' centres.
+    pub fn sample(&self, u: f64, v: f64) -> [f32; 3] {
+        let (w, h) = (self.width as usize, self.height as usize);
+        let fx = (u * w as f64 - 0.5).clamp(0.0, (w - 1) as f64);
+        let fy = (v * h as f64 - 0.5).clamp(0.0, (h - 1) as f64);
+        let (x0, y0) = (fx.floor() as usize, fy.floor() as usize);
+        let (x1, y1) = ((x0 + 1).min(w - 1), (y0 + 1).min(h - 1));
+        let (tx, ty) = ((fx - x0 as f64) as f32, (fy - y0 as f64) as f32);
+        let at = |x: usize, y: usize| self.texels[y * w + x];
+        let lerp = |a: [f32; 3], b: [f32; 3], t: f32| [0, 1, 2].map(|c| a[c] + (b[c] - a[c]) * t);
+        lerp(
+            lerp(at(x0, y0), at(x1, y0), tx),
+            lerp(at(x0, y1), at(x1, y1), tx),
+            ty,
+        )
+    }
+}
+
+/// [`flat`] with its albedo from `map` (bilinear, over the whole square)
+/// instead of one value. `map` must have at least one texel and
+/// `width × height` of them.
+pub fn flat_with_albedo_map(
+    extent_m: f64,
+    resolution: u32,
+    height_m: f64,
+    map: &AlbedoMap,
+) -> Terrain {
+    let mean = map
+        .texels
+        .iter()
+        .fold([0.0f64; 3], |m, t| {
+            [0, 1, 2].map(|c| m[c] + f64::from(t[c]))
+        })
+        .map(|c| (c / map.texels.len().max(1) as f64) as f32);
+    let mut terrain = flat(extent_m, resolution, height_m, mean);
+    let side = terrain.vertices_per_side();
+    for j in 0..side {
+        for i in 0..side {
+            let (u, v) = (i as f64 / (side - 1) as f64, j as f64 / (side - 1) as f64);
+            terrain.albedo[j * side + i] = map.sample(u, v);
+        }
+    }
+    terrain
+}
+
 /// A flat ground of one albedo: what lies under the clouds when no relief is
 /// drawn (an embedder's own world). Heights are `height_m` everywhere (no
 /// water: the water level sits below), normals point up, every vertex is
@@ -314,6 +374,30 @@ pub fn classify(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_flat_grounds_albedo_follows_its_map() {
+        // West half dark, east half bright (2 × 1 texels).
+        let map = AlbedoMap {
+            width: 2,
+            height: 1,
+            texels: vec![[0.05; 3], [0.85; 3]],
+        };
+        let t = flat_with_albedo_map(1000.0, 8, 12.0, &map);
+        let side = t.vertices_per_side();
+        let row = |j: usize| &t.albedo[j * side..(j + 1) * side];
+        for j in 0..side {
+            assert_eq!(row(j)[0], [0.05; 3]);
+            assert_eq!(row(j)[side - 1], [0.85; 3]);
+            // Half-way: the two texels' mean.
+            assert!((row(j)[side / 2][0] - 0.45).abs() < 1e-6);
+        }
+        assert!(t.surface_height_m.iter().all(|h| *h == 12.0));
+        // Bilinear between texel centres, clamped beyond them.
+        assert_eq!(map.sample(0.25, 0.5), [0.05; 3]);
+        assert!((map.sample(0.5, 0.5)[1] - 0.45).abs() < 1e-6);
+        assert_eq!(map.sample(1.0, 0.0), [0.85; 3]);
+    }
 
     fn small() -> TerrainParams {
         TerrainParams {

@@ -42,6 +42,9 @@ impl Renderer {
                     targets.depth,
                     &own.view,
                     &frame,
+                    self.timer
+                        .as_ref()
+                        .map(|t| t.pass_writes(PassId::CallerDepth.timer_index())),
                 );
                 (
                     wgpu::LoadOp::Clear(wgpu::Color::TRANSPARENT),
@@ -70,6 +73,10 @@ impl Renderer {
         if linear.is_some() {
             run.remove(PassId::Exposure);
             run.remove(PassId::Tonemap);
+        } else {
+            for id in [PassId::CallerDepth, PassId::CallerAir, PassId::Export] {
+                run.remove(id);
+            }
         }
         self.passes_run.store(run.bits(), Ordering::Relaxed);
         // 4. Sky, sun and open sea, at the far plane.
@@ -88,8 +95,13 @@ impl Renderer {
         // 4b. The air in front of the caller's surfaces (the only ones in
         // the depth so far), before nimbus's own surfaces cover some of them.
         if let Some((composite, own)) = linear {
-            let mut pass =
-                Self::colour_pass(encoder, "caller aerial perspective", &hdr.view, None, None);
+            let mut pass = self.overlay_pass(
+                encoder,
+                "caller aerial perspective",
+                PassId::CallerAir,
+                hdr,
+                None,
+            );
             composite.draw_aerial(&self.device, &mut pass, &own.view, &frame);
         }
         // 5. Terrain, depth-tested.
@@ -206,7 +218,11 @@ impl Renderer {
         // 9–10 in LinearHdr: nimbus's target over the caller's colour; the
         // caller exposes and tone maps.
         if let Some((composite, _)) = linear {
-            let mut pass = Self::colour_pass(encoder, "export", targets.output, None, None);
+            let timestamps = self
+                .timer
+                .as_ref()
+                .map(|t| t.pass_writes(PassId::Export.timer_index()));
+            let mut pass = Self::colour_pass(encoder, "export", targets.output, None, timestamps);
             composite.draw_export(&self.device, &mut pass, &hdr.view, &frame);
             drop(pass);
             if let Some(timer) = &self.timer {

@@ -536,6 +536,7 @@ impl Renderer {
                 extent_m: scene.terrain.extent_m,
                 height_m: scene.ground.height_m,
                 albedo: scene.ground.albedo.map(|c| c as f32),
+                albedo_map: scene.ground.albedo_map.clone(),
             }
         };
         let precompute = self.precompute;

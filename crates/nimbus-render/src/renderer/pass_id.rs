@@ -21,8 +21,12 @@ pub enum PassId {
     CumulusShadow,
     /// Rain: occlusion map, simulation steps and visibility list.
     RainSimulation,
+    /// `LinearHdr`: the caller's depth translated into nimbus's.
+    CallerDepth,
     /// Sky, sun and open sea.
     Sky,
+    /// `LinearHdr`: the air in front of the caller's surfaces.
+    CallerAir,
     /// Terrain.
     Terrain,
     /// Static objects.
@@ -43,11 +47,13 @@ pub enum PassId {
     Exposure,
     /// Tone mapping into the output.
     Tonemap,
+    /// `LinearHdr`: nimbus's target composited over the caller's colour.
+    Export,
 }
 
 impl PassId {
     /// Every pass, in frame order.
-    pub const ALL: [PassId; 19] = [
+    pub const ALL: [PassId; 22] = [
         PassId::Transmittance,
         PassId::MultipleScattering,
         PassId::SkyView,
@@ -56,7 +62,9 @@ impl PassId {
         PassId::StratusLighting,
         PassId::CumulusShadow,
         PassId::RainSimulation,
+        PassId::CallerDepth,
         PassId::Sky,
+        PassId::CallerAir,
         PassId::Terrain,
         PassId::Objects,
         PassId::Cumulus,
@@ -67,6 +75,7 @@ impl PassId {
         PassId::Rain,
         PassId::Exposure,
         PassId::Tonemap,
+        PassId::Export,
     ];
 
     /// The atmosphere's passes, in the order its encode step reports them.
@@ -89,7 +98,9 @@ impl PassId {
             PassId::StratusLighting => "stratus_lighting",
             PassId::CumulusShadow => "cumulus_shadow",
             PassId::RainSimulation => "rain_simulation",
+            PassId::CallerDepth => "caller_depth",
             PassId::Sky => "sky",
+            PassId::CallerAir => "caller_air",
             PassId::Terrain => "terrain",
             PassId::Objects => "objects",
             PassId::Cumulus => "cumulus",
@@ -100,7 +111,17 @@ impl PassId {
             PassId::Rain => "rain",
             PassId::Exposure => "exposure",
             PassId::Tonemap => "tonemap",
+            PassId::Export => "export",
         }
+    }
+
+    /// Whether the pass runs only in `OutputMode::LinearHdr` (the caller's
+    /// frame: depth import, air over its surfaces, export).
+    pub const fn only_in_linear_hdr(self) -> bool {
+        matches!(
+            self,
+            PassId::CallerDepth | PassId::CallerAir | PassId::Export
+        )
     }
 
     /// The pass's timestamp slot.
@@ -110,8 +131,8 @@ impl PassId {
 }
 
 /// Names of the passes in frame order, as reported by timings.
-pub const PASS_NAMES: [&str; 19] = {
-    let mut names = [""; 19];
+pub const PASS_NAMES: [&str; 22] = {
+    let mut names = [""; 22];
     let mut i = 0;
     while i < names.len() {
         names[i] = PassId::ALL[i].name();

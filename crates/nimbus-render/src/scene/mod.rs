@@ -30,6 +30,7 @@ use nimbus_physics::cumulus::shading::{CumulusShading, ShadingTerms};
 use nimbus_physics::terrain::TerrainParams;
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
+use std::sync::Arc;
 
 /// The text of the embedded default scene (`scenes/default.toml`).
 pub const DEFAULT_SCENE_TOML: &str = include_str!("../../../../scenes/default.toml");
@@ -172,6 +173,36 @@ pub struct GroundSettings {
     pub albedo: [f64; 3],
     /// Height of the flat ground when `terrain = false`, m, in [−10000, 10000].
     pub height_m: f64,
+    /// The flat ground's albedo as a map over the terrain's square
+    /// (`terrain.extent_m` around the origin) instead of `albedo`: set in
+    /// code (not a scene-file key), e.g. from the caller's own ground
+    /// textures. At most 4096 texels a side, each channel in [0, 1].
+    #[serde(skip)]
+    pub albedo_map: Option<GroundAlbedoMap>,
+}
+
+/// A shared albedo map of the flat ground ([`GroundSettings::albedo_map`]).
+/// Two are equal when they are the same map (the same `Arc`), so that
+/// comparing scenes every frame costs nothing: give a new one to change it.
+#[derive(Clone, Debug)]
+pub struct GroundAlbedoMap(Arc<nimbus_physics::terrain::AlbedoMap>);
+
+impl GroundAlbedoMap {
+    /// Shares `map`.
+    pub fn new(map: nimbus_physics::terrain::AlbedoMap) -> Self {
+        Self(Arc::new(map))
+    }
+
+    /// The map.
+    pub fn map(&self) -> &nimbus_physics::terrain::AlbedoMap {
+        &self.0
+    }
+}
+
+impl PartialEq for GroundAlbedoMap {
+    fn eq(&self, other: &Self) -> bool {
+        Arc::ptr_eq(&self.0, &other.0)
+    }
 }
 
 impl Default for GroundSettings {
@@ -182,6 +213,7 @@ impl Default for GroundSettings {
             // forest 0.1–0.15, soil 0.1–0.2: Oke, Boundary Layer Climates, 1987, table 1.1).
             albedo: [0.15, 0.15, 0.15],
             height_m: 0.0,
+            albedo_map: None,
         }
     }
 }

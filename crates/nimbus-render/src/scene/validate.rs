@@ -452,6 +452,36 @@ impl Scene {
         let g = &self.ground;
         c.vector("ground.albedo", &g.albedo, 0.0, 1.0)?;
         c.closed("ground.height_m", g.height_m, -10_000.0, 10_000.0)?;
+        if let Some(map) = &g.albedo_map {
+            let map = map.map();
+            let texels = u64::from(map.width) * u64::from(map.height);
+            if map.width == 0 || map.height == 0 || map.width > 4096 || map.height > 4096 {
+                return Err(c.invalid(
+                    "ground.albedo_map",
+                    format!("{} × {} texels", map.width, map.height),
+                    "1 to 4096 texels on each side",
+                ));
+            }
+            if map.texels.len() as u64 != texels {
+                return Err(c.invalid(
+                    "ground.albedo_map",
+                    format!("{} texels", map.texels.len()),
+                    format!("width × height = {texels}"),
+                ));
+            }
+            if let Some((i, t)) = map
+                .texels
+                .iter()
+                .enumerate()
+                .find(|(_, t)| !t.iter().all(|a| (0.0..=1.0).contains(a)))
+            {
+                return Err(c.invalid(
+                    &format!("ground.albedo_map texel {i}"),
+                    format!("{t:?}"),
+                    "each channel in [0, 1]",
+                ));
+            }
+        }
 
         if let Some(cu) = &self.cumulus {
             c.closed("cumulus.coverage", cu.coverage, 0.0, 1.0)?;

@@ -252,8 +252,8 @@ pub const NIMBUS_LIGHTING: WgslFile = WgslFile {
 /// shadows, the sky's or the cloud layer's ambient light): the functions of
 /// `shader/nimbus_lighting.wgsl` and everything they need, composed. The
 /// pipeline's layout: nimbus's groups 0, 2 and 3 and the caller's group 1
-/// ([`crate::frame::FrameLayouts::pipeline_layout`]); bound with
-/// [`crate::frame::FrameBindings::set_on`]. See docs/embedding.md.
+/// (`FrameLayouts::pipeline_layout` of `Renderer::frame_resources`); bound
+/// with `FrameBindings::set_on`. See docs/embedding.md.
 pub fn lighting_include() -> String {
     compose(&[NIMBUS_LIGHTING])
 }

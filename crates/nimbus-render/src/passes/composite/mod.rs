@@ -183,6 +183,7 @@ impl CompositePass {
         caller_depth: &wgpu::TextureView,
         nimbus_depth: &wgpu::TextureView,
         frame: &FrameBindings<'_>,
+        timestamp_writes: Option<wgpu::RenderPassTimestampWrites<'_>>,
     ) {
         let group = self.group(
             device,
@@ -210,7 +211,7 @@ impl CompositePass {
                 }),
                 stencil_ops: None,
             }),
-            timestamp_writes: None,
+            timestamp_writes,
             occlusion_query_set: None,
             multiview_mask: None,
         });

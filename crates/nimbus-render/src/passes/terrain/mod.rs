@@ -16,6 +16,7 @@ use crate::core::mesh::IndexedMesh;
 use crate::core::pipeline::{DrawPipeline, hdr_target, opaque_depth};
 use crate::frame::occluders::OccluderGeometry;
 use crate::frame::{FrameBindings, FrameLayouts};
+use crate::scene::GroundAlbedoMap;
 use crate::shader::{self, WgslFile};
 use bytemuck::{Pod, Zeroable};
 use nimbus_physics::terrain::{self, Terrain, TerrainParams};
@@ -87,6 +88,8 @@ pub enum Ground {
         height_m: f64,
         /// Its linear albedo.
         albedo: [f32; 3],
+        /// Its albedo as a map over the square instead, when given.
+        albedo_map: Option<GroundAlbedoMap>,
     },
 }
 
@@ -102,7 +105,16 @@ impl Ground {
                 extent_m,
                 height_m,
                 albedo,
-            } => terrain::flat(*extent_m, FLAT_GROUND_RESOLUTION, *height_m, *albedo),
+                albedo_map,
+            } => match albedo_map {
+                Some(map) => terrain::flat_with_albedo_map(
+                    *extent_m,
+                    FLAT_GROUND_RESOLUTION,
+                    *height_m,
+                    map.map(),
+                ),
+                None => terrain::flat(*extent_m, FLAT_GROUND_RESOLUTION, *height_m, *albedo),
+            },
         }
     }
 
