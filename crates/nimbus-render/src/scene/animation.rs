@@ -148,6 +148,62 @@ pub fn evaluate_track(track: &[(f64, f64)], t: f64) -> Option<f64> {
 /// Longest step of the wind integral, s.
 const DRIFT_STEP_S: f64 = 0.25;
 
+/// Most Simpson intervals per stretch between two wind keys.
+const MAX_DRIFT_STEPS_PER_STRETCH: usize = 512;
+
+/// ∫₀ᵗ v(τ) dτ of a keyed wind velocity `v`, whose tracks have keys at
+/// `knots` (s, any order): between consecutive keys (and 0 and `time_s`)
+/// Simpson's rule with steps of at most [`DRIFT_STEP_S`] up to
+/// [`MAX_DRIFT_STEPS_PER_STRETCH`]; before the first key and after the last
+/// the tracks hold their values, so the velocity is constant and the
+/// integral exact. The cost grows with the number of keys, not with
+/// `time_s` (a drift at 10⁹ s costs what one at 10 s does).
+fn drift_integral(velocity: &dyn Fn(f64) -> [f64; 2], knots: &[f64], time_s: f64) -> [f64; 2] {
+    let (lo, hi) = (time_s.min(0.0), time_s.max(0.0));
+    let mut points: Vec<f64> = knots
+        .iter()
+        .copied()
+        .filter(|k| *k > lo && *k < hi)
+        .chain([0.0, time_s])
+        .collect();
+    points.sort_by(f64::total_cmp);
+    points.dedup();
+    if time_s < 0.0 {
+        points.reverse();
+    }
+    let first_key = knots.iter().copied().fold(f64::INFINITY, f64::min);
+    let last_key = knots.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+    let mut drift = [0.0, 0.0];
+    for pair in points.windows(2) {
+        let (a, b) = (pair[0], pair[1]);
+        let constant = a.min(b) >= last_key || a.max(b) <= first_key;
+        let part = if constant {
+            velocity(a).map(|v| v * (b - a))
+        } else {
+            let steps = ((((b - a).abs() / DRIFT_STEP_S).ceil() as usize).max(1) * 2)
+                .min(MAX_DRIFT_STEPS_PER_STRETCH);
+            let h = (b - a) / steps as f64;
+            let mut sum = [0.0, 0.0];
+            for j in 0..=steps {
+                let weight = if j == 0 || j == steps {
+                    1.0
+                } else if j % 2 == 1 {
+                    4.0
+                } else {
+                    2.0
+                };
+                let v = velocity(a + j as f64 * h);
+                sum[0] += weight * v[0];
+                sum[1] += weight * v[1];
+            }
+            sum.map(|s| s * h / 3.0)
+        };
+        drift[0] += part[0];
+        drift[1] += part[1];
+    }
+    drift
+}
+
 impl Scene {
     /// Whether the scene has keyframes.
     pub fn is_animated(&self) -> bool {
@@ -191,23 +247,13 @@ impl Scene {
                 wind.from_deg = evaluate_track(&tracks.wind_from_deg, time_s)
                     .unwrap_or(base.1)
                     .rem_euclid(360.0);
-                // Simpson's rule over steps of at most DRIFT_STEP_S.
-                let steps = ((time_s.abs() / DRIFT_STEP_S).ceil() as usize).max(1) * 2;
-                let h = time_s / steps as f64;
-                let mut drift = [0.0, 0.0];
-                for j in 0..=steps {
-                    let weight = if j == 0 || j == steps {
-                        1.0
-                    } else if j % 2 == 1 {
-                        4.0
-                    } else {
-                        2.0
-                    };
-                    let v = velocity(j as f64 * h);
-                    drift[0] += weight * v[0];
-                    drift[1] += weight * v[1];
-                }
-                wind.drift_m = Some(drift.map(|d| d * h / 3.0));
+                let knots: Vec<f64> = tracks
+                    .wind_speed_m_s
+                    .iter()
+                    .chain(&tracks.wind_from_deg)
+                    .map(|k| k.0)
+                    .collect();
+                wind.drift_m = Some(drift_integral(&velocity, &knots, time_s));
             }
         }
         if let (Some(rain), Some(intensity)) = (&mut scene.rain, at(&tracks.rain_intensity_mm_h)) {
@@ -418,6 +464,27 @@ mod tests {
         );
         let later = s.at_time(20.0).cloud_drift_m(20.0);
         assert!((later[0] - 50.0).abs() < 1e-6, "{later:?}");
+        // Far beyond the keys the air moves at the last key's velocity (here
+        // none), whatever the time: no integration step per second
+        // (issue 28: `--time-s 1e9` took minutes).
+        let far = s.at_time(1.0e9).cloud_drift_m(1.0e9);
+        assert!((far[0] - 50.0).abs() < 1e-6, "{far:?}");
+        let steady = scene(
+            "[[keyframes]]\ntime_s = 0.0\nwind_speed_m_s = 4.0\n\
+             [[keyframes]]\ntime_s = 10.0\nwind_speed_m_s = 8.0\n",
+        )
+        .expect("valid");
+        // 4 → 8 m/s linearly over 10 s (60 m), then 8 m/s: at 10⁹ s exact.
+        let far = steady.at_time(1.0e9).cloud_drift_m(1.0e9);
+        let expected = 60.0 + 8.0 * (1.0e9 - 10.0);
+        assert!(
+            (far[0] - expected).abs() < 1e-9 * expected && far[1].abs() < 1e-3,
+            "{far:?} against {expected}"
+        );
+        // Between keys: the same integral as many small steps give.
+        let mid = steady.at_time(7.3).cloud_drift_m(7.3);
+        let exact = 4.0 * 7.3 + 0.2 * 7.3 * 7.3;
+        assert!((mid[0] - exact).abs() < 1e-9, "{mid:?} against {exact}");
         // Without keyframes the drift is velocity × time.
         let plain = scene("").expect("valid");
         assert!((plain.cloud_drift_m(3.0)[0] - 30.0).abs() < 1e-9);
