@@ -45,21 +45,24 @@ impl<K: PartialEq, V: Send + 'static> Deferred<K, V> {
 
     /// Makes sure the value of `key` is ready or under way, and returns the
     /// newest ready value with its key: `key`'s once computed, until then
-    /// the previous key's, or `None` before the first is done. `compute`
-    /// runs only when `key` is neither ready nor under way. One computation
+    /// the previous key's, or `None` before the first is done. `job` is
+    /// called only when `key` is neither ready nor under way, and gives the
+    /// computation (so that what it copies for the worker is copied only
+    /// then, not every frame). One computation
     /// at a time: while another key's is under way (threads cannot be
     /// cancelled), `key`'s waits for a request after it has finished, so a
     /// key that changes every frame (a moving sun) is followed with a lag
     /// of one computation instead of piling up threads.
-    pub fn request(
+    pub fn request<F: FnOnce() -> V + Send + 'static>(
         &mut self,
         key: K,
         mode: Precompute,
-        compute: impl FnOnce() -> V + Send + 'static,
+        job: impl FnOnce() -> F,
     ) -> Option<(&K, &V)> {
         self.collect(mode == Precompute::Blocking);
         let ready = self.ready.as_ref().is_some_and(|(k, _)| *k == key);
         if !ready && self.running.is_none() {
+            let compute = job();
             match mode {
                 Precompute::Blocking => self.ready = Some((key, compute())),
                 Precompute::Background => {
@@ -86,7 +89,23 @@ impl<K: PartialEq, V: Send + 'static> Deferred<K, V> {
                 }
             }
         }
-        self.ready.as_ref().map(|(k, v)| (k, v))
+        self.ready()
+    }
+
+    /// [`Self::request`], giving the value only once it is `key`'s (not an
+    /// older key's).
+    pub fn request_current<F: FnOnce() -> V + Send + 'static>(
+        &mut self,
+        key: &K,
+        mode: Precompute,
+        job: impl FnOnce() -> F,
+    ) -> Option<&V>
+    where
+        K: Clone,
+    {
+        self.request(key.clone(), mode, job)
+            .filter(|(ready, _)| *ready == key)
+            .map(|(_, value)| value)
     }
 
     /// Takes the running computation's result if it has finished (or waits
@@ -107,13 +126,6 @@ impl<K: PartialEq, V: Send + 'static> Deferred<K, V> {
                 Err(panic) => std::panic::resume_unwind(panic),
             }
         }
-    }
-
-    /// Takes a finished computation's result without asking for anything,
-    /// and returns the newest ready value.
-    pub fn poll(&mut self) -> Option<(&K, &V)> {
-        self.collect(false);
-        self.ready()
     }
 
     /// Blocks until the computation under way, if any, has finished.
@@ -142,7 +154,7 @@ mod tests {
         let mut d: Deferred<u32, u32> = Deferred::new("test");
         let (release, gate) = mpsc::channel::<()>();
         assert!(
-            d.request(1, Precompute::Background, move || {
+            d.request(1, Precompute::Background, || move || {
                 gate.recv().expect("released");
                 10
             })
@@ -151,8 +163,10 @@ mod tests {
         assert_eq!(d.pending(), Some("test"));
         // Asking again for the same key starts nothing new.
         assert!(
-            d.request(1, Precompute::Background, || unreachable!())
-                .is_none()
+            d.request(1, Precompute::Background, || -> fn() -> u32 {
+                unreachable!()
+            })
+            .is_none()
         );
         release.send(()).expect("worker waiting");
         d.wait();
@@ -160,38 +174,49 @@ mod tests {
         assert_eq!(d.ready(), Some((&1, &10)));
         // A new key: the old value stays until the new one is computed.
         let (release, gate) = mpsc::channel::<()>();
-        let got = d.request(2, Precompute::Background, move || {
-            gate.recv().expect("released");
-            20
+        let got = d.request(2, Precompute::Background, || {
+            move || {
+                gate.recv().expect("released");
+                20
+            }
         });
         assert_eq!(got, Some((&1, &10)));
         // A third key while the second is under way waits for it.
         assert_eq!(
-            d.request(3, Precompute::Background, || unreachable!()),
+            d.request(3, Precompute::Background, || -> fn() -> u32 {
+                unreachable!()
+            }),
             Some((&1, &10))
         );
         release.send(()).expect("worker waiting");
         d.wait();
         assert_eq!(d.ready(), Some((&2, &20)));
-        d.request(3, Precompute::Background, || 30);
+        d.request(3, Precompute::Background, || || 30);
         d.wait();
         assert_eq!(
-            d.request(3, Precompute::Background, || unreachable!()),
-            Some((&3, &30))
+            d.request_current(&3, Precompute::Background, || -> fn() -> u32 {
+                unreachable!()
+            }),
+            Some(&30)
         );
     }
 
     #[test]
     fn blocking_computes_inline() {
         let mut d: Deferred<u32, u32> = Deferred::new("test");
-        assert_eq!(d.request(3, Precompute::Blocking, || 30), Some((&3, &30)));
+        assert_eq!(
+            d.request(3, Precompute::Blocking, || || 30),
+            Some((&3, &30))
+        );
         assert_eq!(d.pending(), None);
     }
 
     #[test]
     fn a_panic_in_the_worker_reaches_the_caller() {
         let mut d: Deferred<u32, u32> = Deferred::new("test");
-        d.request(1, Precompute::Background, || panic!("worker failed"));
+        d.request(1, Precompute::Background, || {
+            || -> u32 { panic!("worker failed") }
+        });
         let caught = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| d.wait()));
         assert!(caught.is_err());
     }

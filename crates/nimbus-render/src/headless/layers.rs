@@ -199,7 +199,7 @@ impl HeadlessRenderer {
         for view in views {
             let (radiance, depth) = self.render_view_hdr(
                 scene,
-                &view.camera,
+                &crate::frame::View::from_camera(&view.camera),
                 view.width,
                 view.height,
                 time_s,
@@ -261,8 +261,14 @@ impl HeadlessRenderer {
         }
         let clear = scene.clear_sky();
         for (view, layers) in views.iter().zip(out.iter_mut()) {
-            let (sky, _) =
-                self.render_view_hdr(&clear, &view.camera, view.width, view.height, time_s, false)?;
+            let (sky, _) = self.render_view_hdr(
+                &clear,
+                &crate::frame::View::from_camera(&view.camera),
+                view.width,
+                view.height,
+                time_s,
+                false,
+            )?;
             layers.sky_radiance = sky;
         }
         Ok(out)
@@ -278,8 +284,14 @@ impl HeadlessRenderer {
         pre_exposed: f32,
     ) -> Result<Vec<[f32; 3]>, HeadlessError> {
         self.renderer.set_background_override(Some(pre_exposed));
-        let frame =
-            self.render_view_hdr(scene, &view.camera, view.width, view.height, time_s, false);
+        let frame = self.render_view_hdr(
+            scene,
+            &crate::frame::View::from_camera(&view.camera),
+            view.width,
+            view.height,
+            time_s,
+            false,
+        );
         self.renderer.set_background_override(None);
         Ok(frame?.0)
     }

@@ -228,7 +228,8 @@ impl HeadlessRenderer {
             });
         }
         let camera = Camera::from_settings(&scene.camera, width, height);
-        let (pixels, _) = self.render_view_hdr(scene, &camera, width, height, time_s, false)?;
+        let view = View::from_camera(&camera);
+        let (pixels, _) = self.render_view_hdr(scene, &view, width, height, time_s, false)?;
         Ok(HdrImage {
             width,
             height,
@@ -247,8 +248,7 @@ impl HeadlessRenderer {
         height: u32,
         time_s: f32,
     ) -> Result<(HdrImage, Vec<f32>), HeadlessError> {
-        let (pixels, depth) =
-            self.render_hdr_and_depth(scene, view, width, height, time_s, true)?;
+        let (pixels, depth) = self.render_view_hdr(scene, view, width, height, time_s, true)?;
         let image = HdrImage {
             width,
             height,
@@ -257,24 +257,10 @@ impl HeadlessRenderer {
         Ok((image, depth.unwrap_or_default()))
     }
 
-    /// Renders one camera's view and reads back its radiance (exposure
-    /// undone) and, when asked, its depth buffer (reverse-Z values, 0 at the far plane).
+    /// Renders one view and reads back its radiance (exposure undone) and,
+    /// when asked, its depth buffer (reverse-Z values, 0 at the far plane).
     #[allow(clippy::type_complexity)] // a pair of row-major buffers, named at the call sites
     fn render_view_hdr(
-        &mut self,
-        scene: &Scene,
-        camera: &Camera,
-        width: u32,
-        height: u32,
-        time_s: f32,
-        with_depth: bool,
-    ) -> Result<(Vec<[f32; 3]>, Option<Vec<f32>>), HeadlessError> {
-        let view = View::from_camera(camera);
-        self.render_hdr_and_depth(scene, &view, width, height, time_s, with_depth)
-    }
-
-    #[allow(clippy::type_complexity)] // a pair of row-major buffers, named at the call sites
-    fn render_hdr_and_depth(
         &mut self,
         scene: &Scene,
         view: &View,

@@ -94,7 +94,7 @@ impl Renderer {
         }
         // 4b. The air in front of the caller's surfaces (the only ones in
         // the depth so far), before nimbus's own surfaces cover some of them.
-        if let Some((composite, own)) = linear {
+        if let Some((composite, _)) = linear {
             let mut pass = self.overlay_pass(
                 encoder,
                 "caller aerial perspective",
@@ -102,7 +102,7 @@ impl Renderer {
                 hdr,
                 None,
             );
-            composite.draw_aerial(&self.device, &mut pass, &own.view, &frame);
+            composite.draw_aerial(&mut pass, &frame);
         }
         // 5. Terrain, depth-tested.
         {
@@ -223,7 +223,7 @@ impl Renderer {
                 .as_ref()
                 .map(|t| t.pass_writes(PassId::Export.timer_index()));
             let mut pass = Self::colour_pass(encoder, "export", targets.output, None, timestamps);
-            composite.draw_export(&self.device, &mut pass, &hdr.view, &frame);
+            composite.draw_export(&mut pass, &frame);
             drop(pass);
             if let Some(timer) = &self.timer {
                 timer.resolve(encoder);

@@ -499,20 +499,25 @@ impl Renderer {
             self.hdr = Some(hdr);
         }
         let mut frame = FrameUniform::with_view(scene, view, width, height, time_s);
-        if let Some(composite) = &self.composite {
+        if let Some(composite) = &mut self.composite {
             // The caller exposes its frame: nimbus's radiance only pre-exposed.
             frame.exposure_scale = self.pre_exposure;
             frame.auto_exposure = 0;
             composite.prepare(&self.queue, view);
             if self.own_depth.as_ref().map(Target::size) != Some((width, height)) {
-                self.own_depth = Some(Target::new(
+                let own_depth = Target::new(
                     &self.device,
                     "nimbus depth",
                     DEPTH_FORMAT,
                     width,
                     height,
                     wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_SRC,
-                ));
+                );
+                // The HDR target was resized with it, just above.
+                if let Some(hdr) = &self.hdr {
+                    composite.set_targets(&self.device, &own_depth.view, &hdr.view);
+                }
+                self.own_depth = Some(own_depth);
             }
         }
         self.frame.write_uniform(&self.queue, &frame);

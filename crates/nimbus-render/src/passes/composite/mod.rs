@@ -60,6 +60,9 @@ pub struct CompositePass {
     import_layout: wgpu::BindGroupLayout,
     aerial_layout: wgpu::BindGroupLayout,
     export_layout: wgpu::BindGroupLayout,
+    /// The groups of nimbus's own targets (its depth for the air, its colour
+    /// for the export), made when they are ([`Self::set_targets`]).
+    target_groups: Option<(wgpu::BindGroup, wgpu::BindGroup)>,
     depth_import: wgpu::RenderPipeline,
     aerial: wgpu::RenderPipeline,
     export: wgpu::RenderPipeline,
@@ -148,6 +151,7 @@ impl CompositePass {
             import_layout,
             aerial_layout,
             export_layout,
+            target_groups: None,
             depth_import,
             aerial,
             export,
@@ -220,49 +224,56 @@ impl CompositePass {
         pass.draw(0..3, 0..1);
     }
 
-    /// Records the air in front of the caller's surfaces into `pass` (the
-    /// HDR target, no depth attachment), reading `nimbus_depth`.
-    pub fn draw_aerial(
-        &self,
+    /// Binds nimbus's own targets: its depth (the caller's translated),
+    /// which the air reads, and its HDR colour, which the export reads.
+    /// Call when they are created or resized.
+    pub fn set_targets(
+        &mut self,
         device: &wgpu::Device,
-        pass: &mut wgpu::RenderPass<'_>,
         nimbus_depth: &wgpu::TextureView,
-        frame: &FrameBindings<'_>,
+        nimbus_colour: &wgpu::TextureView,
     ) {
-        let group = self.group(
-            device,
-            "caller aerial perspective",
-            &self.aerial_layout,
-            &[wgpu::BindGroupEntry {
-                binding: 2,
-                resource: wgpu::BindingResource::TextureView(nimbus_depth),
-            }],
-        );
-        pass.set_pipeline(&self.aerial);
-        frame.set_on(pass, Some(&group));
-        pass.draw(0..3, 0..1);
+        let group = |label, layout, binding, view| {
+            self.group(
+                device,
+                label,
+                layout,
+                &[wgpu::BindGroupEntry {
+                    binding,
+                    resource: wgpu::BindingResource::TextureView(view),
+                }],
+            )
+        };
+        self.target_groups = Some((
+            group(
+                "caller aerial perspective",
+                &self.aerial_layout,
+                2,
+                nimbus_depth,
+            ),
+            group("export", &self.export_layout, 3, nimbus_colour),
+        ));
     }
 
-    /// Records the export of `nimbus_colour` over the caller's target into
-    /// `pass` (whose colour attachment is the caller's, loaded).
-    pub fn draw_export(
-        &self,
-        device: &wgpu::Device,
-        pass: &mut wgpu::RenderPass<'_>,
-        nimbus_colour: &wgpu::TextureView,
-        frame: &FrameBindings<'_>,
-    ) {
-        let group = self.group(
-            device,
-            "export",
-            &self.export_layout,
-            &[wgpu::BindGroupEntry {
-                binding: 3,
-                resource: wgpu::BindingResource::TextureView(nimbus_colour),
-            }],
-        );
-        pass.set_pipeline(&self.export);
-        frame.set_on(pass, Some(&group));
-        pass.draw(0..3, 0..1);
+    /// Records the air in front of the caller's surfaces into `pass` (the
+    /// HDR target, no depth attachment), reading nimbus's depth; nothing
+    /// before [`Self::set_targets`].
+    pub fn draw_aerial(&self, pass: &mut wgpu::RenderPass<'_>, frame: &FrameBindings<'_>) {
+        if let Some((aerial, _)) = &self.target_groups {
+            pass.set_pipeline(&self.aerial);
+            frame.set_on(pass, Some(aerial));
+            pass.draw(0..3, 0..1);
+        }
+    }
+
+    /// Records the export of nimbus's colour over the caller's target into
+    /// `pass` (whose colour attachment is the caller's, loaded); nothing
+    /// before [`Self::set_targets`].
+    pub fn draw_export(&self, pass: &mut wgpu::RenderPass<'_>, frame: &FrameBindings<'_>) {
+        if let Some((_, export)) = &self.target_groups {
+            pass.set_pipeline(&self.export);
+            frame.set_on(pass, Some(export));
+            pass.draw(0..3, 0..1);
+        }
     }
 }

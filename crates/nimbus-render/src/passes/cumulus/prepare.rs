@@ -42,18 +42,12 @@ impl CumulusPass {
         if self.forward_peak_key == Some(key) {
             return true;
         }
-        let job = params.clone();
-        let Some((ready, table)) =
-            self.forward_peak
-                .request(params.clone(), precompute, move || {
-                    Arc::new(ForwardPeakTable::from_optics(&load_optics(&job)))
-                })
-        else {
+        let Some(table) = self.forward_peak.request_current(&params, precompute, || {
+            let job = params.clone();
+            move || Arc::new(ForwardPeakTable::from_optics(&load_optics(&job)))
+        }) else {
             return false;
         };
-        if *ready != params {
-            return false;
-        }
         queue.write_texture(
             self.forward_peak_table.as_image_copy(),
             bytemuck::cast_slice(&table.rgba_texels()),
@@ -166,14 +160,13 @@ impl CumulusPass {
             levels_of_detail: settings.levels_of_detail,
         };
         // Both requested before either is waited for, so that they run side by side.
-        let job = params.clone();
         let shapes = self
             .shapes
-            .request(params.clone(), precompute, move || {
-                variants::load_or_generate(&crate::core::cache::cache_dir(), &job)
+            .request_current(&params, precompute, || {
+                let job = params.clone();
+                move || variants::load_or_generate(&crate::core::cache::cache_dir(), &job)
             })
-            .filter(|(ready, _)| **ready == params)
-            .map(|(_, shapes)| shapes.clone());
+            .cloned();
         let peak_ready = settings.shading.forward_peak <= 0.0
             || self.update_forward_peak(queue, scene, precompute);
         let shapes = match shapes {

@@ -283,17 +283,13 @@ impl RainPass {
             // The map follows drifting clouds every frame and costs
             // milliseconds: made on a worker thread (the newest finished one
             // is used, a frame or so late) unless precomputation blocks.
-            let idle = self.zones_job.poll().is_none_or(|(k, _)| *k != zones_key)
-                && self.zones_job.pending().is_none();
-            if idle || precompute == Precompute::Blocking {
+            let ready = self.zones_job.request(zones_key, precompute, || {
                 let (scene, settings) = (scene.clone(), settings.clone());
                 let footprints = cumulus_footprints_m.to_vec();
                 let t = time_s as f64;
-                self.zones_job.request(zones_key, precompute, move || {
-                    rain_zones(&scene, &settings, t, &footprints)
-                });
-            }
-            if let Some((key, map)) = self.zones_job.ready()
+                move || rain_zones(&scene, &settings, t, &footprints)
+            });
+            if let Some((key, map)) = ready
                 && *key != state.zones_key
             {
                 state.zone_map = map.clone();

@@ -82,20 +82,18 @@ impl StratusPass {
         precompute: Precompute,
     ) -> Result<(), StratusError> {
         self.camera_height_m = scene.camera.position_m[1];
-        let wanted = scene.stratus.as_ref().map(optics_params);
-        let tables = match wanted {
-            Some(params) => {
-                let job = params.clone();
-                match self
-                    .optics_tables
-                    .request(params.clone(), precompute, move || load_optics(&job))
-                {
-                    Some((ready, tables)) if *ready == params => Some(tables.clone()),
-                    _ => None,
-                }
-            }
-            None => None,
-        };
+        let tables = scene
+            .stratus
+            .as_ref()
+            .map(optics_params)
+            .and_then(|params| {
+                self.optics_tables
+                    .request_current(&params, precompute, || {
+                        let job = params.clone();
+                        move || load_optics(&job)
+                    })
+                    .cloned()
+            });
         // Drawn only once what it needs is ready (and without a layer: the
         // smallest resources keep the bindings valid, built below).
         let ready = scene.stratus.is_none() || (tables.is_some() && terrain.is_some());

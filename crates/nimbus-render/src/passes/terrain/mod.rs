@@ -258,10 +258,10 @@ impl TerrainPass {
         let vertex_bytes = side * side * std::mem::size_of::<TerrainVertex>() as u64;
         limits::check_buffer_size(device, &what, vertex_bytes)?;
         limits::check_buffer_size(device, &what, (side - 1) * (side - 1) * 6 * 4)?;
-        let job = ground.clone();
         let Some((built_ground, built)) =
-            self.generated.request(ground.clone(), precompute, move || {
-                GeneratedGround::of(&job)
+            self.generated.request(ground.clone(), precompute, || {
+                let job = ground.clone();
+                move || GeneratedGround::of(&job)
             })
         else {
             return Ok(());
@@ -358,11 +358,11 @@ impl TerrainPass {
         if mesh.sun_direction == Some(sun_direction) {
             return;
         }
-        let terrain = mesh.terrain.clone();
         let key = (self.generation, sun_direction);
         let Some(((generation, direction), visibility)) =
-            self.sun_visibility.request(key, precompute, move || {
-                sun_visibility_texels(&terrain, sun_direction)
+            self.sun_visibility.request(key, precompute, || {
+                let terrain = mesh.terrain.clone();
+                move || sun_visibility_texels(&terrain, sun_direction)
             })
         else {
             return;
