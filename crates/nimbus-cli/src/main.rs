@@ -8,8 +8,9 @@ mod stdout;
 mod commands;
 mod output;
 mod plot;
+mod progress;
 
-use clap::{Parser, Subcommand};
+use clap::{CommandFactory, Parser, Subcommand};
 use std::process::ExitCode;
 
 /// nimbus: real-time cloudy and rainy skies, from physics and phenomenology.
@@ -52,8 +53,12 @@ enum Command {
     /// pixels or the whole image.
     Compare(commands::compare::CompareArgs),
     /// Export a scene as nimbus draws it to the Mitsuba 3 path tracer
-    /// (scene.xml and assets), for path-traced references.
+    /// (scene.xml and assets), for path-traced references, and/or its
+    /// cumulus field and terrain as binary glTF (.glb) for Blender.
     Export(commands::export::ExportArgs),
+    /// Print a shell completion script for nimbus on standard output, e.g.
+    /// `nimbus completions bash > ~/.local/share/bash-completion/completions/nimbus`.
+    Completions(commands::completions::CompletionsArgs),
 }
 
 fn main() -> ExitCode {
@@ -74,16 +79,7 @@ fn main() -> ExitCode {
                     ExitCode::SUCCESS
                 };
             }
-            // One line: clap's message without its usage block (the lines
-            // before the first blank one, e.g. a missing argument's name).
-            let text = error.to_string();
-            let message: Vec<&str> = text
-                .lines()
-                .map(str::trim)
-                .take_while(|l| !l.is_empty() && !l.starts_with("Usage:"))
-                .collect();
-            let message = message.join(" ");
-            eprintln!("nimbus: error: {}", message.trim_start_matches("error: "));
+            eprintln!("nimbus: error: {}", one_line(&error.to_string()));
             return ExitCode::from(2);
         }
     };
@@ -100,6 +96,7 @@ fn main() -> ExitCode {
         Command::Rain(args) => commands::rain::run(&args),
         Command::Compare(args) => commands::compare::run(&args),
         Command::Export(args) => commands::export::run(&args),
+        Command::Completions(args) => commands::completions::run(&args, Cli::command()),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
@@ -111,5 +108,60 @@ fn main() -> ExitCode {
             );
             ExitCode::FAILURE
         }
+    }
+}
+
+/// A clap error in one line: its message (the lines before the first blank
+/// one, e.g. a missing argument's name or the possible values) and its
+/// tips in parentheses ("a similar argument exists: '--width'"), without
+/// the usage block and the pointer to --help.
+fn one_line(text: &str) -> String {
+    let mut lines = text.lines().map(str::trim);
+    let message: Vec<&str> = lines
+        .by_ref()
+        .take_while(|l| !l.is_empty() && !l.starts_with("Usage:"))
+        .collect();
+    let tips: Vec<&str> = lines.filter(|l| l.starts_with("tip:")).collect();
+    let mut line = message.join(" ").trim_start_matches("error: ").to_owned();
+    if !tips.is_empty() {
+        line.push_str(&format!(" ({})", tips.join("; ")));
+    }
+    line
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn parse_error(args: &[&str]) -> String {
+        match Cli::try_parse_from(args) {
+            Ok(cli) => panic!("{args:?} parsed as {cli:?}"),
+            Err(error) => one_line(&error.to_string()),
+        }
+    }
+
+    #[test]
+    fn a_misspelt_flag_keeps_clap_s_suggestion_in_one_line() {
+        let line = parse_error(&["nimbus", "render", "--widht", "16"]);
+        assert_eq!(
+            line,
+            "unexpected argument '--widht' found (tip: a similar argument exists: '--width')"
+        );
+    }
+
+    #[test]
+    fn a_value_outside_a_set_lists_the_allowed_values_in_one_line() {
+        let line = parse_error(&["nimbus", "render", "--adapter", "quantum"]);
+        assert!(
+            line.starts_with("invalid value 'quantum' for '--adapter <ADAPTER>'")
+                && line.contains("[possible values: auto, hardware, software]")
+                && !line.contains('\n'),
+            "{line}"
+        );
+    }
+
+    #[test]
+    fn the_command_line_definition_is_consistent() {
+        Cli::command().debug_assert();
     }
 }

@@ -4,7 +4,7 @@
 
 use anyhow::Context;
 use nimbus_render::headless::{ImageLayers, Rgba8Image};
-use std::io::{IsTerminal, Write};
+use std::io::Write;
 use std::path::{Path, PathBuf};
 
 /// Image file formats nimbus writes.
@@ -36,12 +36,65 @@ impl ImageFormat {
     }
 }
 
-fn temporary_path(path: &Path) -> PathBuf {
-    let name = path
-        .file_name()
+/// The temporary name `path` is written under: `.NAME.PID.tmp` beside it.
+/// Stale ones, left by a run that was killed (`kill -9`, power loss), are
+/// removed first (see [`remove_stale_temporaries`]).
+pub fn temporary_path(path: &Path) -> PathBuf {
+    remove_stale_temporaries(path);
+    path.with_file_name(format!(".{}.{}.tmp", file_name(path), std::process::id()))
+}
+
+fn file_name(path: &Path) -> String {
+    path.file_name()
         .map(|n| n.to_string_lossy().into_owned())
-        .unwrap_or_default();
-    path.with_file_name(format!(".{name}.{}.tmp", std::process::id()))
+        .unwrap_or_default()
+}
+
+/// Whether the process `pid` still runs. Linux answers through /proc;
+/// elsewhere every other process is taken as running, and only files a
+/// day old count as stale.
+fn process_runs(pid: u32) -> bool {
+    let proc = Path::new("/proc");
+    if proc.join("self").exists() {
+        proc.join(pid.to_string()).exists()
+    } else {
+        true
+    }
+}
+
+/// Removes `.NAME.PID.tmp` files beside `path` whose process no longer
+/// runs (or, where that cannot be told, that are more than a day old):
+/// what a killed run left. Errors are ignored: this is housekeeping.
+pub fn remove_stale_temporaries(path: &Path) {
+    let name = file_name(path);
+    let dir = match path.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d,
+        _ => Path::new("."),
+    };
+    let Ok(entries) = std::fs::read_dir(dir) else {
+        return;
+    };
+    let prefix = format!(".{name}.");
+    for entry in entries.flatten() {
+        let file = entry.file_name();
+        let Some(pid) = file
+            .to_str()
+            .and_then(|f| f.strip_prefix(&prefix))
+            .and_then(|f| f.strip_suffix(".tmp"))
+            .and_then(|pid| pid.parse::<u32>().ok())
+        else {
+            continue;
+        };
+        let day_old = entry
+            .metadata()
+            .and_then(|m| m.modified())
+            .ok()
+            .and_then(|t| t.elapsed().ok())
+            .is_some_and(|age| age.as_secs() > 86_400);
+        if pid != std::process::id() && (!process_runs(pid) || day_old) {
+            let _ = std::fs::remove_file(entry.path());
+        }
+    }
 }
 
 /// Writes `path` through a temporary file and a rename; removes the
@@ -138,55 +191,4 @@ pub fn write_exr_layers(path: &Path, image: &ImageLayers) -> anyhow::Result<()> 
             .to_file(temporary)
             .with_context(|| format!("output {}: EXR write failed", path.display()))
     })
-}
-
-/// A progress line with an ETA on standard error, redrawn at most four
-/// times a second and only on a terminal; `total` is the amount of work.
-pub struct Progress {
-    label: String,
-    total: u64,
-    start: std::time::Instant,
-    show: bool,
-    last_draw: std::sync::Mutex<f64>,
-}
-
-impl Progress {
-    pub fn new(label: impl Into<String>, total: u64) -> Self {
-        Self {
-            label: label.into(),
-            total,
-            start: std::time::Instant::now(),
-            show: std::io::stderr().is_terminal(),
-            last_draw: std::sync::Mutex::new(f64::NEG_INFINITY),
-        }
-    }
-
-    /// Reports `done` units of work.
-    pub fn update(&self, done: u64) {
-        let elapsed = self.start.elapsed().as_secs_f64();
-        {
-            let mut last = self.last_draw.lock().unwrap_or_else(|e| e.into_inner());
-            if !self.show || (elapsed - *last < 0.25 && done < self.total) {
-                return;
-            }
-            *last = elapsed;
-        }
-        let eta = elapsed * (self.total.saturating_sub(done)) as f64 / done.max(1) as f64;
-        let mut stderr = std::io::stderr();
-        let _ = write!(
-            stderr,
-            "\rnimbus: {}: {done}/{} ({:.0} %), {elapsed:.1} s, ETA {eta:.1} s   ",
-            self.label,
-            self.total,
-            100.0 * done as f64 / self.total.max(1) as f64
-        );
-        let _ = stderr.flush();
-    }
-
-    /// Ends the progress line.
-    pub fn finish(&self) {
-        if self.show {
-            eprintln!();
-        }
-    }
 }

@@ -143,7 +143,7 @@ fn bad_scene_values_fail_with_one_line_and_no_output() {
     let cases: [(&str, &[&str]); 5] = [
         (
             "[camera]\nfov_deg = 190\n",
-            &["bad.toml: camera.fov_deg = 190: must be in (0, 179)"],
+            &["bad.toml: camera.fov_deg = 190: must be a finite number in [0.01, 179]"],
         ),
         (
             "[camera]\nfov = 60\n",
@@ -241,6 +241,30 @@ fn scene_print_default_round_trips() {
         "{}",
         String::from_utf8_lossy(&check.stderr)
     );
+}
+
+/// `nimbus scene --schema` prints the shipped `schemas/scene.schema.json`
+/// (whose freshness nimbus-render's `scene_schema` test checks).
+#[test]
+fn scene_schema_prints_the_shipped_schema() {
+    let dir = temp_dir("schema");
+    let out = nimbus(&["scene", "--schema"], &dir);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let printed = String::from_utf8(out.stdout).expect("UTF-8");
+    let shipped_path =
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("../../schemas/scene.schema.json");
+    let shipped = std::fs::read_to_string(&shipped_path).expect("schemas/scene.schema.json");
+    assert!(
+        printed == shipped.replace("\r\n", "\n"),
+        "nimbus scene --schema differs from {}",
+        shipped_path.display()
+    );
+    let schema: serde_json::Value = serde_json::from_str(&printed).expect("one JSON document");
+    assert_eq!(schema["title"], "nimbus scene file");
 }
 
 #[test]
@@ -458,7 +482,7 @@ fn optics_dsd_writes_json_csv_and_plot() {
     assert!(csv.starts_with("angle_deg,phase_per_sr_650nm,phase_per_sr_450nm"));
     assert_eq!(csv.lines().count(), 38);
     let plot = image::open(dir.join("phase.png")).expect("png");
-    assert!(plot.width() > 100);
+    assert_eq!((plot.width(), plot.height()), (960, 540));
     assert_fails_with(
         &nimbus(&["optics", "dsd", "--gamma", "0"], &dir),
         &["--gamma 0"],
@@ -749,7 +773,7 @@ fn slab_prints_fluxes_and_radiance_for_both_methods() {
             ],
             &dir,
         ),
-        &["--phase hg:2"],
+        &["'hg:2'", "--phase", "hg:G with −1 < G < 1"],
     );
     assert!(files_in(&dir).is_empty());
 }
@@ -1084,7 +1108,7 @@ fn rain_bad_input_fails_with_one_line() {
     let cases: [(&[&str], &[&str]); 6] = [
         (
             &["rain", "terminal-velocity", "--diameter-mm", "-1"],
-            &["--diameter-mm -1", "(0, 8]"],
+            &["--diameter-mm -1", "[0.01, 8]"],
         ),
         (
             &["rain", "terminal-velocity", "--diameter-mm", "1,abc"],

@@ -9,6 +9,8 @@
 pub mod atmosphere;
 pub mod cloud_layer;
 pub mod cumulus;
+pub mod glb;
+pub mod io;
 pub mod noise;
 pub mod optics;
 pub mod photometry;

@@ -88,7 +88,7 @@ fn generated_cloud_is_watertight_with_a_flat_floor() {
 fn glb_reads_back_in_an_independent_reader() {
     let cumulus = two_root_cloud(2);
     let lods = cumulus_lods(&cumulus, 2, |_| {});
-    let bytes = to_glb(&lods);
+    let bytes = to_glb(&lods).expect("glb");
     let (document, buffers, _) = gltf::import_slice(&bytes).expect("valid glb");
     assert_eq!(document.meshes().count(), 2);
     assert_eq!(document.scenes().count(), 2);

@@ -30,11 +30,14 @@
 //! 6. [`renderer`]: the frame's order of passes and the registry of every
 //!    shader module.
 //! 7. [`headless`]: offscreen rendering on a device of its own.
+//! 8. [`export`]: the scene for other tools without a GPU (binary glTF of
+//!    the cumulus field and the terrain, for Blender).
 //!
 //! The paths of earlier versions (`nimbus_render::stratus`, `::gpu`, ...)
 //! are kept as re-exports.
 
 pub mod core;
+pub mod export;
 pub mod frame;
 pub mod headless;
 pub mod passes;

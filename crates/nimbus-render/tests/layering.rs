@@ -7,8 +7,8 @@ use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
 
 /// The layers, lowest first.
-const LAYERS: [&str; 7] = [
-    "core", "shader", "scene", "frame", "passes", "renderer", "headless",
+const LAYERS: [&str; 8] = [
+    "core", "shader", "scene", "frame", "passes", "renderer", "headless", "export",
 ];
 
 fn src_dir() -> PathBuf {

@@ -1,7 +1,8 @@
 //! `nimbus animate`: a scene's keyframed weather rendered as a PNG sequence
 //! or, through ffmpeg, a video.
 
-use crate::output::{Progress, write_exr_layers, write_png};
+use crate::output::{write_exr_layers, write_png};
+use crate::progress::Progress;
 use anyhow::Context;
 use clap::Args;
 use nimbus_render::headless::HeadlessRenderer;
@@ -103,7 +104,7 @@ pub fn run(args: &AnimateArgs) -> anyhow::Result<()> {
     } else {
         prepare_directory(&args.output)?;
     }
-    let mut headless = HeadlessRenderer::new(args.frame.adapter)?;
+    let mut headless = HeadlessRenderer::new(args.frame.adapter())?;
     eprintln!(
         "nimbus: animating {frames} frames of {width}×{height} at {} fps on {}",
         args.fps,
@@ -191,11 +192,7 @@ struct VideoWriter {
 
 impl VideoWriter {
     fn start(output: &Path, width: u32, height: u32, fps: f64) -> anyhow::Result<Self> {
-        let name = output
-            .file_name()
-            .map(|n| n.to_string_lossy().into_owned())
-            .unwrap_or_default();
-        let temporary = output.with_file_name(format!(".{name}.{}.tmp", std::process::id()));
+        let temporary = crate::output::temporary_path(output);
         let child = Command::new("ffmpeg")
             .args([
                 "-loglevel",

@@ -1,6 +1,7 @@
 //! `nimbus bench`: per-pass GPU times, and the CPU time of the renderer's
 //! per-frame calls, over many frames.
 
+use crate::progress::Progress;
 use clap::Args;
 use nimbus_render::headless::HeadlessRenderer;
 use nimbus_render::{PASS_NAMES, PassId, Precompute};
@@ -91,7 +92,7 @@ struct Report {
 /// Runs the subcommand.
 pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
     let (scene, width, height) = args.frame.scene_and_size()?;
-    let mut headless = HeadlessRenderer::new(args.frame.adapter)?;
+    let mut headless = HeadlessRenderer::new(args.frame.adapter())?;
     eprintln!(
         "nimbus: benchmarking {} frames at {width}×{height} on {}",
         args.frames,
@@ -100,7 +101,10 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
     // Warm-up: builds the terrain and the pipelines' first use (blocking,
     // so that every part is ready). Then precomputation moves off the render
     // thread, as in an application: the CPU times are its render thread's.
+    let progress = Progress::new("bench: frames", u64::from(args.frames));
+    progress.set_message("warm-up frame (precomputation)");
     headless.render_frame(&scene, width, height, 0.0)?;
+    progress.set_message("");
     headless.renderer.set_precompute(Precompute::Background);
     let mut wall_ms = Vec::new();
     let mut per_pass: Vec<Vec<f64>> = vec![Vec::new(); PASS_NAMES.len()];
@@ -122,7 +126,9 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
             }
             totals.push(times.iter().flatten().sum());
         }
+        progress.update(u64::from(frame) + 1);
     }
+    progress.finish();
     let timestamps = headless.renderer.has_timestamps() && !totals.is_empty();
     let info = &headless.gpu.adapter_info;
     let report = Report {

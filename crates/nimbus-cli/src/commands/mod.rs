@@ -3,6 +3,7 @@
 pub mod animate;
 pub mod bench;
 pub mod compare;
+pub mod completions;
 pub mod cumulus;
 pub mod export;
 pub mod optics;
@@ -39,9 +40,25 @@ pub fn load_scene(path: Option<&Path>) -> anyhow::Result<Scene> {
     Ok(scene)
 }
 
-/// Parses `--adapter`.
-pub(crate) fn parse_adapter(text: &str) -> Result<AdapterPreference, String> {
-    text.parse()
+/// The `--adapter` flag's values.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum Adapter {
+    /// A hardware GPU if there is one, otherwise a software adapter.
+    Auto,
+    /// Only a hardware GPU.
+    Hardware,
+    /// Only a software (CPU) adapter such as lavapipe.
+    Software,
+}
+
+impl From<Adapter> for AdapterPreference {
+    fn from(adapter: Adapter) -> Self {
+        match adapter {
+            Adapter::Auto => Self::Auto,
+            Adapter::Hardware => Self::Hardware,
+            Adapter::Software => Self::Software,
+        }
+    }
 }
 
 /// The scene, image size and adapter flags shared by the rendering commands.
@@ -55,9 +72,9 @@ pub struct FrameArgs {
     /// Image height in pixels (overrides the scene's image.height).
     #[arg(long, value_name = "PX", value_parser = clap::value_parser!(u32).range(1..=MAX_SIDE_PX as i64))]
     height: Option<u32>,
-    /// GPU adapter: auto, hardware or software (lavapipe).
-    #[arg(long, default_value = "auto", value_parser = parse_adapter)]
-    pub adapter: AdapterPreference,
+    /// GPU adapter.
+    #[arg(long, value_enum, default_value_t = Adapter::Auto)]
+    adapter: Adapter,
 }
 
 impl FrameArgs {
@@ -67,6 +84,11 @@ impl FrameArgs {
         let width = self.width.unwrap_or(scene.image.width);
         let height = self.height.unwrap_or(scene.image.height);
         Ok((scene, width, height))
+    }
+
+    /// The adapter asked for.
+    pub fn adapter(&self) -> AdapterPreference {
+        self.adapter.into()
     }
 }
 
@@ -89,5 +111,16 @@ pub fn check_output_dir(path: &Path) -> anyhow::Result<PathBuf> {
         path.display(),
         dir.display()
     );
+    // Writable now, before the work (a read-only directory was found only
+    // after a whole render): a probe file created and removed.
+    let probe = dir.join(format!(".nimbus-write-probe.{}.tmp", std::process::id()));
+    std::fs::File::create(&probe).map_err(|e| {
+        anyhow::anyhow!(
+            "output {}: cannot write in directory {}: {e}",
+            path.display(),
+            dir.display()
+        )
+    })?;
+    let _ = std::fs::remove_file(&probe);
     Ok(dir)
 }

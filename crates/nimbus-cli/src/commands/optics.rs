@@ -2,6 +2,7 @@
 //! droplet size distribution.
 
 use crate::output::write_bytes_atomically;
+use crate::progress::Progress;
 use clap::{Args, Subcommand};
 use nimbus_physics::optics::dsd::{BulkOptics, SizeDistribution, bulk_optics_observed};
 use nimbus_physics::optics::mie::{MAX_SIZE_PARAMETER, MieCoefficients};
@@ -9,7 +10,6 @@ use nimbus_physics::optics::spectral::{spectral_grid, to_rgb};
 use nimbus_physics::optics::water::{VALID_WAVELENGTH_NM, water_refractive_index};
 use num_complex::Complex64;
 use serde::Serialize;
-use std::io::Write;
 use std::path::PathBuf;
 
 /// Arguments of `nimbus optics`.
@@ -88,8 +88,9 @@ struct DsdArgs {
     /// Write the table (angle, phase per wavelength) as CSV.
     #[arg(long, value_name = "FILE")]
     csv: Option<PathBuf>,
-    /// Draw the phase functions on a log scale against angle into a PNG.
-    #[arg(long, value_name = "FILE.png")]
+    /// Draw the phase functions on a log scale against angle into a figure:
+    /// .png or .svg.
+    #[arg(long, value_name = "FILE.png|FILE.svg")]
     plot: Option<PathBuf>,
     /// Report the computation time of each wavelength on standard error.
     #[arg(long)]
@@ -135,7 +136,7 @@ pub(crate) fn check_wavelength(nm: f64) -> anyhow::Result<()> {
 fn parse_index(text: &str) -> anyhow::Result<Complex64> {
     let bad = || {
         anyhow::anyhow!(
-            "--refractive-index {text}: must be N,K with N > 0 and K ≥ 0, e.g. 1.333,1e-9"
+            "--refractive-index {text}: must be N,K with N in [0.1, 10] and K in [0, 10], e.g. 1.333,1e-9"
         )
     };
     let (n, k) = text.split_once(',').ok_or_else(bad)?;
@@ -143,7 +144,9 @@ fn parse_index(text: &str) -> anyhow::Result<Complex64> {
         n.trim().parse().map_err(|_| bad())?,
         k.trim().parse().map_err(|_| bad())?,
     );
-    if !(n.is_finite() && k.is_finite() && n > 0.0 && k >= 0.0 && n <= 100.0 && k <= 100.0) {
+    // Usable limits (issue 28): N → 0 sends the Mie series to NaN, and no
+    // material of interest lies outside these.
+    if !(n.is_finite() && k.is_finite() && (0.1..=10.0).contains(&n) && (0.0..=10.0).contains(&k)) {
         return Err(bad());
     }
     Ok(Complex64::new(n, k))
@@ -287,12 +290,17 @@ fn run_dsd(args: &DsdArgs) -> anyhow::Result<()> {
     for path in args.csv.iter().chain(&args.plot) {
         super::check_output_dir(path)?;
     }
+    if let Some(path) = &args.plot {
+        crate::plot::FigureFormat::from_path(path, "--plot")?;
+    }
     let n0 = args.number_density_cm3 * 1e6;
     let dsd = match args.lognormal_sigma {
         Some(sigma) => {
             anyhow::ensure!(
-                sigma.is_finite() && sigma > 1.0 && sigma <= 5.0,
-                "--lognormal-sigma {sigma}: must be in (1, 5]"
+                // Below 1.001 the distribution is narrower than the radius
+                // quadrature resolves and the integrals come out NaN.
+                sigma.is_finite() && (1.001..=5.0).contains(&sigma),
+                "--lognormal-sigma {sigma}: must be in [1.001, 5]"
             );
             let median = args.effective_radius_um * 1e-6 / (2.5 * sigma.ln().powi(2)).exp();
             SizeDistribution::LogNormal {
@@ -333,43 +341,29 @@ fn run_dsd(args: &DsdArgs) -> anyhow::Result<()> {
     }
     let total_start = std::time::Instant::now();
     let mut results = Vec::new();
-    // The progress line is for people watching a terminal, not for logs.
-    let show_progress = std::io::IsTerminal::is_terminal(&std::io::stderr());
+    let progress = Progress::new("optics: wavelengths", wavelengths.len() as u64);
     for (i, wl) in wavelengths.iter().enumerate() {
         let start = std::time::Instant::now();
-        let mut stderr = std::io::stderr();
         let optics = bulk_optics_observed(
             &dsd,
             *wl,
             water_refractive_index(*wl),
             &angles,
             args.tolerance,
-            &mut |nodes| {
-                if !show_progress {
-                    return;
-                }
-                let _ = write!(
-                    stderr,
-                    "\rnimbus: optics: {wl} nm ({}/{}): {nodes} radius nodes…      ",
-                    i + 1,
-                    wavelengths.len()
-                );
-                let _ = stderr.flush();
-            },
+            &mut |nodes| progress.set_message(format!("{wl} nm: {nodes} radius nodes")),
         );
-        if show_progress {
-            eprintln!();
-        }
+        progress.update(i as u64 + 1);
         if args.timing {
-            eprintln!(
+            progress.eprintln(&format!(
                 "nimbus: timing: {wl} nm: {:.3} s ({} radius nodes, {} angles)",
                 start.elapsed().as_secs_f64(),
                 optics.radius_intervals,
                 angles.len()
-            );
+            ));
         }
         results.push(optics);
     }
+    progress.finish();
     if args.timing {
         eprintln!(
             "nimbus: timing: total {:.3} s for {} wavelengths",
@@ -391,6 +385,7 @@ fn run_dsd(args: &DsdArgs) -> anyhow::Result<()> {
     if let Some(path) = &args.plot {
         crate::plot::write_phase_plot(
             path,
+            "--plot",
             &entries
                 .iter()
                 .map(|e| (e.label(), e.angles_deg.clone(), e.phase.clone()))

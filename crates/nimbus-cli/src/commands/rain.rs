@@ -3,6 +3,7 @@
 //! Marshall–Palmer expectation, mean diameter and velocity, recycling,
 //! stability). The science is in `nimbus_physics::rain`; see docs/rain.md.
 
+use crate::progress::Progress;
 use clap::{Args, Subcommand};
 use glam::Vec3;
 use nimbus_physics::rain::drag::{GUNN_KINZER_1949, drag_coefficient, terminal_speed_m_s};
@@ -14,8 +15,6 @@ use nimbus_physics::rain::simulation::{
 use nimbus_physics::rain::wind::{WindField, WindGrid, WindPrimitive, WindPrimitiveKind};
 use nimbus_physics::rain::zones::RainZones;
 use serde::Serialize;
-use std::io::{IsTerminal, Write};
-use std::time::Instant;
 
 /// Most drops `nimbus rain stats` simulates (about 0.6 GB of drops): the
 /// documented limit on the input-derived count.
@@ -24,6 +23,9 @@ pub const MAX_STATS_DROPS: u32 = 20_000_000;
 const MAX_DIAMETERS: usize = 10_000;
 /// Largest diameter accepted, mm (raindrops break up well below it).
 const MAX_DIAMETER_MM: f64 = 8.0;
+/// Smallest diameter of `terminal-velocity`, mm: a 10 µm cloud droplet
+/// (the drag law's Stokes end); smaller ones overflow the drag coefficient.
+const MIN_DIAMETER_MM: f64 = 0.01;
 /// Largest rain intensity accepted, mm/h (beyond the heaviest measured rain rates).
 const MAX_INTENSITY_MM_H: f64 = 300.0;
 /// Longest simulated time, s.
@@ -174,8 +176,8 @@ fn run_terminal_velocity(args: &TerminalVelocityArgs) -> anyhow::Result<()> {
     );
     for &d in &diameters {
         anyhow::ensure!(
-            d.is_finite() && d > 0.0 && d <= MAX_DIAMETER_MM,
-            "--diameter-mm {d}: must be a finite diameter in (0, {MAX_DIAMETER_MM}] mm"
+            d.is_finite() && (MIN_DIAMETER_MM..=MAX_DIAMETER_MM).contains(&d),
+            "--diameter-mm {d}: must be a diameter in [{MIN_DIAMETER_MM}, {MAX_DIAMETER_MM}] mm"
         );
     }
     let rows: Vec<SpeedRow> = diameters
@@ -359,53 +361,6 @@ fn wind_field(mean_m_s: Vec3, gusts: bool) -> WindField {
     field
 }
 
-/// A progress line with an ETA on standard error, for people watching a
-/// terminal: drawn only there, only once the run has taken a second, and
-/// at most four times a second.
-struct Progress {
-    total: u32,
-    start: Instant,
-    last_draw_s: f64,
-    show: bool,
-    drawn: bool,
-}
-
-impl Progress {
-    fn new(total: u32) -> Self {
-        Self {
-            total,
-            start: Instant::now(),
-            last_draw_s: 0.0,
-            show: std::io::stderr().is_terminal(),
-            drawn: false,
-        }
-    }
-
-    fn update(&mut self, done: u32) {
-        let elapsed = self.start.elapsed().as_secs_f64();
-        if !self.show || elapsed < 1.0 || elapsed - self.last_draw_s < 0.25 {
-            return;
-        }
-        self.last_draw_s = elapsed;
-        self.drawn = true;
-        let eta = elapsed * self.total.saturating_sub(done) as f64 / done.max(1) as f64;
-        let mut stderr = std::io::stderr();
-        let _ = write!(
-            stderr,
-            "\r\x1b[2Knimbus: rain stats: step {done}/{} ({:.0} %), {elapsed:.1} s, ETA {eta:.1} s",
-            self.total,
-            100.0 * done as f64 / self.total.max(1) as f64
-        );
-        let _ = stderr.flush();
-    }
-
-    fn finish(&self) {
-        if self.drawn {
-            eprint!("\r\x1b[2K");
-        }
-    }
-}
-
 fn run_stats(args: &StatsArgs) -> anyhow::Result<()> {
     let inputs = validate_stats(args)?;
     let wind = wind_field(inputs.wind_m_s, args.gusts);
@@ -416,10 +371,10 @@ fn run_stats(args: &StatsArgs) -> anyhow::Result<()> {
         inputs.rain_box,
         f32::NEG_INFINITY,
     );
-    let mut progress = Progress::new(inputs.steps);
+    let progress = Progress::new("rain stats: steps", u64::from(inputs.steps));
     for done in 1..=inputs.steps {
         simulation.step(inputs.rain_box);
-        progress.update(done);
+        progress.update(u64::from(done));
     }
     progress.finish();
 

@@ -1,6 +1,7 @@
 //! `nimbus render`: one still image.
 
 use crate::output::{ImageFormat, write_exr_layers, write_png};
+use crate::progress::Progress;
 use clap::Args;
 use nimbus_render::headless::HeadlessRenderer;
 use std::path::PathBuf;
@@ -25,28 +26,35 @@ pub struct RenderArgs {
 pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
     let format = ImageFormat::from_path(&args.output)?;
     super::check_output_dir(&args.output)?;
+    // The same bound as `animate --start-s` and keyframe times: beyond it
+    // the f32 time of the shaders (ripples, rain steps) loses its seconds.
     anyhow::ensure!(
-        args.time_s.is_finite(),
-        "--time-s {}: must be a finite number",
+        args.time_s.is_finite() && (0.0..=1.0e7).contains(&args.time_s),
+        "--time-s {}: must be a number of seconds in [0, 10000000]",
         args.time_s
     );
     let (scene, width, height) = args.frame.scene_and_size()?;
     // The keyframed weather at that time.
     let scene = scene.at_time(f64::from(args.time_s));
-    let mut headless = HeadlessRenderer::new(args.frame.adapter)?;
+    let mut headless = HeadlessRenderer::new(args.frame.adapter())?;
     eprintln!(
         "nimbus: rendering {width}×{height} on {}",
         headless.gpu.adapter_summary()
     );
+    // The frame's precomputation (atmosphere tables, cloud meshes, terrain)
+    // and its passes have no known total: a spinner with the time taken.
+    let progress = Progress::spinner("render");
     match format {
-        ImageFormat::Png => write_png(
-            &args.output,
-            &headless.render_rgba8(&scene, width, height, args.time_s)?,
-        )?,
-        ImageFormat::Exr => write_exr_layers(
-            &args.output,
-            &headless.render_layers(&scene, width, height, args.time_s)?,
-        )?,
+        ImageFormat::Png => {
+            let image = headless.render_rgba8(&scene, width, height, args.time_s)?;
+            progress.finish();
+            write_png(&args.output, &image)?;
+        }
+        ImageFormat::Exr => {
+            let image = headless.render_layers(&scene, width, height, args.time_s)?;
+            progress.finish();
+            write_exr_layers(&args.output, &image)?;
+        }
     }
     eprintln!("nimbus: wrote {}", args.output.display());
     Ok(())

@@ -11,7 +11,7 @@
 use serde::{Deserialize, Serialize};
 
 /// Parameters of a planetary atmosphere. Lengths in metres, coefficients per metre.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields, default)]
 pub struct AtmosphereParams {
     /// Radius of the planet's surface (sea level), m.

@@ -343,10 +343,11 @@ pub fn surface_seeds(field: &BlobField, level: usize, step_m: f64) -> Vec<DVec3>
                 if s.value < 1.0 {
                     return Some(p);
                 }
+                // At a lone blob's centre (a maximum of the field, where
+                // a single root with no levels above it starts) the
+                // gradient vanishes: any direction leads out.
                 let n = -s.gradient.normalize_or_zero();
-                if n == DVec3::ZERO {
-                    return None;
-                }
+                let n = if n == DVec3::ZERO { DVec3::X } else { n };
                 p += n * step_m;
             }
             None

@@ -7,7 +7,7 @@
 //!   Heckbert 1994, with per-particle radii and energies).
 //! - [`hierarchy`]: the levels, from the roots to the last generated one.
 //! - [`mesh`]: the surface of the last level as one closed triangle mesh.
-//! - [`gltf`]: binary glTF export.
+//! - [`gltf`]: binary glTF export (on [`crate::glb`]).
 //! - [`shading`]: the phenomenological shader (Bouthors 2004, ch. 5), CPU reference.
 //! - [`forward_peak`]: small-angle multiple scattering in the diffraction
 //!   peak, the silver lining's light.

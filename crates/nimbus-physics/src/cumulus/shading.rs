@@ -91,10 +91,11 @@
 
 use super::forward_peak::ForwardPeakTable;
 use glam::DVec3;
+use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
 /// How the light traps are estimated.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize, JsonSchema)]
 #[serde(rename_all = "snake_case")]
 pub enum LightTrapModel {
     /// Bouthors (2004) eqs 5.37–5.38: distances to every lower level's
@@ -107,7 +108,7 @@ pub enum LightTrapModel {
 }
 
 /// Which set of weights the shader starts from (`cumulus.shading.model`).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize, JsonSchema)]
 #[serde(rename_all = "snake_case")]
 pub enum CumulusShadingModel {
     /// The weights fitted by least squares to path-traced references of the
@@ -129,8 +130,15 @@ pub enum CumulusShadingModel {
 /// coefficient of a cumulus core: LWC 0.5 g·m⁻³, r_e 10 µm → 0.075 m⁻¹).
 /// The others are not legible in the appendix; their defaults were chosen
 /// by looking at the golden images and are documented in docs/cumulus.md.
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
+// The scene file's schema is the file form's (schemars follows `from` when
+// describing deserialisation), with this description.
 #[serde(from = "CumulusShadingFile")]
+#[schemars(
+    description = "The cumulus shader's parameters (`[cumulus.shading]`, Bouthors 2004, ch. 5; \
+                   docs/cumulus.md). Every key is optional: a missing one takes the value of \
+                   the chosen `model` (the defaults shown are the `fitted` model's)."
+)]
 pub struct CumulusShading {
     /// The model whose defaults the other fields started from.
     pub model: CumulusShadingModel,
@@ -240,27 +248,52 @@ impl CumulusShading {
 }
 
 /// The scene file's form of [`CumulusShading`]: every key optional, the
-/// missing ones taken from the chosen model.
-#[derive(Deserialize)]
+/// missing ones taken from the chosen model. Its fields' doc comments are
+/// the descriptions of `[cumulus.shading]`'s keys in the scene schema.
+#[derive(Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 struct CumulusShadingFile {
+    /// The model whose weights the missing keys take: `fitted` (default,
+    /// fitted to the path-traced references) or `bouthors2004` (the paper as
+    /// published).
     model: Option<CumulusShadingModel>,
+    /// α_a, weight of the ambient (environment) light.
     ambient: Option<f64>,
+    /// α_l, weight of the Lambert term.
     lambert: Option<f64>,
+    /// α_f (the appendix's alpha_s), weight of the light traps.
     light_traps: Option<f64>,
+    /// α_t, weight of the forward scattering in the corona.
     transmission: Option<f64>,
+    /// α_g, width of the forward lobe (exponent α_g/ρ).
     forward_width: Option<f64>,
+    /// Trans, gain of the forward lobe before saturation.
     transmission_gain: Option<f64>,
+    /// α_ρ, extinction of the core, m⁻¹.
     density_per_m: Option<f64>,
+    /// r, thickness of the corona, m.
     corona_thickness_m: Option<f64>,
+    /// α_b, amplitude of the bump and of its modulation of the density.
     bump: Option<f64>,
+    /// α_w, normal smoothing: the lower level's normal dominates within
+    /// 1/α_w of a mean blob radius from its surface.
     normal_smoothing: Option<f64>,
+    /// α_d, width of the light traps: F⁻ fades out at 1/α_d of a mean blob
+    /// radius from the lower level's surface.
     trap_width: Option<f64>,
+    /// α_h, bump heights below which the finest furrows trap light.
     trap_height: Option<f64>,
+    /// Light-trap estimate: `furrows` (Bouthors 2004) or `arctan` (Neyret 2000).
     trap_model: Option<LightTrapModel>,
+    /// Neyret's k in arctan(k(1 − h))/arctan(k).
     trap_sharpness: Option<f64>,
+    /// Octaves of the bump noise (the levels below the mesh's simulated).
     bump_octaves: Option<u32>,
+    /// α_δ, weight of the light diffused through the cores to the faces
+    /// turned from the sun (an extension of the paper's model).
     diffusion: Option<f64>,
+    /// α_p, weight of the small-angle multiple forward scattering through
+    /// the chord (the silver lining; an extension). 1 is the physical value.
     forward_peak: Option<f64>,
 }
 
@@ -293,7 +326,7 @@ impl From<CumulusShadingFile> for CumulusShading {
 
 /// Which terms are on: for the term-by-term figure (Bouthors 2004,
 /// figs 5.2–5.13). All on by default.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields, default)]
 pub struct ShadingTerms {
     /// Ambient light.

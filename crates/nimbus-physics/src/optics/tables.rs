@@ -12,8 +12,11 @@
 use super::dsd::{SizeDistribution, bulk_optics};
 use super::phase::PhaseTable;
 use super::water::water_refractive_index;
-use std::io::{Read, Write};
+use std::io::Write;
 use std::path::{Path, PathBuf};
+
+/// Largest cloud-optics cache file read, bytes.
+const MAX_CACHE_BYTES: u64 = 64 * 1024 * 1024;
 
 /// Wavelengths (nm) of the R, G, B channels.
 pub const CHANNEL_WAVELENGTHS_NM: [f64; 3] = [680.0, 550.0, 440.0];
@@ -208,8 +211,10 @@ impl CloudOpticsTables {
     }
 
     fn read(path: &Path, params: &CloudOpticsParams) -> std::io::Result<Self> {
-        let mut bytes = Vec::new();
-        std::fs::File::open(path)?.read_to_end(&mut bytes)?;
+        // A cache of the largest tables is a few hundred kilobytes; anything
+        // far larger (or not a regular file) is not ours and is recomputed.
+        let bytes = crate::io::read_bounded(path, MAX_CACHE_BYTES)
+            .map_err(|e| std::io::Error::new(std::io::ErrorKind::InvalidData, e.to_string()))?;
         let bad = || {
             std::io::Error::new(
                 std::io::ErrorKind::InvalidData,

@@ -165,6 +165,11 @@ pub struct WindGrid {
 /// Most grid points of a wind grid read from a file (64 MiB on the GPU).
 pub const MAX_WIND_GRID_POINTS: u64 = 1 << 22;
 
+/// Largest `.npy` wind field read, bytes: [`MAX_WIND_GRID_POINTS`] float64
+/// vectors and the longest header a version 1–3 file of them needs
+/// (64 KiB, far more than NumPy writes).
+pub const MAX_WIND_NPY_BYTES: u64 = MAX_WIND_GRID_POINTS * 3 * 8 + 64 * 1024;
+
 /// Why a wind-field file cannot be used.
 #[derive(Debug, thiserror::Error)]
 pub enum WindGridError {
@@ -267,9 +272,10 @@ impl WindGrid {
         }
         let data = &bytes[start + header_len..];
         let count = points as usize * 3;
-        if data.len() < count * width {
+        // Exactly: trailing bytes mean the header does not describe the file.
+        if data.len() != count * width {
             return Err(WindGridError::Format(format!(
-                "the data hold {} bytes, the shape needs {}",
+                "the data hold {} bytes, the shape needs exactly {}",
                 data.len(),
                 count * width
             )));

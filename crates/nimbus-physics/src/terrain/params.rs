@@ -4,7 +4,7 @@ use super::SurfaceClass;
 use serde::{Deserialize, Serialize};
 
 /// Parameters of the procedural terrain (scene-file section `[terrain]`).
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields, default)]
 pub struct TerrainParams {
     /// Side length of the square terrain, centred on the origin, m.
@@ -54,7 +54,7 @@ impl Default for TerrainParams {
 /// about 0.25 is raised by the near infrared, which nimbus does not render),
 /// and deep water's diffuse albedo of a few percent; the water surface's
 /// specular reflection is added by the shader (Fresnel).
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields, default)]
 pub struct SurfaceAlbedos {
     /// Diffuse albedo under the water surface.

@@ -370,9 +370,12 @@ impl OneDimensionalTable {
     /// Reads a table file.
     pub fn from_file(path: &std::path::Path) -> Result<Self, TableError> {
         let name = path.display().to_string();
-        let text = std::fs::read_to_string(path).map_err(|source| TableError::Read {
-            path: name.clone(),
-            source,
+        // The shipped table is 30 kB; 16 MiB leaves room for any finer fit.
+        let text = crate::io::read_text_bounded(path, 16 * 1024 * 1024).map_err(|e| {
+            TableError::Read {
+                path: name.clone(),
+                source: std::io::Error::new(std::io::ErrorKind::InvalidData, e.to_string()),
+            }
         })?;
         Self::from_toml(&text, &name)
     }

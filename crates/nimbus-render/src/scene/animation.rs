@@ -18,13 +18,14 @@ use super::Scene;
 use super::SceneError;
 use super::validate::Checker;
 use nimbus_physics::sky::UtcDateTime;
+use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
 /// Most keyframes in a scene.
 pub const MAX_KEYFRAMES: usize = 1024;
 
 /// One keyframe: the values that hold at `time_s` (keys left out are not keyed here).
-#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 #[non_exhaustive]
 pub struct Keyframe {
@@ -53,6 +54,14 @@ pub struct Keyframe {
     /// Stratiform layer coverage, in [0, 1]; needs `[stratus]`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub stratus_coverage: Option<f64>,
+    /// Camera position, world metres (x east, y up, z south), each
+    /// coordinate in [−10⁶, 10⁶] and a track of its own.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub camera_position_m: Option<[f64; 3]>,
+    /// Point the camera looks at, world metres, each coordinate a track of
+    /// its own; needs the scene's camera aimed by `look_at_m`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub camera_look_at_m: Option<[f64; 3]>,
 }
 
 /// A track: (time, value) keys in increasing time.
@@ -67,6 +76,10 @@ struct Tracks {
     wind_from_deg: Track,
     rain_intensity_mm_h: Track,
     stratus_coverage: Track,
+    /// x, y, z of the camera's position, m.
+    camera_position_m: [Track; 3],
+    /// x, y, z of the point the camera looks at, m.
+    camera_look_at_m: [Track; 3],
 }
 
 impl Tracks {
@@ -90,9 +103,35 @@ impl Tracks {
             wind_from_deg: unwrap_degrees(track(&|k| k.wind_from_deg)),
             rain_intensity_mm_h: track(&|k| k.rain_intensity_mm_h),
             stratus_coverage: track(&|k| k.stratus_coverage),
+            camera_position_m: [0, 1, 2].map(|i| track(&|k| k.camera_position_m.map(|p| p[i]))),
+            camera_look_at_m: [0, 1, 2].map(|i| track(&|k| k.camera_look_at_m.map(|p| p[i]))),
         }
     }
 }
+
+/// A keyed point (each coordinate a track of the same keys) at time `t`;
+/// `None` when no key sets it.
+fn evaluate_point(tracks: &[Track; 3], t: f64) -> Option<[f64; 3]> {
+    let [x, y, z] = tracks.each_ref().map(|track| evaluate_track(track, t));
+    Some([x?, y?, z?])
+}
+
+/// Why a camera at `position_m` cannot look at `target_m` (no horizon
+/// direction: the target straight above or below it, or on it); `None`
+/// when it can. The same test the scene's `[camera]` gets.
+pub(super) fn degenerate_look_at(position_m: [f64; 3], target_m: [f64; 3]) -> Option<&'static str> {
+    let d = [0, 1, 2].map(|k| target_m[k] - position_m[k]);
+    let horizontal = (d[0] * d[0] + d[2] * d[2]).sqrt();
+    (horizontal < 1e-3 * d[1].abs().max(1e-3)).then_some(
+        "must not be straight above or below the camera's position (the view would have no horizon direction)",
+    )
+}
+
+/// Points per stretch between camera keys at which the interpolated view is
+/// checked (the monotone curves are smooth between keys; a look-at that
+/// passes within a millimetre-wide cone above the eye is caught at this
+/// spacing for any realistic flight, and rendering guards the rest).
+const CAMERA_CHECKS_PER_STRETCH: usize = 64;
 
 /// Shifts each angle by whole turns so that consecutive keys differ by at
 /// most half a turn (the short way round).
@@ -263,6 +302,12 @@ impl Scene {
         {
             stratus.coverage = coverage.clamp(0.0, 1.0);
         }
+        if let Some(position) = evaluate_point(&tracks.camera_position_m, time_s) {
+            scene.camera.position_m = position;
+        }
+        if let Some(target) = evaluate_point(&tracks.camera_look_at_m, time_s) {
+            scene.camera.look_at_m = Some(target);
+        }
         scene
     }
 
@@ -354,6 +399,65 @@ impl Scene {
                     "a [stratus] section",
                 )?;
                 c.closed(&name("stratus_coverage"), coverage, 0.0, 1.0)?;
+            }
+            if let Some(position) = &key.camera_position_m {
+                c.vector(
+                    &name("camera_position_m"),
+                    position,
+                    -super::validate::MAX_COORDINATE_M,
+                    super::validate::MAX_COORDINATE_M,
+                )?;
+            }
+            if let Some(target) = &key.camera_look_at_m {
+                requires(
+                    "camera_look_at_m",
+                    self.camera.look_at_m.is_some(),
+                    "the scene's camera aimed by look_at_m",
+                )?;
+                c.vector(
+                    &name("camera_look_at_m"),
+                    target,
+                    -super::validate::MAX_COORDINATE_M,
+                    super::validate::MAX_COORDINATE_M,
+                )?;
+            }
+        }
+        self.validate_camera_path(c)
+    }
+
+    /// The keyed camera never looks straight up or down: checked at every
+    /// key and at [`CAMERA_CHECKS_PER_STRETCH`] points between keys.
+    fn validate_camera_path(&self, c: &Checker<'_>) -> Result<(), SceneError> {
+        let keyed = |k: &Keyframe| k.camera_position_m.is_some() || k.camera_look_at_m.is_some();
+        if self.camera.look_at_m.is_none() || !self.keyframes.iter().any(keyed) {
+            return Ok(());
+        }
+        let tracks = Tracks::new(&self.keyframes);
+        let times: Vec<f64> = self.keyframes.iter().map(|k| k.time_s).collect();
+        let mut samples = vec![times[0]];
+        for pair in times.windows(2) {
+            for j in 1..=CAMERA_CHECKS_PER_STRETCH {
+                samples.push(
+                    pair[0] + (pair[1] - pair[0]) * j as f64 / CAMERA_CHECKS_PER_STRETCH as f64,
+                );
+            }
+        }
+        for t in samples {
+            let position =
+                evaluate_point(&tracks.camera_position_m, t).unwrap_or(self.camera.position_m);
+            let Some(target) =
+                evaluate_point(&tracks.camera_look_at_m, t).or(self.camera.look_at_m)
+            else {
+                continue;
+            };
+            if let Some(why) = degenerate_look_at(position, target) {
+                // The key at or after t, where the path goes wrong.
+                let i = times.partition_point(|&k| k < t).min(times.len() - 1);
+                return Err(c.invalid(
+                    &format!("keyframes[{i}].camera_look_at_m"),
+                    format!("{target:?} from {position:?} at time {t} s"),
+                    why,
+                ));
             }
         }
         Ok(())
@@ -508,5 +612,64 @@ mod tests {
         assert!(m.contains("sun_time_utc"), "{m}");
         let m = message("[[keyframes]]\ntime_s = 0.0\nrain_intensity_mm_h = -1.0\n");
         assert!(m.contains("rain_intensity_mm_h") && m.contains("-1"), "{m}");
+    }
+
+    #[test]
+    fn the_camera_flies_along_its_keys() {
+        let s = scene(
+            "[camera]\nposition_m = [0.0, 100.0, 0.0]\nlook_at_m = [0.0, 100.0, -1000.0]\n\
+             [[keyframes]]\ntime_s = 0.0\ncamera_position_m = [0.0, 100.0, 0.0]\n\
+             [[keyframes]]\ntime_s = 5.0\ncamera_position_m = [500.0, 300.0, 0.0]\ncamera_look_at_m = [0.0, 2000.0, -1000.0]\n\
+             [[keyframes]]\ntime_s = 10.0\ncamera_position_m = [1000.0, 100.0, 0.0]\n",
+        )
+        .expect("valid");
+        assert_eq!(s.at_time(0.0).camera.position_m, [0.0, 100.0, 0.0]);
+        assert_eq!(s.at_time(5.0).camera.position_m, [500.0, 300.0, 0.0]);
+        assert_eq!(s.at_time(99.0).camera.position_m, [1000.0, 100.0, 0.0]);
+        // One look-at key: held at every time.
+        assert_eq!(
+            s.at_time(0.0).camera.look_at_m,
+            Some([0.0, 2000.0, -1000.0])
+        );
+        // x is monotone 0 → 1000; y rises to its key and back, never above it.
+        let mut previous_x = -1.0;
+        for i in 0..=100 {
+            let p = s.at_time(i as f64 * 0.1).camera.position_m;
+            assert!(
+                p[0] >= previous_x && (100.0..=300.0).contains(&p[1]),
+                "{p:?}"
+            );
+            previous_x = p[0];
+        }
+        // Between keys the camera moves every frame.
+        let (a, b) = (s.at_time(2.0).camera, s.at_time(2.1).camera);
+        let step: f64 = (0..3)
+            .map(|k| (a.position_m[k] - b.position_m[k]).powi(2))
+            .sum();
+        assert!(step.sqrt() > 1.0, "{a:?} {b:?}");
+    }
+
+    #[test]
+    fn camera_keys_are_checked_along_the_path() {
+        let message = |extra: &str| scene(extra).expect_err("invalid").to_string();
+        // A look-at key needs a camera aimed by look_at_m.
+        let m = message("[[keyframes]]\ntime_s = 0.0\ncamera_look_at_m = [0.0, 0.0, -100.0]\n");
+        assert!(
+            m.contains("keyframes[0].camera_look_at_m") && m.contains("look_at_m"),
+            "{m}"
+        );
+        let m = message("[[keyframes]]\ntime_s = 0.0\ncamera_position_m = [0.0, 1e9, 0.0]\n");
+        assert!(m.contains("keyframes[0].camera_position_m"), "{m}");
+        // Keys each fine, but the path between them passes straight under
+        // the target: caught between the keys, at the key after.
+        let m = message(
+            "[camera]\nposition_m = [-100.0, 0.0, 0.0]\nlook_at_m = [0.0, 500.0, 0.0]\n\
+             [[keyframes]]\ntime_s = 0.0\ncamera_position_m = [-100.0, 0.0, 0.0]\n\
+             [[keyframes]]\ntime_s = 10.0\ncamera_position_m = [100.0, 0.0, 0.0]\n",
+        );
+        assert!(
+            m.contains("keyframes[1].camera_look_at_m") && m.contains("straight above"),
+            "{m}"
+        );
     }
 }

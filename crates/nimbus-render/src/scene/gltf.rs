@@ -48,7 +48,11 @@ pub enum GltfError {
         message: String,
     },
     /// The file is larger than [`MAX_GLTF_FILE_BYTES`].
-    #[error("{path} is {bytes} bytes; at most {max} are read")]
+    #[error(
+        "{path} is {bytes} bytes ({}); at most {max} ({}) are read",
+        nimbus_physics::io::human_bytes(*bytes),
+        nimbus_physics::io::human_bytes(*max)
+    )]
     TooLarge {
         /// The file.
         path: String,
@@ -126,15 +130,7 @@ pub fn load_gltf(path: &Path, max_triangles: u64) -> Result<GltfMesh, GltfError>
         path: name.clone(),
         message,
     };
-    let bytes = std::fs::metadata(path).map_err(io)?.len();
-    if bytes > MAX_GLTF_FILE_BYTES {
-        return Err(GltfError::TooLarge {
-            path: name,
-            bytes,
-            max: MAX_GLTF_FILE_BYTES,
-        });
-    }
-    let data = std::fs::read(path).map_err(io)?;
+    let data = read_bounded(path, &name)?;
     let gltf::Gltf { document, blob } =
         gltf::Gltf::from_slice(&data).map_err(|e| invalid(format!("not valid glTF 2.0: {e}")))?;
     let scene = document
@@ -196,6 +192,26 @@ pub fn load_gltf(path: &Path, max_triangles: u64) -> Result<GltfMesh, GltfError>
         .parent()
         .filter(|p| !p.as_os_str().is_empty())
         .unwrap_or(Path::new("."));
+    // External buffers are checked as the file itself is (regular files of
+    // at most MAX_GLTF_FILE_BYTES, their declared length present) before the
+    // glTF crate reads them: it reads a file whole, whatever its size.
+    for buffer in document.buffers() {
+        if let gltf::buffer::Source::Uri(uri) = buffer.source()
+            && !uri.starts_with("data:")
+        {
+            let file = base_dir.join(percent_decoded(uri));
+            let shown = file.display().to_string();
+            let bytes = nimbus_physics::io::check_regular_file(&file, MAX_GLTF_FILE_BYTES)
+                .map_err(|e| invalid(format!("buffer {} {shown}: {e}", buffer.index())))?;
+            if bytes < buffer.length() as u64 {
+                return Err(invalid(format!(
+                    "buffer {} ({uri}) is {bytes} bytes, shorter than its byteLength {}",
+                    buffer.index(),
+                    buffer.length()
+                )));
+            }
+        }
+    }
     let buffers = gltf::import_buffers(&document, Some(base_dir), blob).map_err(|e| match e {
         gltf::Error::Io(e) => io(e),
         e => invalid(format!("cannot read its buffers: {e}")),
@@ -207,7 +223,7 @@ pub fn load_gltf(path: &Path, max_triangles: u64) -> Result<GltfMesh, GltfError>
                     .buffers()
                     .filter_map(|buffer| match buffer.source() {
                         gltf::buffer::Source::Uri(uri) if !uri.starts_with("data:") => {
-                            Some(base_dir.join(uri))
+                            Some(base_dir.join(percent_decoded(uri)))
                         }
                         _ => None,
                     }),
@@ -225,6 +241,57 @@ pub fn load_gltf(path: &Path, max_triangles: u64) -> Result<GltfMesh, GltfError>
 /// Triangles and vertices read from a TRIANGLES primitive, from its
 /// accessors' counts, after checking the accessors it uses. Vertices: the
 /// file's, or three per triangle where flat normals are made.
+/// The bytes of a glTF file: a regular file of at most
+/// [`MAX_GLTF_FILE_BYTES`], read through a bounded reader.
+fn read_bounded(path: &Path, name: &str) -> Result<Vec<u8>, GltfError> {
+    nimbus_physics::io::read_bounded(path, MAX_GLTF_FILE_BYTES).map_err(|e| read_error(name, e))
+}
+
+/// The error of a bounded read of `name` (the file or an external buffer).
+fn read_error(name: &str, error: nimbus_physics::io::ReadError) -> GltfError {
+    use nimbus_physics::io::ReadError;
+    match error {
+        ReadError::TooLarge { bytes, max } => GltfError::TooLarge {
+            path: name.to_owned(),
+            bytes,
+            max,
+        },
+        ReadError::Io(message) => GltfError::Io {
+            path: name.to_owned(),
+            message,
+        },
+        other => GltfError::Invalid {
+            path: name.to_owned(),
+            message: other.to_string(),
+        },
+    }
+}
+
+/// A relative URI reference with its percent-escapes decoded (RFC 3986
+/// §2.1), as glTF buffer URIs are written: `my%20mesh.bin` names
+/// `my mesh.bin`. Malformed escapes are kept as they are.
+fn percent_decoded(uri: &str) -> String {
+    let bytes = uri.as_bytes();
+    let mut out = Vec::with_capacity(bytes.len());
+    let mut i = 0;
+    while i < bytes.len() {
+        let hex = |b: u8| (b as char).to_digit(16);
+        if bytes[i] == b'%'
+            && let (Some(hi), Some(lo)) = (
+                bytes.get(i + 1).and_then(|&b| hex(b)),
+                bytes.get(i + 2).and_then(|&b| hex(b)),
+            )
+        {
+            out.push((hi * 16 + lo) as u8);
+            i += 3;
+        } else {
+            out.push(bytes[i]);
+            i += 1;
+        }
+    }
+    String::from_utf8_lossy(&out).into_owned()
+}
+
 fn primitive_size(primitive: &gltf::Primitive<'_>) -> Result<(u64, u64), String> {
     use gltf::accessor::{DataType, Dimensions};
     let positions = primitive

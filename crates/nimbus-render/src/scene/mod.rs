@@ -11,6 +11,7 @@ pub mod gltf;
 pub mod object_geometry;
 mod objects;
 mod rain;
+mod schema;
 mod validate;
 
 pub use animation::{Keyframe, MAX_KEYFRAMES, evaluate_track};
@@ -22,18 +23,30 @@ pub use rain::{
     MAX_RAIN_DROPS, RainAreaSettings, RainBoxKind, RainSettings, TurbulenceSettings,
     WindFieldSettings, WindPrimitiveKindSetting, WindPrimitiveSettings,
 };
-pub use validate::{IN_CODE, SceneError};
+pub use schema::{SCHEMA_PATH, json_schema, json_schema_text};
+pub use validate::{IN_CODE, MIN_FOV_DEG, SceneError};
 
 use nimbus_physics::atmosphere::AtmosphereParams;
 use nimbus_physics::cloud_layer::CloudLayerField;
 use nimbus_physics::cumulus::shading::{CumulusShading, ShadingTerms};
 use nimbus_physics::terrain::TerrainParams;
+use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
-/// The text of the embedded default scene (`scenes/default.toml`).
-pub const DEFAULT_SCENE_TOML: &str = include_str!("../../../../scenes/default.toml");
+/// Largest scene file read, bytes. Real scenes are a few kilobytes (1024
+/// objects fit in a fifth of this); the bound keeps the parser's memory
+/// bounded too (about 50 bytes per byte of TOML at worst, so ~50 MB),
+/// whatever counts of tables or array elements the file holds, before any
+/// count is checked.
+pub const MAX_SCENE_FILE_BYTES: u64 = 1024 * 1024;
+
+/// The text of the embedded default scene. The file lives in this crate
+/// (`src/scene/default.toml`), so that the published crate holds it;
+/// `scenes/default.toml`, where users and the README find it beside the other
+/// example scenes, is a symbolic link to it.
+pub const DEFAULT_SCENE_TOML: &str = include_str!("default.toml");
 
 pub use crate::core::limits::{MAX_IMAGE_PIXELS, MAX_IMAGE_SIDE_PX};
 
@@ -45,7 +58,7 @@ pub const MAX_CLOUDS: usize = 400;
 pub const MAX_TERRAIN_RESOLUTION: u32 = 2048;
 
 /// A complete scene.
-#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields, default)]
 #[non_exhaustive]
 pub struct Scene {
@@ -84,7 +97,7 @@ pub struct Scene {
 }
 
 /// Output image size (`[image]`).
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields, default)]
 #[non_exhaustive]
 pub struct ImageSettings {
@@ -105,7 +118,7 @@ impl Default for ImageSettings {
 
 /// The camera (`[camera]`): a pinhole at `position_m`, aimed either at
 /// `look_at_m` or by `yaw_deg`/`pitch_deg` (not both).
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields, default)]
 #[non_exhaustive]
 pub struct CameraSettings {
@@ -141,7 +154,7 @@ pub struct CameraSettings {
 }
 
 /// Projection of the camera (`camera.projection`).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize, JsonSchema)]
 #[serde(rename_all = "lowercase")]
 #[non_exhaustive]
 pub enum Projection {
@@ -160,7 +173,7 @@ pub enum Projection {
 /// `[terrain]`, or, for a program that draws its own world, a flat ground of
 /// one albedo that nimbus does not draw but that still lights the clouds
 /// from below (the stratus layer's ground–cloud radiosity, the ground light).
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields, default)]
 #[non_exhaustive]
 pub struct GroundSettings {
@@ -240,7 +253,7 @@ impl Default for CameraSettings {
 /// `elevation_deg`) or by date, time and place (`time_utc`, `latitude_deg`,
 /// `longitude_deg`, computed with the NREL SPA), not both. Without either,
 /// azimuth 200° and elevation 30°.
-#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields, default)]
 #[non_exhaustive]
 pub struct SunSettings {
@@ -290,7 +303,7 @@ impl SunSettings {
 /// Cumulus clouds (`[cumulus]`): a field of clouds placed from a coverage
 /// (or listed in `clouds`), each an instance of a few generated shapes,
 /// shaded after Bouthors (2004, ch. 5). See docs/cumulus.md.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields, default)]
 #[non_exhaustive]
 pub struct CumulusSettings {
@@ -338,7 +351,7 @@ impl Default for CumulusSettings {
 }
 
 /// One cloud placed by hand (`[[cumulus.clouds]]`).
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 #[non_exhaustive]
 pub struct PlacedCloud {
@@ -375,7 +388,7 @@ fn unit_scale() -> f64 {
 /// A stratiform cloud layer (`[stratus]`), rendered after Bouthors et al.
 /// (2006): a thickness field over many kilometres, shaded with the analytic
 /// slab model and lit by the ground through radiosity.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields, default)]
 #[non_exhaustive]
 pub struct StratusSettings {
@@ -412,7 +425,7 @@ pub struct StratusSettings {
 }
 
 /// How the layer's surface is shaded (`stratus.model`).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize, JsonSchema)]
 #[serde(rename_all = "snake_case")]
 pub enum StratusShadingModel {
     /// Bouthors et al. (2006) with the paths the slab misses marched
@@ -448,7 +461,7 @@ impl Default for StratusSettings {
 }
 
 /// Uniform wind (`[wind]`): carries the cloud layer.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields, default)]
 #[non_exhaustive]
 pub struct WindSettings {
@@ -520,13 +533,17 @@ impl Scene {
         Ok(scene)
     }
 
-    /// Reads, parses and validates a scene file.
+    /// Reads, parses and validates a scene file (a regular file of at most
+    /// [`MAX_SCENE_FILE_BYTES`]).
     pub fn from_file(path: &std::path::Path) -> Result<Self, SceneError> {
         let file = path.display().to_string();
-        let text = std::fs::read_to_string(path).map_err(|e| SceneError::Io {
-            file: file.clone(),
-            message: e.to_string(),
-        })?;
+        let text =
+            nimbus_physics::io::read_text_bounded(path, MAX_SCENE_FILE_BYTES).map_err(|e| {
+                SceneError::Io {
+                    file: file.clone(),
+                    message: e.to_string(),
+                }
+            })?;
         Self::from_toml_str_in(&text, &file, path.parent())
     }
 

@@ -28,6 +28,7 @@
 use super::Scene;
 use super::SceneError;
 use super::validate::{Checker, MAX_COORDINATE_M};
+use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 use std::path::PathBuf;
 
@@ -47,7 +48,7 @@ pub const BOX_TRIANGLES: u64 = 12;
 pub const DEFAULT_OBJECT_ALBEDO: [f64; 3] = [0.5, 0.5, 0.5];
 
 /// The shape of an object (`kind`).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, JsonSchema)]
 #[serde(rename_all = "lowercase")]
 #[non_exhaustive]
 pub enum ObjectKind {
@@ -59,7 +60,7 @@ pub enum ObjectKind {
 
 /// One static object (`[[objects]]`). Which keys apply depends on `kind`;
 /// validation rejects a key of the other kind and a missing one of its own.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 #[non_exhaustive]
 pub struct SceneObject {

@@ -5,13 +5,14 @@
 
 use super::validate::{Checker, SceneError};
 use super::{Scene, WindSettings};
+use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
 /// Most drops a scene may ask for (32 bytes each on the GPU: 512 MiB).
 pub const MAX_RAIN_DROPS: u64 = 16_000_000;
 
 /// Shape of the rain box (`rain.box_shape`).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize, JsonSchema)]
 #[serde(rename_all = "lowercase")]
 #[non_exhaustive]
 pub enum RainBoxKind {
@@ -25,7 +26,7 @@ pub enum RainBoxKind {
 }
 
 /// A circular rain area (`[[rain.areas]]`).
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 #[non_exhaustive]
 pub struct RainAreaSettings {
@@ -56,7 +57,7 @@ fn default_edge_m() -> f64 {
 
 /// Rain (`[rain]`): GPU particles around the camera tied to the intensity
 /// by Marshall–Palmer, streaks, splashes and mist (Blanchard 2023).
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields, default)]
 #[non_exhaustive]
 pub struct RainSettings {
@@ -118,7 +119,7 @@ impl Default for RainSettings {
 }
 
 /// Frozen turbulence carried by the wind (`[wind.turbulence]`).
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields, default)]
 #[non_exhaustive]
 pub struct TurbulenceSettings {
@@ -142,7 +143,7 @@ impl Default for TurbulenceSettings {
 
 /// A wind field read from a file (`[wind.field]`): a periodic grid of
 /// velocities added to the mean wind.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 #[non_exhaustive]
 pub struct WindFieldSettings {
@@ -180,7 +181,9 @@ impl WindFieldSettings {
         &self,
         path: &std::path::Path,
     ) -> Result<nimbus_physics::rain::wind::WindGrid, String> {
-        let bytes = std::fs::read(path).map_err(|e| e.to_string())?;
+        let bytes =
+            nimbus_physics::io::read_bounded(path, nimbus_physics::rain::wind::MAX_WIND_NPY_BYTES)
+                .map_err(|e| e.to_string())?;
         let o = self.origin_m;
         nimbus_physics::rain::wind::WindGrid::from_npy(
             &bytes,
@@ -193,7 +196,7 @@ impl WindFieldSettings {
 }
 
 /// Kind of a wind primitive.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, JsonSchema)]
 #[serde(rename_all = "snake_case")]
 #[non_exhaustive]
 pub enum WindPrimitiveKindSetting {
@@ -208,7 +211,7 @@ pub enum WindPrimitiveKindSetting {
 }
 
 /// A wind primitive (`[[wind.primitives]]`), after Wejchert & Haumann (1991).
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 #[non_exhaustive]
 pub struct WindPrimitiveSettings {

@@ -20,6 +20,20 @@ fn embedded_default_scene_parses_and_validates() {
     assert_eq!(scene, Scene::embedded_default());
 }
 
+/// `scenes/default.toml`, the example users open, is the embedded scene (a
+/// symbolic link to `src/scene/default.toml`; this catches a checkout that
+/// made it a copy, e.g. without symbolic links, and an edit of one alone).
+#[test]
+fn example_default_scene_is_the_embedded_one() {
+    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../../scenes/default.toml");
+    let text = std::fs::read_to_string(path).expect("scenes/default.toml");
+    assert!(
+        text == DEFAULT_SCENE_TOML,
+        "scenes/default.toml differs from crates/nimbus-render/src/scene/default.toml \
+         (the embedded default scene): make it a symbolic link to that file"
+    );
+}
+
 #[test]
 fn example_scenes_parse() {
     let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenes");
@@ -46,11 +60,17 @@ fn empty_file_gives_the_built_in_defaults() {
 fn out_of_range_field_of_view_is_reported_as_documented() {
     assert_eq!(
         error_of("[camera]\nfov_deg = 190"),
-        "scene.toml: camera.fov_deg = 190: must be in (0, 179)"
+        "scene.toml: camera.fov_deg = 190: must be a finite number in [0.01, 179]"
     );
     assert_eq!(
         error_of("[camera]\nfov_deg = 0"),
-        "scene.toml: camera.fov_deg = 0: must be in (0, 179)"
+        "scene.toml: camera.fov_deg = 0: must be a finite number in [0.01, 179]"
+    );
+    // Inside the old open range (0, 179), but no usable picture (every
+    // pixel was the sun's radiance): refused.
+    assert_eq!(
+        error_of("[camera]\nfov_deg = 1e-200"),
+        "scene.toml: camera.fov_deg = 1e-200: must be a finite number in [0.01, 179]"
     );
 }
 
@@ -436,7 +456,10 @@ fn missing_file_is_reported_with_its_name() {
 
 #[test]
 fn scene_reference_documents_every_key_of_the_default_scene() {
-    let doc = include_str!("../../../../docs/scene-file.md");
+    // Read, not embedded: the published crate holds no file from outside it.
+    let doc_path = concat!(env!("CARGO_MANIFEST_DIR"), "/../../docs/scene-file.md");
+    let doc = std::fs::read_to_string(doc_path).expect("docs/scene-file.md");
+    let doc = doc.as_str();
     let value: toml::Table = toml::from_str(DEFAULT_SCENE_TOML).expect("default scene is TOML");
     fn walk(prefix: &str, table: &toml::Table, doc: &str) {
         for (key, value) in table {
@@ -466,7 +489,7 @@ fn check_has_the_range_errors_and_reads_no_file() {
     scene.camera.fov_deg = 0.0;
     assert_eq!(
         scene.check().expect_err("fov 0").to_string(),
-        "scene: camera.fov_deg = 0: must be in (0, 179)"
+        "scene: camera.fov_deg = 0: must be a finite number in [0.01, 179]"
     );
     let text =
         "[[objects]]\nkind = \"mesh\"\ngltf = \"no/such/file.glb\"\nposition_m = [0.0, 0.0, 0.0]\n";
@@ -477,4 +500,46 @@ fn check_has_the_range_errors_and_reads_no_file() {
     );
     let scene: Scene = toml::from_str(text).expect("parses");
     scene.check().expect("check reads no file");
+}
+
+/// Issue 28: every error line names the key, the value (shortened, with
+/// characters that act on a terminal escaped) and what is allowed, and no
+/// Rust type name.
+#[test]
+fn error_lines_show_value_and_range_in_the_scene_authors_words() {
+    // An overflowed number: the value and the key's range.
+    assert_eq!(
+        error_of("[camera]\nyaw_deg = 1e999"),
+        "scene.toml: camera.yaw_deg: 1e999: floating-point number overflowed; must be a finite number in [-360, 360] (line 2)"
+    );
+    // An integer too large for a float field, and for an integer field.
+    let m = error_of("[camera]\nyaw_deg = 100000000000000000000");
+    assert!(
+        !m.contains("i128") && !m.contains("f64") && m.contains("[-360, 360]"),
+        "{m}"
+    );
+    let m = error_of("[image]\nwidth = 5000000000");
+    assert!(
+        !m.contains("u32") && m.contains("5000000000") && m.contains("[1, 16384]"),
+        "{m}"
+    );
+    // A table where a number goes, a number where a table goes.
+    let m = error_of("camera = 5");
+    assert!(
+        m.contains("expected a table") && !m.contains("struct") && !m.contains("Settings"),
+        "{m}"
+    );
+    // Huge numbers in exponent form, not 300 digits.
+    assert_eq!(
+        error_of("[camera]\nyaw_deg = 1e308"),
+        "scene.toml: camera.yaw_deg = 1e308: must be a finite number in [-360, 360]"
+    );
+    // A long value with a bidirectional override: shortened and escaped.
+    let long = format!("[camera]\nprojection = \"\u{202e}{}\"", "x".repeat(100_000));
+    let m = error_of(&long);
+    assert!(m.len() < 400, "{} bytes", m.len());
+    assert!(
+        m.contains("\\u{202e}") && !m.contains('\u{202e}') && m.contains("100001 characters"),
+        "{m}"
+    );
 }

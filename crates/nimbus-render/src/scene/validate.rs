@@ -2,7 +2,7 @@
 //!
 //! Every error is one line naming the file, the key (its dotted path), the
 //! offending value and what is allowed, e.g.
-//! `scene.toml: camera.fov_deg = 190: must be in (0, 179)`.
+//! `scene.toml: camera.fov_deg = 190: must be a finite number in [0.01, 179]`.
 
 use super::Scene;
 use std::fmt::Display;
@@ -13,12 +13,14 @@ pub const IN_CODE: &str = "scene";
 /// Why a scene could not be loaded.
 #[derive(Debug, thiserror::Error)]
 pub enum SceneError {
-    /// The file could not be read.
-    #[error("{file}: cannot read: {message}")]
+    /// The file could not be read (or was refused unread: not a regular
+    /// file, too large, not UTF-8).
+    #[error("{file}: {message}")]
     Io {
         /// The file.
         file: String,
-        /// The operating system's message.
+        /// Why, e.g. "cannot read: No such file or directory (os error 2)"
+        /// or "is a named pipe (FIFO), not a regular file".
         message: String,
     },
     /// The text is not valid TOML.
@@ -70,6 +72,137 @@ fn one_line(message: &str) -> String {
     message.split_whitespace().collect::<Vec<_>>().join(" ")
 }
 
+/// Most characters of a value shown in an error line.
+const MAX_SHOWN_CHARS: usize = 64;
+
+/// Most characters of a parser's message in an error line.
+const MAX_MESSAGE_CHARS: usize = 240;
+
+/// Whether `c` reorders or hides text on a terminal: controls, and the
+/// Unicode bidirectional formatting characters (UAX #9) and other
+/// invisible format characters (general category Cf).
+fn is_unsafe_to_print(c: char) -> bool {
+    c.is_control()
+        || matches!(c,
+            '\u{061c}' | '\u{200b}'..='\u{200f}' | '\u{202a}'..='\u{202e}'
+            | '\u{2060}'..='\u{2069}' | '\u{feff}')
+}
+
+/// `text` as an error line shows it: characters that would act on the
+/// terminal escaped (`\u{202e}`), and at most `max_chars` characters, the
+/// rest counted.
+fn shown(text: &str, max_chars: usize) -> String {
+    let mut out = String::new();
+    let total = text.chars().count();
+    for (i, c) in text.chars().enumerate() {
+        if i == max_chars {
+            out.push_str(&format!("… ({total} characters)"));
+            break;
+        }
+        if is_unsafe_to_print(c) {
+            out.extend(c.escape_default());
+        } else {
+            out.push(c);
+        }
+    }
+    out
+}
+
+/// `message` with each `quoted` value in it shortened (see [`shown`]).
+fn shorten_quoted(message: &str) -> String {
+    message
+        .split('`')
+        .enumerate()
+        .map(|(i, part)| {
+            if i % 2 == 1 {
+                shown_value(part)
+            } else {
+                part.to_owned()
+            }
+        })
+        .collect::<Vec<_>>()
+        .join("`")
+}
+
+/// A value as an error line shows it (see [`shown`]).
+pub(super) fn shown_value(text: &str) -> String {
+    shown(text, MAX_SHOWN_CHARS)
+}
+
+/// A number as an error line shows it: as written for everyday magnitudes,
+/// in exponent form for very large or small ones (`1e308`, not 309 digits).
+pub(super) fn shown_number(value: f64) -> String {
+    let magnitude = value.abs();
+    if value == 0.0 || !value.is_finite() || (1e-4..1e15).contains(&magnitude) {
+        value.to_string()
+    } else {
+        format!("{value:e}")
+    }
+}
+
+/// A parser's message in words a scene's author knows: no Rust type names.
+fn without_rust_types(message: &str) -> String {
+    let mut out = message.replace(" as i128", "").replace(" as u128", "");
+    for (rust, words) in [
+        ("expected f64", "expected a number"),
+        ("expected f32", "expected a number"),
+        ("expected u8", "expected an integer in [0, 255]"),
+        ("expected u16", "expected an integer in [0, 65535]"),
+        ("expected u32", "expected an integer in [0, 4294967295]"),
+        ("expected u64", "expected a non-negative integer"),
+        ("expected usize", "expected a non-negative integer"),
+        ("expected i32", "expected an integer"),
+        ("expected i64", "expected an integer"),
+        ("expected a boolean", "expected true or false"),
+        ("expected bool", "expected true or false"),
+        ("expected a sequence", "expected an array"),
+        ("expected a map", "expected a table"),
+    ] {
+        out = out.replace(rust, words);
+    }
+    // `struct CameraSettings`, `enum Projection`: the type's name.
+    for kind in ["struct ", "enum "] {
+        while let Some(at) = out.find(kind) {
+            let name_end = out[at + kind.len()..]
+                .find(|c: char| !(c.is_alphanumeric() || c == '_'))
+                .map_or(out.len(), |n| at + kind.len() + n);
+            let words = if kind == "struct " {
+                "a table"
+            } else {
+                "one of the allowed names"
+            };
+            out.replace_range(at..name_end, words);
+        }
+    }
+    out
+}
+
+/// The text a number literal at `span` of `text` is replaced by to learn
+/// the key's allowed range from the validator: the largest value of the
+/// expected type, with the literal's sign. `None` when the message is not
+/// about a number out of its type's range.
+fn range_probe(message: &str, literal: &str) -> Option<String> {
+    let negative = literal.trim_start().starts_with('-');
+    if message.contains("overflowed") || message.contains("expected f64") {
+        return Some(if negative { "-1.0e308" } else { "1.0e308" }.to_owned());
+    }
+    if !(message.contains("integer") || message.contains("floating point")) {
+        return None;
+    }
+    for (rust, largest) in [
+        ("expected u8", "255"),
+        ("expected u16", "65535"),
+        ("expected u32", "4294967295"),
+        ("expected u64", "18446744073709551615"),
+        ("expected usize", "18446744073709551615"),
+    ] {
+        if message.contains(rust) {
+            return Some(largest.to_owned());
+        }
+    }
+    None
+}
+
 impl SceneError {
     pub(super) fn syntax(file: &str, text: &str, error: &toml::de::Error) -> Self {
         Self::Syntax {
@@ -86,10 +219,43 @@ impl SceneError {
     ) -> Self {
         let key = error.path().to_string();
         let inner = error.inner();
-        let message = one_line(inner.message())
+        let raw = one_line(inner.message());
+        let mut message = without_rust_types(&raw)
             .replace("unknown field", "unknown key")
             .replace(", expected one of", "; allowed keys:")
             .replace(", expected", "; expected");
+        let span = inner
+            .span()
+            .filter(|s| s.end <= text.len() && s.start <= s.end);
+        let literal = span
+            .clone()
+            .and_then(|s| text.get(s))
+            .map(str::trim)
+            .filter(|l| !l.is_empty() && !l.starts_with('[') && !l.starts_with('{'));
+        if let Some(literal) = literal {
+            // The value, when the parser's message leaves it out (an
+            // overflowed number), shortened and escaped.
+            let bare = literal.trim_matches(|c| c == '"' || c == '\'');
+            if !raw.contains(bare) {
+                message = format!("{}: {message}", shown_value(literal));
+            }
+            // The allowed range, from the validator: the same file with the
+            // literal replaced by its type's largest value fails the range
+            // check of this key, whose message says what is allowed.
+            if let (Some(probe), Some(span)) = (range_probe(&raw, literal), span) {
+                let mut probed = text.to_owned();
+                probed.replace_range(span, &probe);
+                if let Err(Self::Invalid {
+                    key: probed_key,
+                    allowed,
+                    ..
+                }) = super::Scene::from_toml_str(&probed, file)
+                    && probed_key == key
+                {
+                    message = format!("{message}; {allowed}");
+                }
+            }
+        }
         let key = if key == "." {
             "(top level)".to_owned()
         } else {
@@ -98,7 +264,7 @@ impl SceneError {
         Self::Key {
             file: file.to_owned(),
             key,
-            message,
+            message: shown(&shorten_quoted(&message), MAX_MESSAGE_CHARS),
             line: line_of(text, inner.span()),
         }
     }
@@ -122,7 +288,7 @@ impl Checker<'_> {
         SceneError::Invalid {
             file: self.file.to_owned(),
             key: key.to_owned(),
-            value: value.to_string(),
+            value: shown_value(&value.to_string()),
             allowed: allowed.into(),
         }
     }
@@ -134,18 +300,9 @@ impl Checker<'_> {
         } else {
             Err(self.invalid(
                 key,
-                value,
+                shown_number(value),
                 format!("must be a finite number in [{lo}, {hi}]"),
             ))
-        }
-    }
-
-    /// `lo < value < hi`, and finite.
-    pub(super) fn open(&self, key: &str, value: f64, lo: f64, hi: f64) -> Result<(), SceneError> {
-        if value.is_finite() && value > lo && value < hi {
-            Ok(())
-        } else {
-            Err(self.invalid(key, value, format!("must be in ({lo}, {hi})")))
         }
     }
 
@@ -173,6 +330,7 @@ impl Checker<'_> {
         if value.iter().all(|v| v.is_finite() && *v >= lo && *v <= hi) {
             Ok(())
         } else {
+            // Debug writes extreme magnitudes in exponent form (1e300).
             Err(self.invalid(
                 key,
                 format!("{value:?}"),
@@ -181,6 +339,9 @@ impl Checker<'_> {
         }
     }
 }
+
+/// Narrowest vertical field of view, degrees.
+pub const MIN_FOV_DEG: f64 = 0.01;
 
 /// World coordinates are bounded so that f32 positions on the GPU keep
 /// sub-metre precision.
@@ -256,7 +417,7 @@ impl Scene {
     /// Checks a scene made in code (no file): the range and consistency
     /// checks of [`Self::validate`], each error's line naming [`IN_CODE`]
     /// where a file's errors name the file, e.g.
-    /// `scene: camera.fov_deg = 190: must be in (0, 179)`. It reads no
+    /// `scene: camera.fov_deg = 190: must be a finite number in [0.01, 179]`. It reads no
     /// file (the files a scene refers to are read, and their errors
     /// reported, by the passes that load them), so the renderer's `prepare`
     /// runs it on every scene it is given.
@@ -313,10 +474,8 @@ impl Scene {
                     "give either look_at_m or yaw_deg/pitch_deg, not both",
                 ));
             }
-            let d: Vec<f64> = (0..3).map(|k| target[k] - cam.position_m[k]).collect();
-            let horizontal = (d[0] * d[0] + d[2] * d[2]).sqrt();
-            if horizontal < 1e-3 * d[1].abs().max(1e-3) {
-                return Err(c.invalid("camera.look_at_m", format!("{target:?}"), "must not be straight above or below camera.position_m (the view would have no horizon direction)"));
+            if let Some(why) = super::animation::degenerate_look_at(cam.position_m, *target) {
+                return Err(c.invalid("camera.look_at_m", format!("{target:?}"), why));
             }
         }
         if let Some(yaw) = cam.yaw_deg {
@@ -325,7 +484,9 @@ impl Scene {
         if let Some(pitch) = cam.pitch_deg {
             c.closed("camera.pitch_deg", pitch, -89.0, 89.0)?;
         }
-        c.open("camera.fov_deg", cam.fov_deg, 0.0, 179.0)?;
+        // 0.01° (a 14 m lens on full frame) keeps the projection's f32
+        // terms finite; an open (0, 179) range let 1e-200 through.
+        c.closed("camera.fov_deg", cam.fov_deg, MIN_FOV_DEG, 179.0)?;
         c.closed("camera.exposure_ev100", cam.exposure_ev100, -10.0, 30.0)?;
         c.closed(
             "camera.exposure_compensation_ev",
@@ -539,12 +700,14 @@ impl Scene {
             ] {
                 c.closed(&format!("cumulus.shading.{name}"), value, lo, hi)?;
             }
+            // Positive, with usable lower limits (issue 28: an open range
+            // admits 1e-300, which overflows the shader's powers and divisions).
             for (name, value, lo, hi) in [
-                ("forward_width", s.forward_width, 0.0, 100.0),
-                ("density_per_m", s.density_per_m, 0.0, 10.0),
-                ("trap_sharpness", s.trap_sharpness, 0.0, 100.0),
+                ("forward_width", s.forward_width, 1e-3, 100.0),
+                ("density_per_m", s.density_per_m, 1e-6, 10.0),
+                ("trap_sharpness", s.trap_sharpness, 1e-3, 100.0),
             ] {
-                c.open(&format!("cumulus.shading.{name}"), value, lo, hi)?;
+                c.closed(&format!("cumulus.shading.{name}"), value, lo, hi)?;
             }
             c.integer("cumulus.shading.bump_octaves", s.bump_octaves as u64, 0, 6)?;
         }

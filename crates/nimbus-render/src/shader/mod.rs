@@ -51,7 +51,8 @@ pub fn source_dir() -> Option<PathBuf> {
 /// An unreadable file (being saved, deleted) falls back to the embedded
 /// text rather than failing: the compiler reports real mistakes.
 fn file_text(file: &WgslFile, dir: Option<&Path>) -> Cow<'static, str> {
-    dir.and_then(|dir| std::fs::read_to_string(dir.join(file.name)).ok())
+    // Bounded like every file nimbus reads: a shader is tens of kilobytes.
+    dir.and_then(|dir| nimbus_physics::io::read_text_bounded(&dir.join(file.name), 4 << 20).ok())
         .map_or(Cow::Borrowed(file.source), Cow::Owned)
 }
 

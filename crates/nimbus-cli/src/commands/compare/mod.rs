@@ -170,12 +170,40 @@ pub fn compare(realtime: &ExrImage, reference: &RgbImage, mask: Mask) -> anyhow:
     })
 }
 
+/// Largest EXR read by `compare`, bytes.
+const MAX_EXR_BYTES: u64 = 1 << 30;
+
+/// Most pixels of a layer of an EXR read by `compare` (a 8192 × 8192 image).
+const MAX_EXR_PIXELS: u64 = 1 << 26;
+
 /// Reads the RGB channels (and `cloud.A`) of an EXR's first layer; rejects
 /// non-finite or negative radiance.
 pub fn read_exr(path: &Path) -> anyhow::Result<ExrImage> {
     use exr::prelude::*;
-    let image = read_all_flat_layers_from_file(path)
-        .map_err(|e| anyhow::anyhow!("{}: not a readable OpenEXR file: {e}", path.display()))?;
+    let bytes = nimbus_physics::io::read_bounded(path, MAX_EXR_BYTES)
+        .map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
+    let not_exr = |e: exr::error::Error| {
+        anyhow::anyhow!("{}: not a readable OpenEXR file: {e}", path.display())
+    };
+    // The headers first: a file of a few bytes may declare a vast image.
+    let meta = exr::meta::MetaData::read_from_buffered(std::io::Cursor::new(&bytes), false)
+        .map_err(not_exr)?;
+    for header in &meta.headers {
+        let (w, h) = (header.layer_size.width(), header.layer_size.height());
+        anyhow::ensure!(
+            (w as u64) * (h as u64) <= MAX_EXR_PIXELS,
+            "{}: a layer of {w}×{h} pixels; at most {MAX_EXR_PIXELS} pixels are read",
+            path.display()
+        );
+    }
+    let image = read()
+        .no_deep_data()
+        .largest_resolution_level()
+        .all_channels()
+        .all_layers()
+        .all_attributes()
+        .from_buffered(std::io::Cursor::new(bytes))
+        .map_err(not_exr)?;
     let layer = image
         .layer_data
         .first()

@@ -6,6 +6,7 @@ mod preview;
 
 use super::check_output_dir;
 use crate::output::{write_bytes_atomically, write_png};
+use crate::progress::Progress;
 use anyhow::Context;
 use clap::Args;
 use nimbus_physics::cumulus::gltf::to_glb;
@@ -15,7 +16,6 @@ use nimbus_physics::cumulus::hierarchy::{
 use nimbus_physics::cumulus::mesh::check_closed_manifold;
 use nimbus_physics::cumulus::surface::{CumulusMesh, cumulus_lods};
 use serde::Serialize;
-use std::io::{IsTerminal, Write};
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
@@ -55,9 +55,14 @@ pub struct CumulusArgs {
     json: bool,
 }
 
+/// Largest `--roots` file read, bytes.
+const MAX_ROOTS_FILE_BYTES: u64 = 1024 * 1024;
+
 fn read_roots(path: &Path) -> anyhow::Result<Vec<RootBlob>> {
-    let text = std::fs::read_to_string(path)
-        .with_context(|| format!("--roots {}: cannot read", path.display()))?;
+    // 1000 roots (the most a hierarchy takes) are ~100 kB of JSON; the
+    // bound keeps the parser's memory small whatever the file holds.
+    let text = nimbus_physics::io::read_text_bounded(path, MAX_ROOTS_FILE_BYTES)
+        .map_err(|e| anyhow::anyhow!("--roots {}: {e}", path.display()))?;
     let value: serde_json::Value = serde_json::from_str(&text)
         .with_context(|| format!("--roots {}: not JSON", path.display()))?;
     let list = if value.is_array() {
@@ -161,26 +166,6 @@ fn bounds(mesh: &CumulusMesh) -> [[f32; 3]; 2] {
     [lo, hi]
 }
 
-/// Progress on standard error, one line rewritten in place (only on a
-/// terminal).
-struct Progress {
-    enabled: bool,
-}
-
-impl Progress {
-    fn show(&self, text: &str) {
-        if self.enabled {
-            eprint!("\r\x1b[2K{text}");
-            let _ = std::io::stderr().flush();
-        }
-    }
-    fn done(&self) {
-        if self.enabled {
-            eprint!("\r\x1b[2K");
-        }
-    }
-}
-
 /// Runs `nimbus cumulus`.
 pub fn run(args: &CumulusArgs) -> anyhow::Result<()> {
     let start = Instant::now();
@@ -228,19 +213,20 @@ pub fn run(args: &CumulusArgs) -> anyhow::Result<()> {
         None => anyhow::anyhow!("{}", flag_name(&e.to_string())),
     })?;
 
-    let progress = Progress {
-        enabled: std::io::stderr().is_terminal(),
-    };
+    // Steps: each generated level's sampling, then each level of detail's meshing.
+    let progress = Progress::new("cumulus: steps", u64::from(args.levels + args.lods));
     let cumulus = build(&params, |p: BuildProgress| {
-        progress.show(&format!(
-            "nimbus: level {}/{}: iteration {}, {} particles",
+        progress.update(u64::from(p.level.saturating_sub(1)));
+        progress.set_message(format!(
+            "level {}/{}: iteration {}, {} particles",
             p.level, args.levels, p.iteration, p.particles
-        ))
+        ));
     })?;
     let lods = cumulus_lods(&cumulus, args.lods, |lod| {
-        progress.show(&format!("nimbus: meshing level of detail {lod}"))
+        progress.update(u64::from(args.levels + lod));
+        progress.set_message(format!("meshing level of detail {lod}"));
     });
-    progress.done();
+    progress.finish();
 
     let lod_reports: Vec<LodReport> = lods
         .iter()
@@ -261,7 +247,9 @@ pub fn run(args: &CumulusArgs) -> anyhow::Result<()> {
         "the cloud's surface is empty: no blob reaches f = 1"
     );
 
-    write_bytes_atomically(&args.output, "--output", &to_glb(&lods))?;
+    let glb =
+        to_glb(&lods).map_err(|e| anyhow::anyhow!("--output {}: {e}", args.output.display()))?;
+    write_bytes_atomically(&args.output, "--output", &glb)?;
     let hierarchy = serde_json::to_vec_pretty(&hierarchy_json(&cumulus))?;
     write_bytes_atomically(&hierarchy_path, "--hierarchy", &hierarchy)?;
     if let Some(path) = &args.preview {
@@ -296,9 +284,10 @@ pub fn run(args: &CumulusArgs) -> anyhow::Result<()> {
     if args.json {
         outln!("{}", serde_json::to_string_pretty(&report)?);
     } else {
+        // The report on standard output, the files written on standard error.
         for l in &report.levels {
-            eprintln!(
-                "nimbus: level {}: {} blobs, mean radius {:.1} m{}",
+            outln!(
+                "level {}: {} blobs, mean radius {:.1} m{}",
                 l.level,
                 l.particles,
                 l.mean_radius_m,
@@ -312,8 +301,8 @@ pub fn run(args: &CumulusArgs) -> anyhow::Result<()> {
                 }
             );
         }
-        eprintln!(
-            "nimbus: mesh: {} vertices, {} triangles, {}, lowest point {:.0} m (floor {:.0} m), {} levels of detail",
+        outln!(
+            "mesh: {} vertices, {} triangles, {}, lowest point {:.0} m (floor {:.0} m), {} levels of detail",
             report.vertices,
             report.triangles,
             if report.watertight {

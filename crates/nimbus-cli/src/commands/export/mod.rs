@@ -2,7 +2,12 @@
 //! the Mitsuba 3 path tracer (tools/reference/render.py renders it): the
 //! ground truth that `nimbus compare` measures the real-time image against.
 //!
-//! What is written (see `docs/REALISM.md` for what is left out):
+//! `nimbus export SCENE --gltf FILE.glb` (alone or with `--mitsuba`): the
+//! scene's cumulus field where the renderer places it at `--time-s` and its
+//! terrain, as binary glTF for Blender (`nimbus_render::export::scene_glb`,
+//! no GPU needed).
+//!
+//! What the Mitsuba scene holds (see `docs/REALISM.md` for what is left out):
 //! - the camera (position, orientation, vertical field of view, size);
 //! - the sun: a directional emitter with nimbus's solar irradiance times
 //!   the atmosphere's transmittance at the clouds' altitude, per channel;
@@ -20,21 +25,28 @@
 //!   distribution at 550 nm) as a tabulated phase function, and their
 //!   single-scattering albedo.
 
+mod gltf;
 mod mitsuba;
 
 use anyhow::Context;
 use clap::Args;
 use std::path::PathBuf;
 
-/// Arguments of `nimbus export`.
+/// Arguments of `nimbus export`: `--mitsuba`, `--gltf` or both.
 #[derive(Debug, Args)]
+#[command(group(clap::ArgGroup::new("format").args(["mitsuba", "gltf"]).required(true).multiple(true)))]
 pub struct ExportArgs {
     #[command(flatten)]
     frame: super::FrameArgs,
     /// Write a Mitsuba 3 scene (scene.xml and its assets) into this
     /// directory (created if missing; its parent must exist).
     #[arg(long, value_name = "DIR")]
-    mitsuba: PathBuf,
+    mitsuba: Option<PathBuf>,
+    /// Write the cumulus field (each cloud a node instancing its shape's
+    /// mesh, where the wind has carried it at --time-s) and the terrain as
+    /// binary glTF: metres, y up, world space, for Blender. No GPU needed.
+    #[arg(long, value_name = "FILE.glb")]
+    gltf: Option<PathBuf>,
     /// Animation time, s (as `render --time-s`).
     #[arg(long, default_value_t = 0.0, value_name = "S")]
     time_s: f64,
@@ -47,49 +59,64 @@ pub fn run(args: &ExportArgs) -> anyhow::Result<()> {
         "--time-s {}: must be a number in [0, 10000000]",
         args.time_s
     );
+    if let Some(path) = &args.gltf {
+        gltf::check_output(path)?;
+    }
     let (scene, width, height) = args.frame.scene_and_size()?;
     let scene = scene.at_time(args.time_s);
+    let Some(mitsuba_dir) = args.mitsuba.as_deref() else {
+        // --gltf alone (clap asks for one of the two): no GPU.
+        return args
+            .gltf
+            .as_deref()
+            .map_or(Ok(()), |path| gltf::write(&scene, args.time_s, path));
+    };
     anyhow::ensure!(
         scene.camera.projection == nimbus_render::scene::Projection::Perspective,
         "camera.projection = equirectangular: export needs a perspective camera"
     );
-    let parent = args
-        .mitsuba
+    let parent = mitsuba_dir
         .parent()
         .filter(|p| !p.as_os_str().is_empty())
         .unwrap_or(std::path::Path::new("."));
     anyhow::ensure!(
         parent.is_dir(),
         "--mitsuba {}: the parent directory {} does not exist",
-        args.mitsuba.display(),
+        mitsuba_dir.display(),
         parent.display()
     );
-    std::fs::create_dir_all(&args.mitsuba).with_context(|| {
+    if let Some(path) = &args.gltf {
+        gltf::write(&scene, args.time_s, path)?;
+    }
+    std::fs::create_dir_all(mitsuba_dir).with_context(|| {
         format!(
             "--mitsuba {}: cannot create the directory",
-            args.mitsuba.display()
+            mitsuba_dir.display()
         )
     })?;
-    let mut headless = nimbus_render::headless::HeadlessRenderer::new(args.frame.adapter)?;
+    let mut headless = nimbus_render::headless::HeadlessRenderer::new(args.frame.adapter())?;
     eprintln!(
         "nimbus: exporting {width}×{height} to {} on {}",
-        args.mitsuba.display(),
+        mitsuba_dir.display(),
         headless.gpu.adapter_summary()
     );
+    // Optics tables, the sky panorama and the cloud volumes: no known total.
+    let progress = crate::progress::Progress::spinner("export");
     let summary = mitsuba::export(
         &mut headless,
         &scene,
         width,
         height,
         args.time_s,
-        &args.mitsuba,
+        mitsuba_dir,
     )?;
+    progress.finish();
     for line in &summary.approximations {
         eprintln!("nimbus: export: {line}");
     }
     eprintln!(
         "nimbus: wrote {} ({} cumulus, stratus {})",
-        args.mitsuba.join("scene.xml").display(),
+        mitsuba_dir.join("scene.xml").display(),
         summary.cumulus_count,
         if summary.stratus { "yes" } else { "no" }
     );

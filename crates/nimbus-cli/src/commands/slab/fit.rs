@@ -4,7 +4,7 @@
 //! `OneDimensionalTable::from_file` reads.
 
 use super::{DropletArgs, check_photons};
-use crate::output::Progress;
+use crate::progress::Progress;
 use clap::Args;
 use nimbus_physics::transport::fit::{FluxSample, fit_one_dimensional};
 use nimbus_physics::transport::monte_carlo::{BATCH_PHOTONS, TraceSettings, trace};
@@ -237,7 +237,7 @@ pub fn run(args: &FitArgs) -> anyhow::Result<()> {
                 row.rms_orders
             );
         }
-        outln!("wrote {}", args.out.display());
     }
+    eprintln!("nimbus: wrote {}", args.out.display());
     Ok(())
 }

@@ -5,7 +5,7 @@
 mod fit;
 mod plot;
 
-use crate::output::Progress;
+use crate::progress::Progress;
 use clap::{Args, Subcommand, ValueEnum};
 use nimbus_physics::optics::dsd::{SizeDistribution, bulk_optics};
 use nimbus_physics::optics::phase::PhaseTable;
@@ -195,8 +195,8 @@ struct SlabArgs {
     relative_azimuth_deg: f64,
     /// Phase function: mie (the droplet size distribution's), hg:G
     /// (Henyey–Greenstein with asymmetry G) or isotropic.
-    #[arg(long, default_value = "mie")]
-    phase: String,
+    #[arg(long, default_value = "mie", value_parser = parse_phase)]
+    phase: PhaseChoice,
     #[command(flatten)]
     droplets: DropletArgs,
     /// analytic (§4 model) or monte-carlo (photon tracing).
@@ -232,15 +232,17 @@ enum MieMode {
     Modified,
 }
 
-/// The parsed `--phase`.
+/// The parsed `--phase` (not a `ValueEnum`: hg carries its asymmetry).
+#[derive(Clone, Copy, Debug, PartialEq)]
 enum PhaseChoice {
     Mie,
     HenyeyGreenstein(f64),
     Isotropic,
 }
 
-fn parse_phase(text: &str) -> anyhow::Result<PhaseChoice> {
-    let bad = || anyhow::anyhow!("--phase {text}: must be mie, isotropic or hg:G with −1 < G < 1");
+/// Parses `--phase`; clap reports the error with the flag and the value.
+fn parse_phase(text: &str) -> Result<PhaseChoice, String> {
+    let bad = || "must be mie, isotropic or hg:G with −1 < G < 1".to_owned();
     match text {
         "mie" => Ok(PhaseChoice::Mie),
         "isotropic" => Ok(PhaseChoice::Isotropic),
@@ -382,7 +384,7 @@ fn run_point(args: &SlabArgs) -> anyhow::Result<()> {
             "--optical-depth {t}: must be in (0, 10000]"
         );
     }
-    let choice = parse_phase(&args.phase)?;
+    let choice = args.phase;
     // The droplet population's optics at the wavelength (needed for the Mie
     // phase function and for converting a thickness into an optical depth).
     let needs_mie = matches!(choice, PhaseChoice::Mie) || args.thickness_m.is_some();

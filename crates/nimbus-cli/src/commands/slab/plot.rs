@@ -1,11 +1,12 @@
 //! `nimbus slab plot`: radiance against view angle in the sun's plane,
 //! stacked per scattering order, the analytic model (filled areas) against
-//! Monte-Carlo tracing (lines), like Bouthors et al. (2006), figs 6 and 9.
+//! Monte-Carlo tracing (lines), like Bouthors et al. (2006), figs 6 and 9;
+//! a PNG or an SVG by the extension of `--out` (drawn by `crate::plot`).
 
 use super::{
     DropletArgs, DropletOptics, Progress, check_photons, check_sun_zenith, check_thickness,
 };
-use crate::plot::{Axis, Chart, Color, Stroke};
+use crate::plot::{Area, Axis, Figure, FigureFormat, LegendPosition, Line, Marker, Rgb, Stroke};
 use clap::{Args, ValueEnum};
 use nimbus_physics::transport::monte_carlo::{
     BATCH_PHOTONS, TraceResult, TraceSettings, ViewDirection, scattering_cosine, trace,
@@ -22,8 +23,8 @@ pub struct PlotArgs {
     /// Sun zenith angle, degrees in [0, 89].
     #[arg(long, value_name = "DEG", allow_negative_numbers = true)]
     sun_zenith_deg: f64,
-    /// The PNG to write.
-    #[arg(long, value_name = "FIG.png")]
+    /// The figure to write: .png or .svg.
+    #[arg(long, value_name = "FIG.png|FIG.svg")]
     out: PathBuf,
     /// reflection (radiance leaving the top, as in the paper's figures) or
     /// transmission (leaving the bottom).
@@ -75,13 +76,26 @@ fn view_at(x_deg: f64, side: Side) -> ViewDirection {
     }
 }
 
-const ANALYTIC_COLORS: [Color; 4] = [
+/// Legend texts and colours of the analytic orders 0, 1, 2 and 3+.
+const ANALYTIC_LABELS: [&str; 4] = [
+    "analytic order 0 (forward peak)",
+    "analytic order 1",
+    "analytic order 2",
+    "analytic order 3+",
+];
+const ANALYTIC_COLORS: [Rgb; 4] = [
     [205, 205, 205],
     [253, 196, 140],
     [170, 222, 160],
     [170, 198, 240],
 ];
-const TRACED_COLORS: [Color; 3] = [[205, 95, 0], [25, 125, 35], [25, 65, 180]];
+/// Legend texts and colours of the traced cumulative sums.
+const TRACED_LABELS: [&str; 3] = [
+    "Monte-Carlo, modified Mie: order 1",
+    "Monte-Carlo, modified Mie: orders 1–2",
+    "Monte-Carlo, modified Mie: all orders",
+];
+const TRACED_COLORS: [Rgb; 3] = [[205, 95, 0], [25, 125, 35], [25, 65, 180]];
 
 /// Runs the command.
 pub fn run(args: &PlotArgs) -> anyhow::Result<()> {
@@ -94,13 +108,7 @@ pub fn run(args: &PlotArgs) -> anyhow::Result<()> {
         "--step-deg {}: must be in [0.25, 10]",
         args.step_deg
     );
-    anyhow::ensure!(
-        args.out
-            .extension()
-            .is_some_and(|e| e.eq_ignore_ascii_case("png")),
-        "--out {}: must be a .png file",
-        args.out.display()
-    );
+    FigureFormat::from_path(&args.out, "--out")?;
     super::super::check_output_dir(&args.out)?;
     if let Some(csv) = &args.csv {
         super::super::check_output_dir(csv)?;
@@ -163,36 +171,26 @@ pub fn run(args: &PlotArgs) -> anyhow::Result<()> {
         Side::Reflection => Scale::Linear,
         Side::Transmission => Scale::Log,
     }) == Scale::Log;
-    let all_values = analytic
-        .iter()
-        .map(|r| r.total)
-        .chain(traced_stack.iter().map(|s| s[2]))
-        .chain(full_total.iter().copied())
-        .filter(|v| v.is_finite() && *v > 0.0);
-    let mut chart = if log {
+    let side = match args.side {
+        Side::Reflection => "reflected",
+        Side::Transmission => "transmitted",
+    };
+    let y_title = format!("{side} radiance per unit incident flux (sr⁻¹)");
+    let y = if log {
         // Whole decades from the smallest first-order value to the peak.
-        let (lo, hi) = all_values
-            .chain(traced_stack.iter().map(|s| s[0]).filter(|v| *v > 0.0))
+        let (lo, hi) = analytic
+            .iter()
+            .map(|r| r.total)
+            .chain(traced_stack.iter().flat_map(|s| [s[0], s[2]]))
+            .chain(full_total.iter().copied())
+            .filter(|v| v.is_finite() && *v > 0.0)
             .fold((f64::MAX, 0.0f64), |(lo, hi), v| (lo.min(v), hi.max(v)));
-        let (d0, d1) = (
-            lo.max(hi * 1e-6).log10().floor() as i32,
+        let hi = hi.max(1e-12);
+        Axis::log_decades(
+            lo.min(hi).max(hi * 1e-6).log10().floor() as i32,
             hi.log10().ceil() as i32,
-        );
-        let d1 = d1.max(d0 + 1);
-        let mut chart = Chart::new(
-            1200,
-            640,
-            Axis::linear(-90.0, 90.0),
-            Axis::log(10f64.powi(d0), 10f64.powi(d1)),
-        );
-        let y_ticks: Vec<f64> = (d0..=d1).map(|d| 10f64.powi(d)).collect();
-        chart.grid(
-            &x_ticks(),
-            &y_ticks,
-            |x| format!("{x:.0}"),
-            |y| format!("1e{}", y.log10().round()),
-        );
-        chart
+            y_title,
+        )
     } else {
         // The linear range leaves out the analytic forward peak (order 0),
         // which would flatten everything else; it is clipped at the top.
@@ -208,89 +206,83 @@ pub fn run(args: &PlotArgs) -> anyhow::Result<()> {
             .filter(|v| v.is_finite())
             .fold(0.0f64, f64::max);
         let y_max = nice_ceiling(1.08 * peak.max(1e-12));
-        let mut chart = Chart::new(
-            1200,
-            640,
-            Axis::linear(-90.0, 90.0),
-            Axis::linear(0.0, y_max),
-        );
-        let y_ticks: Vec<f64> = (0..=5).map(|k| k as f64 * y_max / 5.0).collect();
-        chart.grid(
-            &x_ticks(),
-            &y_ticks,
-            |x| format!("{x:.0}"),
-            |y| format!("{y:.3}"),
-        );
-        chart
+        let ticks = (0..=5).map(|k| k as f64 * y_max / 5.0).collect();
+        Axis::linear(0.0, y_max, ticks, y_title)
     };
 
-    let zero = vec![0.0; xs.len()];
-    let mut lower = zero.clone();
-    for (k, color) in ANALYTIC_COLORS.iter().enumerate() {
-        let upper: Vec<f64> = analytic_stack.iter().map(|s| s[k]).collect();
-        chart.fill_between(&xs, &lower, &upper, *color);
-        lower = upper;
-    }
-    for (k, color) in TRACED_COLORS.iter().enumerate() {
-        let line: Vec<f64> = traced_stack.iter().map(|s| s[k]).collect();
-        chart.polyline(&xs, &line, *color, Stroke::Solid);
-    }
-    chart.polyline(&xs, &full_total, [0, 0, 0], Stroke::Dashed);
-
-    let markers = feature_markers(&droplets, args.sun_zenith_deg, args.side, &xs);
-    for (x, label) in &markers {
-        chart.marker(*x, label, [120, 0, 120]);
-    }
-    let side = match args.side {
-        Side::Reflection => "reflected",
-        Side::Transmission => "transmitted",
+    // The analytic orders as stacked areas, each between the cumulative
+    // sums below and including it; order 0 only in transmission (in
+    // reflection it is zero).
+    let first_order = usize::from(args.side == Side::Reflection);
+    let areas = (first_order..ANALYTIC_LABELS.len())
+        .map(|k| Area {
+            label: Some(ANALYTIC_LABELS[k].to_owned()),
+            color: ANALYTIC_COLORS[k],
+            xs: xs.clone(),
+            lower: analytic_stack
+                .iter()
+                .map(|s| if k == 0 { 0.0 } else { s[k - 1] })
+                .collect(),
+            upper: analytic_stack.iter().map(|s| s[k]).collect(),
+        })
+        .collect();
+    let mut lines: Vec<Line> = TRACED_LABELS
+        .iter()
+        .zip(TRACED_COLORS)
+        .enumerate()
+        .map(|(k, (label, color))| Line {
+            label: Some((*label).to_owned()),
+            color,
+            stroke: Stroke::Solid,
+            points: xs
+                .iter()
+                .zip(&traced_stack)
+                .map(|(x, s)| (*x, s[k]))
+                .collect(),
+        })
+        .collect();
+    lines.push(Line {
+        label: Some("Monte-Carlo, full Mie: all orders".to_owned()),
+        color: [0, 0, 0],
+        stroke: Stroke::Dashed,
+        points: xs.iter().copied().zip(full_total.iter().copied()).collect(),
+    });
+    let markers = feature_markers(&droplets, args.sun_zenith_deg, args.side, &xs)
+        .into_iter()
+        .map(|(x, label)| Marker {
+            x,
+            label,
+            color: [120, 0, 120],
+        })
+        .collect();
+    let figure = Figure {
+        size: (1200, 640),
+        caption: Some(format!(
+            "H = {} m, sun zenith angle {}°, λ = {} nm, τ = {:.2}",
+            args.thickness_m,
+            args.sun_zenith_deg,
+            args.droplets.wavelength_nm,
+            droplets.extinction_per_m * args.thickness_m
+        )),
+        x: Axis::linear(
+            -90.0,
+            90.0,
+            (-6..=6).map(|k| 15.0 * k as f64).collect(),
+            "view zenith angle in the sun’s plane (°; > 0 on the sun’s side)",
+        ),
+        y,
+        areas,
+        lines,
+        markers,
+        // Where the curves leave room: reflected radiance rises towards
+        // both horizons and stays low in the middle; transmitted radiance
+        // peaks in the sun's direction (x < 0) and stays low on the other side.
+        legend: match args.side {
+            Side::Reflection => LegendPosition::UpperMiddle,
+            Side::Transmission => LegendPosition::UpperRight,
+        },
     };
-    chart.axis_titles(
-        "view zenith angle in the sun's plane (deg; > 0 on the sun's side)",
-        &format!("{side} radiance per unit incident flux (1/sr)"),
-    );
-    chart.title(&format!(
-        "H = {} m, sun zenith {} deg, {} nm, tau = {:.2}",
-        args.thickness_m,
-        args.sun_zenith_deg,
-        args.droplets.wavelength_nm,
-        droplets.extinction_per_m * args.thickness_m
-    ));
-    let mut legend: Vec<(String, Color, Option<Stroke>)> = vec![
-        (
-            "analytic order 0 (forward peak)".into(),
-            ANALYTIC_COLORS[0],
-            None,
-        ),
-        ("analytic order 1".into(), ANALYTIC_COLORS[1], None),
-        ("analytic order 2".into(), ANALYTIC_COLORS[2], None),
-        ("analytic order 3+".into(), ANALYTIC_COLORS[3], None),
-        (
-            "Monte-Carlo, modified Mie: order 1".into(),
-            TRACED_COLORS[0],
-            Some(Stroke::Solid),
-        ),
-        (
-            "Monte-Carlo, modified Mie: orders 1-2".into(),
-            TRACED_COLORS[1],
-            Some(Stroke::Solid),
-        ),
-        (
-            "Monte-Carlo, modified Mie: all orders".into(),
-            TRACED_COLORS[2],
-            Some(Stroke::Solid),
-        ),
-        (
-            "Monte-Carlo, full Mie: all orders".into(),
-            [0, 0, 0],
-            Some(Stroke::Dashed),
-        ),
-    ];
-    if args.side == Side::Reflection {
-        legend.remove(0);
-    }
-    chart.legend(&legend);
-    chart.write_png(&args.out, "--out")?;
+    figure.write(&args.out, "--out")?;
 
     if let Some(path) = &args.csv {
         let mut text = String::from(
@@ -337,11 +329,6 @@ pub fn run(args: &PlotArgs) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// Grid lines every 15° of view angle.
-fn x_ticks() -> Vec<f64> {
-    (-6..=6).map(|k| 15.0 * k as f64).collect()
-}
-
 /// The smallest of 1, 1.2, 1.5, 2, 2.5, 3, 4, 5, 6, 8 × 10ⁿ at or above `v`.
 fn nice_ceiling(v: f64) -> f64 {
     let decade = 10f64.powf(v.log10().floor());
@@ -382,7 +369,7 @@ fn feature_markers(
             }
         }
     };
-    crossings(fogbow_deg, &format!("B fogbow ({fogbow_deg:.0} deg)"));
+    crossings(fogbow_deg, &format!("B fogbow ({fogbow_deg:.0}°)"));
     if side == Side::Reflection {
         markers.push((sun_zenith_deg, "A glory".to_owned()));
         markers.push((-sun_zenith_deg, "C pseudo-specular".to_owned()));

@@ -104,6 +104,18 @@ pub const OPTIONAL_KEYS: &[OptionalKey] = &[
         initial: || toml::Value::Float(0.7),
     },
     OptionalKey {
+        table: "keyframes[]",
+        key: "camera_position_m",
+        initial: || toml::Value::try_from([0.0, 100.0, 0.0]).unwrap_or(toml::Value::Float(0.0)),
+    },
+    OptionalKey {
+        table: "keyframes[]",
+        key: "camera_look_at_m",
+        initial: || {
+            toml::Value::try_from([0.0, 1000.0, -5000.0]).unwrap_or(toml::Value::Float(0.0))
+        },
+    },
+    OptionalKey {
         table: "objects[]",
         key: "center_m",
         initial: || toml::Value::try_from([0.0, 10.0, 0.0]).unwrap_or(toml::Value::Float(0.0)),
@@ -306,6 +318,12 @@ impl SceneEditor {
         let mut scene = self.posed_scene(camera);
         if !keyframes {
             scene.keyframes.clear();
+        }
+        // The mouse and keyboard fly the viewer's camera: a keyed flight
+        // (what `animate` renders) would take it from them every frame.
+        for key in &mut scene.keyframes {
+            key.camera_position_m = None;
+            key.camera_look_at_m = None;
         }
         scene.at_time(time_s)
     }
@@ -513,7 +531,10 @@ mod tests {
             let element = new_element(array).unwrap_or_else(|| panic!("{array}"));
             walk(&format!("{array}[]"), &element, &mut reachable);
         }
-        let doc = include_str!("../../../../../docs/scene-file.md");
+        // Read, not embedded: the published crate holds no file from outside it.
+        let doc_path = concat!(env!("CARGO_MANIFEST_DIR"), "/../../docs/scene-file.md");
+        let doc = std::fs::read_to_string(doc_path).expect("docs/scene-file.md");
+        let doc = doc.as_str();
         let mut missing = Vec::new();
         for documented in doc.split('`').skip(1).step_by(2).filter(|s| {
             s.contains('.')

@@ -23,9 +23,9 @@ pub struct ViewArgs {
     /// Window height in pixels.
     #[arg(long, value_name = "PX", default_value_t = 720, value_parser = clap::value_parser!(u32).range(64..=8192))]
     height: u32,
-    /// GPU adapter: auto, hardware or software (lavapipe).
-    #[arg(long, default_value = "auto", value_parser = super::parse_adapter)]
-    adapter: nimbus_render::AdapterPreference,
+    /// GPU adapter.
+    #[arg(long, value_enum, default_value_t = super::Adapter::Auto)]
+    adapter: super::Adapter,
     /// Directory of the renderer's WGSL files to watch and reload (default:
     /// `crates/nimbus-render/src` of the checkout nimbus was built from, when it exists).
     #[arg(long, value_name = "DIR")]
@@ -79,7 +79,7 @@ pub fn run(args: &ViewArgs) -> anyhow::Result<()> {
         scene_file: args.scene.clone().filter(|_| !args.no_watch),
         save_path: args.scene.clone(),
         size_px: [args.width, args.height],
-        adapter: args.adapter,
+        adapter: args.adapter.into(),
         shader_dir,
         frames: args.frames,
         screenshot: args.screenshot.clone(),

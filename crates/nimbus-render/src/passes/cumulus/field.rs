@@ -1,10 +1,12 @@
 //! The cloud field per frame: placing, drifting with the wind, culling against the frustum, choosing the level of detail, and the shadow map's transform.
 
-use super::gpu_types::{BUMP_LACUNARITY, CumulusInstance};
-use super::variants::CumulusVariant;
-use super::{FieldCloud, LOD_CELL_PX};
+use super::gpu_types::{BUMP_LACUNARITY, CloudPlacement, CumulusInstance};
+use super::variants::{self, CumulusVariant, VariantParams};
+use super::{CumulusError, FieldCloud, LOD_CELL_PX};
+use crate::scene::{CumulusSettings, MAX_CLOUDS, Scene};
 use glam::{DVec3, Mat4, Vec3, Vec4};
-use nimbus_physics::cumulus::cloud_field::CloudInstance;
+use nimbus_physics::cumulus::cloud_field::{CloudFieldParams, CloudInstance, place_clouds};
+use std::sync::Arc;
 
 /// Shadow clip space from world space: orthographic along the light
 /// (towards −`to_sun`) over the given bounding spheres; x, y in [−1, 1]
@@ -135,4 +137,128 @@ pub(super) fn drifted_cloud(
     moved.instance.offset_scale[0] = target[0] as f32;
     moved.instance.offset_scale[2] = target[1] as f32;
     moved
+}
+
+/// The square a generated field covers: its centre (x, z) and side, m
+/// (`cumulus.area_m`, else the terrain's extent, around the world origin).
+pub(super) fn field_area(scene: &Scene, settings: &CumulusSettings) -> ([f64; 2], f64) {
+    (
+        [0.0, 0.0],
+        settings.area_m.unwrap_or(scene.terrain.extent_m),
+    )
+}
+
+/// The field's clouds before the wind moves them, instances of `shapes`:
+/// placed from the coverage over the square of `area_side_m` around
+/// `area_centre_m`, or the clouds listed in the settings (their variant
+/// clamped to the shapes there are).
+pub(super) fn place_field(
+    settings: &CumulusSettings,
+    area_centre_m: [f64; 2],
+    area_side_m: f64,
+    shapes: &[&CumulusVariant],
+) -> Vec<FieldCloud> {
+    let Some(last_variant) = shapes.len().checked_sub(1) else {
+        return Vec::new();
+    };
+    let clouds = if settings.clouds.is_empty() {
+        let footprints: Vec<f64> = shapes
+            .iter()
+            .map(|v| f64::from(v.footprint_radius_m))
+            .collect();
+        place_clouds(
+            &CloudFieldParams {
+                coverage: settings.coverage,
+                base_m: settings.base_m,
+                seed: settings.seed,
+                centre_m: area_centre_m,
+                side_m: area_side_m,
+                scale_range: settings.scale_range,
+                max_clouds: MAX_CLOUDS,
+            },
+            &footprints,
+        )
+        .clouds
+    } else {
+        settings
+            .clouds
+            .iter()
+            .map(|c| CloudInstance {
+                variant: c.variant.min(last_variant as u32),
+                base_centre_m: DVec3::from_array(c.position_m),
+                yaw_rad: c.yaw_deg.to_radians(),
+                scale: c.scale,
+            })
+            .collect()
+    };
+    clouds
+        .iter()
+        .enumerate()
+        .map(|(index, cloud)| {
+            let shape = shapes[(cloud.variant as usize).min(last_variant)];
+            field_cloud(index, cloud, shape)
+        })
+        .collect()
+}
+
+/// The field's clouds carried by the wind's drift `drift_m` (x, z), m; a
+/// generated field (no clouds listed by hand) wraps around its square so
+/// that it never empties.
+pub(super) fn drift_field<'a>(
+    settings: &CumulusSettings,
+    placed: &'a [FieldCloud],
+    area_centre_m: [f64; 2],
+    area_side_m: f64,
+    drift_m: [f64; 2],
+) -> impl Iterator<Item = FieldCloud> + 'a {
+    let wrap = settings.clouds.is_empty().then_some(area_side_m);
+    placed
+        .iter()
+        .map(move |cloud| drifted_cloud(cloud, drift_m, area_centre_m, wrap))
+}
+
+impl FieldCloud {
+    /// Where the cloud is, as [`CloudPlacement`] (from the instance the
+    /// shader reads, so exactly what is drawn).
+    pub(super) fn placement(&self) -> CloudPlacement {
+        let [x, y, z, scale] = self.instance.offset_scale;
+        let [cos_yaw, sin_yaw, ..] = self.instance.rotation_noise;
+        CloudPlacement {
+            variant: self.variant,
+            base_centre_m: DVec3::new(f64::from(x), f64::from(y), f64::from(z)),
+            yaw_rad: f64::from(sin_yaw).atan2(f64::from(cos_yaw)),
+            scale: f64::from(scale),
+        }
+    }
+}
+
+/// A scene's cumulus field at one time, as the renderer draws it.
+#[derive(Clone, Debug)]
+pub struct CumulusField {
+    /// The shape variants, in the order [`CloudPlacement::variant`] indexes.
+    pub shapes: Vec<Arc<CumulusVariant>>,
+    /// Every cloud of the field (not only those in a camera's view).
+    pub clouds: Vec<CloudPlacement>,
+}
+
+/// The cumulus field of `scene` (as [`Scene::at_time`] gives it at `time_s`)
+/// at `time_s`, placed and carried by the wind exactly as the cumulus pass
+/// places the clouds it draws, without a GPU; `None` without `[cumulus]`.
+/// The shapes are loaded from the disk cache of
+/// [`crate::core::cache::cache_dir`] or generated (seconds each) and cached.
+pub fn cumulus_field_at(scene: &Scene, time_s: f64) -> Result<Option<CumulusField>, CumulusError> {
+    let Some(settings) = &scene.cumulus else {
+        return Ok(None);
+    };
+    let shapes = variants::load_or_generate(
+        &crate::core::cache::cache_dir(),
+        &VariantParams::from(settings),
+    )?;
+    let (centre, side) = field_area(scene, settings);
+    let shape_refs: Vec<&CumulusVariant> = shapes.iter().map(|s| &**s).collect();
+    let placed = place_field(settings, centre, side, &shape_refs);
+    let clouds = drift_field(settings, &placed, centre, side, scene.cloud_drift_m(time_s))
+        .map(|cloud| cloud.placement())
+        .collect();
+    Ok(Some(CumulusField { shapes, clouds }))
 }

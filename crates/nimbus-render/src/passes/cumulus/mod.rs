@@ -104,7 +104,9 @@ mod node;
 mod prepare;
 mod resources;
 
-pub use field::{level_of_detail, shadow_clip_from_world, sphere_in_frustum};
+pub use field::{
+    CumulusField, cumulus_field_at, level_of_detail, shadow_clip_from_world, sphere_in_frustum,
+};
 pub use gpu_types::{BUMP_LACUNARITY, CloudPlacement, CumulusInstance, CumulusUniform};
 /// Level of detail drawn into the shadow map (clamped to what exists): its
 /// cells (a last-level blob radius) match the map's texels of ~10 m.

@@ -1,21 +1,21 @@
 //! Per-frame preparation: shapes generated or loaded, the field placed, this frame's instances selected and uploaded.
 
 use super::field::{
-    drifted_cloud, field_cloud, level_of_detail, shadow_clip_from_world, sphere_in_frustum,
+    drift_field, field_area, level_of_detail, place_field, shadow_clip_from_world,
+    sphere_in_frustum,
 };
 use super::gpu_types::{CloudPlacement, CumulusInstance, CumulusUniform};
-use super::variants::VariantParams;
+use super::variants::{CumulusVariant, VariantParams};
 use super::{
-    CumulusError, CumulusPass, Draw, FieldKey, GpuLod, GpuVariant, SHADOW_FILTER_TEXELS,
-    SHADOW_LOD, variants,
+    CumulusError, CumulusPass, Draw, FieldCloud, FieldKey, GpuLod, GpuVariant,
+    SHADOW_FILTER_TEXELS, SHADOW_LOD, variants,
 };
 use crate::core::background::Precompute;
 use crate::frame::FrameUniform;
 use crate::frame::cloud_lighting::{load_optics, optics_params};
 use crate::frame::cloud_shadow::{CloudShadowMap, CloudShadowUniform, SHADOW_MAP_SIZE};
-use crate::scene::{CumulusSettings, MAX_CLOUDS, Scene, StratusSettings};
+use crate::scene::{CumulusSettings, Scene, StratusSettings};
 use glam::{DVec3, Vec3};
-use nimbus_physics::cumulus::cloud_field::{CloudFieldParams, CloudInstance, place_clouds};
 use nimbus_physics::cumulus::forward_peak::{self, ForwardPeakTable};
 use nimbus_physics::cumulus::shading::CLOUD_ASYMMETRY;
 use std::sync::Arc;
@@ -97,19 +97,7 @@ impl CumulusPass {
     /// The clouds of the last prepared frame, where the wind has carried
     /// them (see [`CloudPlacement`]).
     pub fn placed_clouds(&self) -> Vec<CloudPlacement> {
-        self.moved
-            .iter()
-            .map(|cloud| {
-                let [x, y, z, scale] = cloud.instance.offset_scale;
-                let [cos_yaw, sin_yaw, ..] = cloud.instance.rotation_noise;
-                CloudPlacement {
-                    variant: cloud.variant,
-                    base_centre_m: DVec3::new(f64::from(x), f64::from(y), f64::from(z)),
-                    yaw_rad: f64::from(sin_yaw).atan2(f64::from(cos_yaw)),
-                    scale: f64::from(scale),
-                }
-            })
-            .collect()
+        self.moved.iter().map(FieldCloud::placement).collect()
     }
 
     /// The variants' generation parameters (`None` without cumulus).
@@ -154,11 +142,7 @@ impl CumulusPass {
             self.disable(queue, shadow_map);
             return Ok(());
         };
-        let params = VariantParams {
-            count: settings.variants,
-            seed: settings.shape_seed,
-            levels_of_detail: settings.levels_of_detail,
-        };
+        let params = VariantParams::from(settings);
         // Both requested before either is waited for, so that they run side by side.
         let shapes = self
             .shapes
@@ -212,68 +196,34 @@ impl CumulusPass {
         let Some((_, variants)) = &self.variants else {
             return Ok(());
         };
+        let (area_centre_m, area_side_m) = field_area(scene, settings);
         let key = FieldKey {
             placement: CumulusSettings {
                 shading: Default::default(),
                 terms: Default::default(),
                 ..settings.clone()
             },
-            area_centre_m: [0.0, 0.0],
-            area_side_m: settings.area_m.unwrap_or(scene.terrain.extent_m),
+            area_centre_m,
+            area_side_m,
         };
         if self.field.as_ref().map(|f| &f.0) != Some(&key) {
-            let clouds = if settings.clouds.is_empty() {
-                let footprints: Vec<f64> = variants
-                    .iter()
-                    .map(|v| f64::from(v.shape.footprint_radius_m))
-                    .collect();
-                place_clouds(
-                    &CloudFieldParams {
-                        coverage: settings.coverage,
-                        base_m: settings.base_m,
-                        seed: settings.seed,
-                        centre_m: key.area_centre_m,
-                        side_m: key.area_side_m,
-                        scale_range: settings.scale_range,
-                        max_clouds: MAX_CLOUDS,
-                    },
-                    &footprints,
-                )
-                .clouds
-            } else {
-                settings
-                    .clouds
-                    .iter()
-                    .map(|c| CloudInstance {
-                        variant: c.variant.min(settings.variants.saturating_sub(1)),
-                        base_centre_m: DVec3::from_array(c.position_m),
-                        yaw_rad: c.yaw_deg.to_radians(),
-                        scale: c.scale,
-                    })
-                    .collect()
-            };
-            let clouds = clouds
-                .iter()
-                .enumerate()
-                .map(|(index, cloud)| {
-                    field_cloud(index, cloud, &variants[cloud.variant as usize].shape)
-                })
-                .collect();
+            let shapes: Vec<&CumulusVariant> = variants.iter().map(|v| &*v.shape).collect();
+            let clouds = place_field(settings, area_centre_m, area_side_m, &shapes);
             self.field = Some((key, clouds));
         }
         let Some((key, placed)) = &self.field else {
             return Ok(());
         };
-        // The wind carries the clouds; a generated field wraps around its
-        // square area so that it never empties.
+        // The same placement and drift as `cumulus_field_at` (the exports').
         let drift = scene.cloud_drift_m(f64::from(frame.time_s));
-        let wrap = settings.clouds.is_empty().then_some(key.area_side_m);
         self.moved.clear();
-        self.moved.extend(
-            placed
-                .iter()
-                .map(|cloud| drifted_cloud(cloud, drift, key.area_centre_m, wrap)),
-        );
+        self.moved.extend(drift_field(
+            settings,
+            placed,
+            key.area_centre_m,
+            key.area_side_m,
+            drift,
+        ));
         let clouds = &self.moved;
         let uniform = CumulusUniform::new(settings, &scene.atmosphere, scene.sun.direction());
         queue.write_buffer(&self.uniform, 0, bytemuck::bytes_of(&uniform));

@@ -78,6 +78,17 @@ pub struct VariantParams {
     pub levels_of_detail: u32,
 }
 
+impl From<&crate::scene::CumulusSettings> for VariantParams {
+    /// The variants a scene's `[cumulus]` instances.
+    fn from(settings: &crate::scene::CumulusSettings) -> Self {
+        Self {
+            count: settings.variants,
+            seed: settings.shape_seed,
+            levels_of_detail: settings.levels_of_detail,
+        }
+    }
+}
+
 impl VariantParams {
     /// The hierarchy of variant `index`: the paper's six roots for the first,
     /// three to six random roots for the others; two generated levels.
@@ -332,6 +343,9 @@ fn memory() -> &'static Memory {
     MEMORY.get_or_init(Default::default)
 }
 
+/// Largest cache file of one shape read, bytes.
+const MAX_CACHE_FILE_BYTES: u64 = 256 * 1024 * 1024;
+
 /// The variants: from this process's memory, else the disk cache in `dir`,
 /// else generated (and cached; a cache that cannot be written is skipped).
 pub fn load_or_generate(
@@ -348,7 +362,12 @@ pub fn load_or_generate(
                 return Ok(v.clone());
             }
             let path = cache_path(dir, params, index);
-            let variant = match std::fs::read(&path).ok().and_then(|b| from_bytes(&b)) {
+            // A shape's cache is 6–13 MB; a file far larger, or not a
+            // regular file, is not ours: generated again, never read whole.
+            let variant = match nimbus_physics::io::read_bounded(&path, MAX_CACHE_FILE_BYTES)
+                .ok()
+                .and_then(|b| from_bytes(&b))
+            {
                 Some(v) => v,
                 None => {
                     let v = generate_variant(params, index)?;

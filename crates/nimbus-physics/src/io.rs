@@ -1,0 +1,194 @@
+//! Bounded reads of the files nimbus is given (scenes, meshes, wind fields,
+//! roots and hierarchies, caches).
+//!
+//! Every such file is checked before a byte of it is read: it must be a
+//! regular file (a FIFO would block the reader forever, `/dev/zero` never
+//! ends, a directory has no content) no larger than the limit its format
+//! documents, and it is then read through a reader that stops one byte past
+//! that limit, so a file that grows while it is read cannot make the
+//! process use more memory than the limit either.
+
+use std::fs::{File, Metadata};
+use std::io::Read;
+use std::path::Path;
+
+/// Why a file was not read. Displayed without the path, which the caller's
+/// message names (with the key or flag that gave it).
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[non_exhaustive]
+pub enum ReadError {
+    /// The operating system refused (no such file, permissions, …).
+    #[error("cannot read: {0}")]
+    Io(String),
+    /// A FIFO, device, socket or directory.
+    #[error("is {0}, not a regular file")]
+    NotRegular(&'static str),
+    /// Larger than the format's limit.
+    #[error("is {bytes} bytes ({}); at most {} are read", human_bytes(*bytes), human_bytes(*max))]
+    TooLarge {
+        /// Its size (or, for a file that grew while it was read, the bytes
+        /// read before stopping).
+        bytes: u64,
+        /// The limit.
+        max: u64,
+    },
+    /// Not UTF-8 text (for [`read_text_bounded`]).
+    #[error("is not UTF-8 text (byte {0})")]
+    NotText(usize),
+}
+
+/// What kind of non-regular file `metadata` describes.
+fn kind_of(metadata: &Metadata) -> &'static str {
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::FileTypeExt;
+        let t = metadata.file_type();
+        if t.is_fifo() {
+            return "a named pipe (FIFO)";
+        }
+        if t.is_char_device() {
+            return "a character device";
+        }
+        if t.is_block_device() {
+            return "a block device";
+        }
+        if t.is_socket() {
+            return "a socket";
+        }
+    }
+    if metadata.is_dir() {
+        "a directory"
+    } else {
+        "not a regular file"
+    }
+}
+
+/// Checks that `path` is a regular file (symbolic links followed) of at
+/// most `max_bytes`, without opening it; returns its size.
+pub fn check_regular_file(path: &Path, max_bytes: u64) -> Result<u64, ReadError> {
+    let metadata = std::fs::metadata(path).map_err(|e| ReadError::Io(e.to_string()))?;
+    if !metadata.is_file() {
+        return Err(ReadError::NotRegular(kind_of(&metadata)));
+    }
+    if metadata.len() > max_bytes {
+        return Err(ReadError::TooLarge {
+            bytes: metadata.len(),
+            max: max_bytes,
+        });
+    }
+    Ok(metadata.len())
+}
+
+/// The bytes of `path`, a regular file of at most `max_bytes`: checked by
+/// its metadata before it is opened (so a FIFO is never opened and cannot
+/// block), then read through a reader that stops one byte past the limit.
+pub fn read_bounded(path: &Path, max_bytes: u64) -> Result<Vec<u8>, ReadError> {
+    let expected = check_regular_file(path, max_bytes)?;
+    let file = File::open(path).map_err(|e| ReadError::Io(e.to_string()))?;
+    // The file may have been replaced between the check and the open.
+    let metadata = file.metadata().map_err(|e| ReadError::Io(e.to_string()))?;
+    if !metadata.is_file() {
+        return Err(ReadError::NotRegular(kind_of(&metadata)));
+    }
+    let capacity = usize::try_from(expected.min(max_bytes)).unwrap_or(0);
+    let mut bytes = Vec::with_capacity(capacity);
+    file.take(max_bytes.saturating_add(1))
+        .read_to_end(&mut bytes)
+        .map_err(|e| ReadError::Io(e.to_string()))?;
+    if bytes.len() as u64 > max_bytes {
+        return Err(ReadError::TooLarge {
+            bytes: bytes.len() as u64,
+            max: max_bytes,
+        });
+    }
+    Ok(bytes)
+}
+
+/// [`read_bounded`] of a UTF-8 text file.
+pub fn read_text_bounded(path: &Path, max_bytes: u64) -> Result<String, ReadError> {
+    String::from_utf8(read_bounded(path, max_bytes)?)
+        .map_err(|e| ReadError::NotText(e.utf8_error().valid_up_to()))
+}
+
+/// A byte count for people: "512 MiB", "3.0 GiB", "17 bytes".
+pub fn human_bytes(bytes: u64) -> String {
+    const UNITS: [&str; 4] = ["KiB", "MiB", "GiB", "TiB"];
+    if bytes < 1024 {
+        return format!("{bytes} bytes");
+    }
+    let mut value = bytes as f64 / 1024.0;
+    let mut unit = 0;
+    while value >= 1024.0 && unit + 1 < UNITS.len() {
+        value /= 1024.0;
+        unit += 1;
+    }
+    if value.fract() == 0.0 {
+        format!("{value} {}", UNITS[unit])
+    } else {
+        format!("{value:.1} {}", UNITS[unit])
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::io::Write;
+
+    fn temp(name: &str) -> std::path::PathBuf {
+        let dir = std::env::temp_dir().join(format!("nimbus-io-{}-{name}", std::process::id()));
+        std::fs::create_dir_all(&dir).expect("temp dir");
+        dir
+    }
+
+    #[test]
+    fn regular_files_within_the_limit_are_read() {
+        let path = temp("ok").join("a.bin");
+        std::fs::write(&path, b"hello").expect("write");
+        assert_eq!(read_bounded(&path, 5).expect("read"), b"hello");
+        assert_eq!(
+            read_bounded(&path, 4),
+            Err(ReadError::TooLarge { bytes: 5, max: 4 })
+        );
+        assert_eq!(read_text_bounded(&path, 5).expect("text"), "hello");
+        let mut file = std::fs::File::create(&path).expect("create");
+        file.write_all(&[b'a', 0xff]).expect("write");
+        drop(file);
+        assert_eq!(read_text_bounded(&path, 5), Err(ReadError::NotText(1)));
+    }
+
+    #[test]
+    fn devices_directories_and_missing_files_are_refused_without_reading() {
+        let dir = temp("dir");
+        assert_eq!(
+            read_bounded(&dir, 1 << 20),
+            Err(ReadError::NotRegular("a directory"))
+        );
+        #[cfg(unix)]
+        {
+            // /dev/zero has length 0 and never ends: refused by its type.
+            let e = read_bounded(Path::new("/dev/zero"), 1 << 20).expect_err("device");
+            assert_eq!(e, ReadError::NotRegular("a character device"));
+            assert_eq!(e.to_string(), "is a character device, not a regular file");
+        }
+        let missing = read_bounded(&dir.join("missing"), 10).expect_err("missing");
+        assert!(matches!(missing, ReadError::Io(_)), "{missing}");
+    }
+
+    #[test]
+    fn sizes_read_as_people_write_them() {
+        assert_eq!(human_bytes(17), "17 bytes");
+        assert_eq!(human_bytes(512 * 1024 * 1024), "512 MiB");
+        assert_eq!(
+            human_bytes(3 * 1024 * 1024 * 1024 + 1024 * 1024 * 100),
+            "3.1 GiB"
+        );
+        assert_eq!(
+            ReadError::TooLarge {
+                bytes: 2048,
+                max: 1024
+            }
+            .to_string(),
+            "is 2048 bytes (2 KiB); at most 1 KiB are read"
+        );
+    }
+}
