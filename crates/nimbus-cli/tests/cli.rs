@@ -1,71 +1,14 @@
 //! Integration tests of the `nimbus` binary: exit codes, one-line errors,
 //! outputs, and no partial files on failure.
 
-use std::path::{Path, PathBuf};
+mod support;
+use std::path::Path;
 use std::process::{Command, Output};
-
-fn nimbus(args: &[&str], dir: &Path) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_nimbus"))
-        .args(args)
-        .current_dir(dir)
-        .output()
-        .expect("run nimbus")
-}
-
-fn stderr_lines(out: &Output) -> Vec<String> {
-    // wgpu's Vulkan loader may print unrelated environment notices; keep nimbus's own lines.
-    String::from_utf8_lossy(&out.stderr)
-        .lines()
-        .filter(|l| l.starts_with("nimbus:"))
-        .map(str::to_owned)
-        .collect()
-}
-
-fn temp_dir(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("nimbus-cli-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).expect("temp dir");
-    dir
-}
-
-fn files_in(dir: &Path) -> Vec<String> {
-    let mut names: Vec<String> = std::fs::read_dir(dir)
-        .expect("dir")
-        .map(|e| e.expect("entry").file_name().to_string_lossy().into_owned())
-        .collect();
-    names.sort();
-    names
-}
-
-/// Asserts a failure with exactly one error line containing every fragment.
-fn assert_fails_with(out: &Output, fragments: &[&str]) {
-    assert!(
-        !out.status.success(),
-        "expected failure, got {:?}",
-        out.status
-    );
-    let errors: Vec<String> = stderr_lines(out)
-        .into_iter()
-        .filter(|l| l.starts_with("nimbus: error: "))
-        .collect();
-    assert_eq!(errors.len(), 1, "expected one error line, got {errors:?}");
-    for fragment in fragments {
-        assert!(
-            errors[0].contains(fragment),
-            "`{}` does not mention `{fragment}`",
-            errors[0]
-        );
-    }
-    assert!(
-        !String::from_utf8_lossy(&out.stderr).contains("panicked"),
-        "panic: {}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-}
+use support::*;
 
 #[test]
 fn help_is_available_for_every_subcommand() {
-    let dir = temp_dir("help");
+    let dir = temp_dir("cli", "help");
     for sub in [
         &["--help"][..],
         &["render", "--help"],
@@ -92,7 +35,7 @@ fn help_is_available_for_every_subcommand() {
 
 #[test]
 fn render_writes_a_png_of_the_default_scene() {
-    let dir = temp_dir("render-png");
+    let dir = temp_dir("cli", "render-png");
     let out = nimbus(
         &["render", "-o", "sky.png", "--width", "96", "--height", "54"],
         &dir,
@@ -112,7 +55,7 @@ fn render_writes_a_png_of_the_default_scene() {
 
 #[test]
 fn render_writes_a_linear_exr() {
-    let dir = temp_dir("render-exr");
+    let dir = temp_dir("cli", "render-exr");
     let out = nimbus(
         &["render", "-o", "sky.exr", "--width", "40", "--height", "24"],
         &dir,
@@ -139,7 +82,7 @@ fn render_writes_a_linear_exr() {
 
 #[test]
 fn bad_scene_values_fail_with_one_line_and_no_output() {
-    let dir = temp_dir("bad-scene");
+    let dir = temp_dir("cli", "bad-scene");
     let cases: [(&str, &[&str]); 5] = [
         (
             "[camera]\nfov_deg = 190\n",
@@ -173,7 +116,7 @@ fn bad_scene_values_fail_with_one_line_and_no_output() {
 
 #[test]
 fn bad_flags_fail_with_one_line() {
-    let dir = temp_dir("bad-flags");
+    let dir = temp_dir("cli", "bad-flags");
     assert_fails_with(
         &nimbus(&["render", "--width", "0"], &dir),
         &["--width", "0"],
@@ -209,7 +152,7 @@ fn bad_flags_fail_with_one_line() {
 
 #[test]
 fn a_failed_write_leaves_no_partial_file() {
-    let dir = temp_dir("failed-write");
+    let dir = temp_dir("cli", "failed-write");
     // The output path is an existing directory: the rename fails after the image is encoded.
     std::fs::create_dir(dir.join("taken.png")).expect("dir");
     let out = nimbus(
@@ -231,7 +174,7 @@ fn a_failed_write_leaves_no_partial_file() {
 
 #[test]
 fn scene_print_default_round_trips() {
-    let dir = temp_dir("print-default");
+    let dir = temp_dir("cli", "print-default");
     let out = nimbus(&["scene", "--print-default"], &dir);
     assert!(out.status.success());
     std::fs::write(dir.join("default.toml"), &out.stdout).expect("write");
@@ -247,7 +190,7 @@ fn scene_print_default_round_trips() {
 /// (whose freshness nimbus-render's `scene_schema` test checks).
 #[test]
 fn scene_schema_prints_the_shipped_schema() {
-    let dir = temp_dir("schema");
+    let dir = temp_dir("cli", "schema");
     let out = nimbus(&["scene", "--schema"], &dir);
     assert!(
         out.status.success(),
@@ -272,7 +215,7 @@ fn sun_reproduces_the_spa_worked_example_as_json() {
     // Reda & Andreas (2008), table A5.1: azimuth 194.34024°; the report's
     // zenith 50.11162° includes refraction at 820 mbar and 11 °C, the
     // geometric zenith is 50.12795°.
-    let dir = temp_dir("sun");
+    let dir = temp_dir("cli", "sun");
     let out = nimbus(
         &[
             "sun",
@@ -341,7 +284,7 @@ fn sun_reproduces_the_spa_worked_example_as_json() {
 fn optics_mie_reproduces_bohren_and_huffman_as_json() {
     // Bohren & Huffman appendix A: r = 0.525 µm, λ = 632.8 nm, m = 1.55:
     // Q_ext = Q_sca = 3.10543, Q_back = 2.92534, g = 0.63314.
-    let dir = temp_dir("optics-mie");
+    let dir = temp_dir("cli", "optics-mie");
     let out = nimbus(
         &[
             "optics",
@@ -441,7 +384,7 @@ fn optics_mie_reproduces_bohren_and_huffman_as_json() {
 
 #[test]
 fn optics_dsd_writes_json_csv_and_plot() {
-    let dir = temp_dir("optics-dsd");
+    let dir = temp_dir("cli", "optics-dsd");
     let out = nimbus(
         &[
             "optics",
@@ -495,7 +438,7 @@ fn optics_dsd_writes_json_csv_and_plot() {
 
 #[test]
 fn rain_sections_render() {
-    let dir = temp_dir("reserved");
+    let dir = temp_dir("cli", "reserved");
     std::fs::write(dir.join("rain.toml"), "[rain]\nintensity_mm_h = 4.0\n").expect("write");
     let out = nimbus(
         &[
@@ -525,7 +468,7 @@ fn rain_sections_render() {
 
 #[test]
 fn bench_can_measure_every_atmosphere_pass() {
-    let dir = temp_dir("bench-luts");
+    let dir = temp_dir("cli", "bench-luts");
     let out = nimbus(
         &[
             "bench",
@@ -565,7 +508,7 @@ fn bench_can_measure_every_atmosphere_pass() {
 
 #[test]
 fn bench_prints_one_json_document_with_per_pass_times() {
-    let dir = temp_dir("bench");
+    let dir = temp_dir("cli", "bench");
     let out = nimbus(
         &[
             "bench", "--frames", "5", "--width", "64", "--height", "36", "--json",
@@ -678,7 +621,7 @@ fn bench_prints_one_json_document_with_per_pass_times() {
 
 #[test]
 fn slab_prints_fluxes_and_radiance_for_both_methods() {
-    let dir = temp_dir("slab");
+    let dir = temp_dir("cli", "slab");
     // DISORT test problem 3 (cdisort 2.1, case 3a): HG g = 0.75, τ = 1,
     // conservative, overhead sun: R = 0.07874, T = 0.92126.
     let out = nimbus(
@@ -780,7 +723,7 @@ fn slab_prints_fluxes_and_radiance_for_both_methods() {
 
 #[test]
 fn slab_fit_writes_a_table_the_library_reads_and_plot_writes_png_and_csv() {
-    let dir = temp_dir("slab-fit");
+    let dir = temp_dir("cli", "slab-fit");
     let table = dir.join("table.toml");
     let out = nimbus(
         &[
@@ -887,7 +830,7 @@ fn slab_fit_writes_a_table_the_library_reads_and_plot_writes_png_and_csv() {
 /// preview PNG, a JSON report that says watertight, with counts per level.
 #[test]
 fn cumulus_writes_mesh_hierarchy_and_preview() {
-    let dir = temp_dir("cumulus");
+    let dir = temp_dir("cli", "cumulus");
     std::fs::write(
         dir.join("roots.json"),
         r#"[{"centre_m": [0, 300, 0], "radius_m": 300, "flattening": 0.3},
@@ -944,7 +887,7 @@ fn cumulus_writes_mesh_hierarchy_and_preview() {
 /// is allowed; nothing written.
 #[test]
 fn cumulus_bad_input_fails_with_one_line() {
-    let dir = temp_dir("cumulus-bad");
+    let dir = temp_dir("cli", "cumulus-bad");
     std::fs::write(
         dir.join("flat.json"),
         r#"[{"centre_m": [0, 0, 0], "radius_m": 300, "flattening": 2}]"#,
@@ -989,7 +932,7 @@ fn json_stdout(out: &Output) -> serde_json::Value {
 /// to 5 mm, the measured value beside it, null off the table.
 #[test]
 fn rain_terminal_velocity_matches_gunn_and_kinzer_1949_as_json() {
-    let dir = temp_dir("rain-speed");
+    let dir = temp_dir("cli", "rain-speed");
     let measured = [
         (0.5, 2.06),
         (1.0, 4.03),
@@ -1031,7 +974,7 @@ fn rain_stats(args: &[&str], dir: &Path) -> serde_json::Value {
 /// (Blanchard 2023, §4.2.2) at light and torrential rain, with no NaN.
 #[test]
 fn rain_stats_drop_counts_follow_marshall_palmer_at_1_and_100_mm_h() {
-    let dir = temp_dir("rain-stats");
+    let dir = temp_dir("cli", "rain-stats");
     for (intensity, radius) in [("1", "3"), ("100", "2")] {
         let r = rain_stats(
             &[
@@ -1055,7 +998,7 @@ fn rain_stats_drop_counts_follow_marshall_palmer_at_1_and_100_mm_h() {
 /// Drag on the velocity relative to the air carries the drops with a steady wind.
 #[test]
 fn rain_stats_drops_move_with_the_wind() {
-    let dir = temp_dir("rain-wind");
+    let dir = temp_dir("cli", "rain-wind");
     let r = rain_stats(
         &[
             "--intensity-mm-h",
@@ -1078,7 +1021,7 @@ fn rain_stats_drops_move_with_the_wind() {
 /// No rain: no drops, no division by zero; gusts and turbulence stay finite.
 #[test]
 fn rain_stats_handles_no_rain_and_gusts() {
-    let dir = temp_dir("rain-edge");
+    let dir = temp_dir("cli", "rain-edge");
     let r = rain_stats(&["--intensity-mm-h", "0", "--seconds", "0.5"], &dir);
     assert_eq!(r["simulated_drops"], 0);
     assert!(r["relative_error"].is_null(), "{r}");
@@ -1104,7 +1047,7 @@ fn rain_stats_handles_no_rain_and_gusts() {
 
 #[test]
 fn rain_bad_input_fails_with_one_line() {
-    let dir = temp_dir("rain-bad");
+    let dir = temp_dir("cli", "rain-bad");
     let cases: [(&[&str], &[&str]); 6] = [
         (
             &["rain", "terminal-velocity", "--diameter-mm", "-1"],
@@ -1204,7 +1147,7 @@ fn animate_static_weather_does_not_flicker() {
     // a millionth of its evolution time per second, which can move a pixel
     // that sits on a rounding boundary by one level; flicker (exposure
     // hunting, noise reseeded per frame) would move many pixels by more.
-    let dir = temp_dir("animate-static");
+    let dir = temp_dir("cli", "animate-static");
     std::fs::write(
         dir.join("still.toml"),
         "[camera]\nposition_m = [0.0, 900.0, 0.0]\nyaw_deg = 30.0\npitch_deg = 5.0\nauto_exposure = true\n\
@@ -1236,7 +1179,7 @@ fn animate_the_default_sunset_and_shower_smoothly() {
     // Frames change steadily: no frame stands out from the mean of its two
     // neighbours (a flicker) by more than the neighbours differ from each
     // other, and the last frame is darker than the first (the sunset).
-    let dir = temp_dir("animate-default");
+    let dir = temp_dir("cli", "animate-default");
     let frames = animate(&dir, &["--seconds", "10", "--fps", "0.6"]);
     assert_eq!(frames.len(), 6);
     for i in 1..frames.len() - 1 {
@@ -1261,7 +1204,7 @@ fn animate_the_default_sunset_and_shower_smoothly() {
 
 #[test]
 fn animate_bad_input_fails_with_one_line() {
-    let dir = temp_dir("animate-bad");
+    let dir = temp_dir("cli", "animate-bad");
     let out = nimbus(&["animate", "--seconds", "-1", "-o", "frames"], &dir);
     assert_fails_with(&out, &["--seconds", "-1"]);
     let out = nimbus(

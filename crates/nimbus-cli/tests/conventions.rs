@@ -4,25 +4,9 @@
 //! JSON document), and progress drawn on standard error only when it is a
 //! terminal. None of these needs a GPU.
 
-use std::path::{Path, PathBuf};
+mod support;
 use std::process::{Command, Output, Stdio};
-
-fn nimbus(args: &[&str], dir: &Path) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_nimbus"))
-        .args(args)
-        .current_dir(dir)
-        .stdin(Stdio::null())
-        .output()
-        .expect("run nimbus")
-}
-
-fn temp_dir(name: &str) -> PathBuf {
-    let dir =
-        std::env::temp_dir().join(format!("nimbus-conventions-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).expect("temp dir");
-    dir
-}
+use support::*;
 
 fn text(bytes: &[u8]) -> String {
     String::from_utf8_lossy(bytes).into_owned()
@@ -44,7 +28,7 @@ fn error_line(out: &Output) -> String {
 /// that lists the allowed ones, with clap's usage status 2.
 #[test]
 fn a_value_outside_a_set_is_refused_with_the_allowed_values() {
-    let dir = temp_dir("value-enum");
+    let dir = temp_dir("conventions", "value-enum");
     let cases: [(&[&str], &str, &str); 7] = [
         (
             &["render", "--adapter", "quantum"],
@@ -127,7 +111,7 @@ fn a_value_outside_a_set_is_refused_with_the_allowed_values() {
 /// A misspelt flag's error keeps clap's suggestion, in the one line.
 #[test]
 fn a_misspelt_flag_keeps_the_suggestion() {
-    let dir = temp_dir("misspelt");
+    let dir = temp_dir("conventions", "misspelt");
     let out = nimbus(&["render", "--widht", "16"], &dir);
     assert_eq!(out.status.code(), Some(2));
     assert_eq!(
@@ -146,7 +130,7 @@ fn a_misspelt_flag_keeps_the_suggestion() {
 /// --help and --version go to standard output with success, as clap's do.
 #[test]
 fn help_and_version_go_to_standard_output() {
-    let dir = temp_dir("help");
+    let dir = temp_dir("conventions", "help");
     for args in [&["--help"][..], &["--version"], &["completions", "--help"]] {
         let out = nimbus(args, &dir);
         assert!(out.status.success(), "{args:?}: {out:?}");
@@ -162,7 +146,7 @@ fn help_and_version_go_to_standard_output() {
 /// `nimbus completions SHELL` prints the shell's script for nimbus.
 #[test]
 fn completions_are_printed_for_every_shell() {
-    let dir = temp_dir("completions");
+    let dir = temp_dir("conventions", "completions");
     let out = nimbus(&["completions", "bash"], &dir);
     assert!(out.status.success(), "{}", text(&out.stderr));
     assert!(out.stderr.is_empty(), "{}", text(&out.stderr));
@@ -202,7 +186,7 @@ const FIT_ARGS: [&str; 10] = [
 /// without it, results only: the file written is reported on standard error.
 #[test]
 fn slab_fit_keeps_standard_output_for_results() {
-    let dir = temp_dir("slab-fit");
+    let dir = temp_dir("conventions", "slab-fit");
     let mut args = FIT_ARGS.to_vec();
     args.push("--json");
     let out = nimbus(&args, &dir);
@@ -232,7 +216,7 @@ fn slab_fit_keeps_standard_output_for_results() {
 /// wrote on standard error.
 #[test]
 fn cumulus_reports_on_standard_output_and_status_on_standard_error() {
-    let dir = temp_dir("cumulus");
+    let dir = temp_dir("conventions", "cumulus");
     let out = nimbus(
         &["cumulus", "--levels", "0", "--lods", "1", "-o", "cloud.glb"],
         &dir,
@@ -271,7 +255,7 @@ fn has_progress(bytes: &[u8]) -> bool {
 /// draws no progress there; the same command on a terminal does.
 #[test]
 fn progress_is_drawn_only_on_a_terminal() {
-    let dir = temp_dir("progress");
+    let dir = temp_dir("conventions", "progress");
     let out = nimbus(&RAIN_ARGS, &dir);
     assert!(out.status.success(), "{}", text(&out.stderr));
     assert!(

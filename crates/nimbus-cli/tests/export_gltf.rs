@@ -4,51 +4,8 @@
 //! one `[[objects]] gltf = …` uses: node transforms applied, world
 //! metres); one-line errors and no file on bad input. CPU only.
 
-use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
-
-fn nimbus(args: &[&str], dir: &Path) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_nimbus"))
-        .args(args)
-        .current_dir(dir)
-        .output()
-        .expect("run nimbus")
-}
-
-fn temp_dir(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("nimbus-gltf-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).expect("temp dir");
-    dir
-}
-
-fn files_in(dir: &Path) -> Vec<String> {
-    let mut names: Vec<String> = std::fs::read_dir(dir)
-        .expect("dir")
-        .map(|e| e.expect("entry").file_name().to_string_lossy().into_owned())
-        .collect();
-    names.sort();
-    names
-}
-
-/// The error lines of a failed run: exactly one, containing every fragment.
-fn assert_fails_with(out: &Output, fragments: &[&str]) {
-    assert!(!out.status.success(), "expected failure");
-    let stderr = String::from_utf8_lossy(&out.stderr);
-    let errors: Vec<&str> = stderr
-        .lines()
-        .filter(|l| l.starts_with("nimbus: error: "))
-        .collect();
-    assert_eq!(errors.len(), 1, "{stderr}");
-    for fragment in fragments {
-        assert!(
-            errors[0].contains(fragment),
-            "`{}` lacks `{fragment}`",
-            errors[0]
-        );
-    }
-    assert!(!stderr.contains("panicked"), "{stderr}");
-}
+mod support;
+use support::*;
 
 /// The JSON chunk of a `.glb` (glTF 2.0 §4.4: 12-byte header, then the
 /// chunk's length, its type "JSON" and its bytes).
@@ -88,7 +45,7 @@ scale = 0.7
 
 #[test]
 fn export_gltf_writes_named_terrain_and_clouds_where_the_wind_has_carried_them() {
-    let dir = temp_dir("scene");
+    let dir = temp_dir("gltf", "scene");
     std::fs::write(dir.join("scene.toml"), SCENE).expect("scene");
     let start = std::time::Instant::now();
     let out = nimbus(
@@ -236,7 +193,7 @@ fn export_gltf_writes_named_terrain_and_clouds_where_the_wind_has_carried_them()
 
 #[test]
 fn export_gltf_bad_input_fails_with_one_line_and_writes_nothing() {
-    let dir = temp_dir("bad");
+    let dir = temp_dir("gltf", "bad");
     std::fs::write(dir.join("empty.toml"), "[ground]\nterrain = false\n").expect("scene");
     std::fs::write(dir.join("scene.toml"), SCENE).expect("scene");
     let cases: [(&[&str], &[&str]); 4] = [

@@ -3,50 +3,10 @@
 //! symbols (drawn with the embedded font in PNGs, kept as text in SVGs),
 //! other extensions refused in one line before any work, nothing left behind.
 
-use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
-
-fn nimbus(args: &[&str], dir: &Path) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_nimbus"))
-        .args(args)
-        .current_dir(dir)
-        .output()
-        .expect("run nimbus")
-}
-
-fn temp_dir(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("nimbus-plots-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).expect("temp dir");
-    dir
-}
-
-fn assert_success(out: &Output) {
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-}
-
-/// Asserts a failure with exactly one error line containing every fragment.
-fn assert_fails_with(out: &Output, fragments: &[&str]) {
-    assert!(!out.status.success(), "expected failure");
-    let stderr = String::from_utf8_lossy(&out.stderr);
-    let errors: Vec<&str> = stderr
-        .lines()
-        .filter(|l| l.starts_with("nimbus: error: "))
-        .collect();
-    assert_eq!(errors.len(), 1, "expected one error line, got {stderr}");
-    for fragment in fragments {
-        assert!(
-            errors[0].contains(fragment),
-            "`{}` lacks `{fragment}`",
-            errors[0]
-        );
-    }
-    assert!(!stderr.contains("panicked"), "{stderr}");
-}
+mod support;
+use std::path::Path;
+use std::process::Output;
+use support::*;
 
 /// A quick `nimbus optics dsd` writing its plot to `plot`.
 fn phase_plot(dir: &Path, plot: &str) -> Output {
@@ -101,7 +61,7 @@ fn dark_pixels(
 
 #[test]
 fn phase_plot_svg_labels_carry_greek_letters_and_units() {
-    let dir = temp_dir("phase-svg");
+    let dir = temp_dir("plots", "phase-svg");
     assert_success(&phase_plot(&dir, "phase.svg"));
     let svg = std::fs::read_to_string(dir.join("phase.svg")).expect("svg");
     assert!(svg.starts_with("<svg"), "{}", &svg[..svg.len().min(80)]);
@@ -121,7 +81,7 @@ fn phase_plot_svg_labels_carry_greek_letters_and_units() {
 
 #[test]
 fn phase_plot_png_draws_its_axis_titles() {
-    let dir = temp_dir("phase-png");
+    let dir = temp_dir("plots", "phase-png");
     assert_success(&phase_plot(&dir, "phase.png"));
     let image = image::open(dir.join("phase.png"))
         .expect("decodes")
@@ -140,7 +100,7 @@ fn phase_plot_png_draws_its_axis_titles() {
 
 #[test]
 fn slab_plot_svg_caption_names_tau_and_lambda() {
-    let dir = temp_dir("slab-svg");
+    let dir = temp_dir("plots", "slab-svg");
     let out = slab_plot(&dir, "fig.svg");
     assert_success(&out);
     let svg = std::fs::read_to_string(dir.join("fig.svg")).expect("svg");
@@ -160,7 +120,7 @@ fn slab_plot_svg_caption_names_tau_and_lambda() {
 
 #[test]
 fn figures_refuse_other_extensions_in_one_line_and_write_nothing() {
-    let dir = temp_dir("extensions");
+    let dir = temp_dir("plots", "extensions");
     assert_fails_with(
         &phase_plot(&dir, "phase.pdf"),
         &["--plot phase.pdf", ".pdf", ".png or .svg"],

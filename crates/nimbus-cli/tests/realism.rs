@@ -2,23 +2,10 @@
 //! crate, the equirectangular panorama's seam, `nimbus compare`, and the
 //! Mitsuba export's files.
 
+mod support;
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
-
-fn nimbus(args: &[&str], dir: &Path) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_nimbus"))
-        .args(args)
-        .current_dir(dir)
-        .output()
-        .expect("run nimbus")
-}
-
-fn temp_dir(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("nimbus-realism-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).expect("temp dir");
-    dir
-}
+use std::process::Output;
+use support::*;
 
 fn scenes_dir() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenes")
@@ -47,7 +34,7 @@ fn channels(path: &Path) -> (usize, usize, std::collections::BTreeMap<String, Ve
 
 #[test]
 fn exr_layers_are_read_back_with_their_names() {
-    let dir = temp_dir("layers");
+    let dir = temp_dir("realism", "layers");
     let scene = scenes_dir().join("cumulus-front-lit.toml");
     let out = nimbus(
         &[
@@ -99,7 +86,7 @@ fn exr_layers_are_read_back_with_their_names() {
 
 #[test]
 fn the_equirectangular_panorama_has_no_seam() {
-    let dir = temp_dir("pano");
+    let dir = temp_dir("realism", "pano");
     // The embedded default scene (clouds, rain, terrain, sea) as a panorama.
     let default = nimbus(&["scene", "--print-default"], &dir);
     assert_success(&default);
@@ -154,7 +141,7 @@ fn the_equirectangular_panorama_has_no_seam() {
 
 #[test]
 fn compare_reports_zero_for_identical_images_and_writes_the_report() {
-    let dir = temp_dir("compare");
+    let dir = temp_dir("realism", "compare");
     let scene = scenes_dir().join("cumulus-front-lit.toml");
     assert_success(&nimbus(
         &[
@@ -208,7 +195,7 @@ fn the_realism_suite_does_not_move_away_from_its_references() {
         .collect();
     scenes.sort();
     assert!(scenes.len() >= 12, "the suite has {} scenes", scenes.len());
-    let dir = temp_dir("suite");
+    let dir = temp_dir("realism", "suite");
     let mut failures = Vec::new();
     for scene in &scenes {
         let name = scene
@@ -299,7 +286,7 @@ fn the_slab_tracer_agrees_with_mitsuba() {
     for side in ["reflection", "transmission"] {
         assert!(cases.iter().any(|c| c["side"] == side), "no {side} case");
     }
-    let dir = temp_dir("slab");
+    let dir = temp_dir("realism", "slab");
     let mut failures = Vec::new();
     for case in cases {
         let number = |key: &str| case[key].as_f64().expect(key).to_string();
