@@ -371,12 +371,11 @@ impl OneDimensionalTable {
     pub fn from_file(path: &std::path::Path) -> Result<Self, TableError> {
         let name = path.display().to_string();
         // The shipped table is 30 kB; 16 MiB leaves room for any finer fit.
-        let text = crate::io::read_text_bounded(path, 16 * 1024 * 1024).map_err(|e| {
-            TableError::Read {
+        let text =
+            crate::io::read_text_bounded(path, 16 * 1024 * 1024).map_err(|e| TableError::Read {
                 path: name.clone(),
                 source: std::io::Error::new(std::io::ErrorKind::InvalidData, e.to_string()),
-            }
-        })?;
+            })?;
         Self::from_toml(&text, &name)
     }
 }

@@ -11,6 +11,11 @@
 //! [`nimbus_physics::rain::simulation::step_drop`]) and lists the drops in
 //! view (`visibility.wgsl`); [`RainPass::draw`] draws the streaks (indirect)
 //! and splashes; [`RainPass::draw_mist`] lays the mist over the frame.
+//!
+//! The picture is the same in every run: the list of drops in view and the
+//! splashes' ring are filled by stable compactions in the order of the
+//! drops (CPU twins: [`visible_list`], [`splash_slots`]), so the streaks
+//! and splashes are drawn, and blended, in the same order.
 
 use crate::core::background::Deferred;
 use crate::core::limits::LimitError;
@@ -23,6 +28,7 @@ use nimbus_physics::rain::zones::RainZones;
 
 pub use nimbus_physics::rain::simulation::STEP_S;
 
+mod compaction;
 mod depth_occluder;
 mod gpu_types;
 mod node;
@@ -30,6 +36,9 @@ mod prepare;
 mod resources;
 mod settings;
 
+pub use compaction::{
+    GROUP_WORDS, exclusive_scan, group_masks, splash_slots, streak_in_view, visible_list,
+};
 pub use depth_occluder::{DepthOccluderUniform, MAX_GRID_VERTICES, depth_occluder_shader_source};
 pub use gpu_types::{
     DropGpu, RainSegmentUniform, RainStepUniform, RainUniform, WindPrimitiveUniform,
@@ -141,8 +150,8 @@ const OCCLUSION_REACH_ABOVE_M: f32 = 300.0;
 /// Alignment of the per-step uniforms (WebGPU's minimum dynamic-offset alignment).
 const STEP_STRIDE: u64 = 256;
 /// Invocations per workgroup of the simulation and the cull (WGSL
-/// `@workgroup_size`).
-const WORKGROUP_SIZE: u32 = 256;
+/// `@workgroup_size` and `GROUP_SIZE`).
+pub const WORKGROUP_SIZE: u32 = 256;
 /// Workgroups along one dimension of a dispatch (WebGPU's default limit).
 const MAX_WORKGROUPS_PER_DISPATCH: u32 = 65_535;
 
@@ -265,7 +274,14 @@ struct DropSegment {
     drops: wgpu::Buffer,
     /// Indices (into `drops`) of the drops in view.
     visible: wgpu::Buffer,
+    /// Per workgroup of drops, a bit per drop ([`GROUP_WORDS`] words): the
+    /// splashes of a step, then the drops in view; cleared before each
+    /// frame's simulation.
+    group_masks: wgpu::Buffer,
+    /// The simulation's bindings, with `group_masks`.
     simulation_group: wgpu::BindGroup,
+    /// The visibility list's bindings, with `group_masks` and the
+    /// workgroups' first places in `visible`.
     visibility_group: wgpu::BindGroup,
 }
 
@@ -349,7 +365,10 @@ pub struct RainPass {
     draw_layout: wgpu::BindGroupLayout,
     mist_layout: wgpu::BindGroupLayout,
     simulate: wgpu::ComputePipeline,
-    cull: wgpu::ComputePipeline,
+    /// The splashes of a step written to the ring in the drops' order.
+    place_splashes: wgpu::ComputePipeline,
+    /// The visibility list's three steps: mark, scan, scatter.
+    cull: [wgpu::ComputePipeline; 3],
     streaks: wgpu::RenderPipeline,
     splash: wgpu::RenderPipeline,
     mist: wgpu::RenderPipeline,

@@ -47,6 +47,11 @@ impl RainPass {
             }
             self.depth_occluder.draw(&mut pass);
         }
+        // The bit masks start each frame clear: the first step's splashes
+        // are marked in them (each step's placement clears its own).
+        for segment in &state.drops.segments {
+            encoder.clear_buffer(&segment.group_masks, 0, None);
+        }
         let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
             label: Some("rain simulation"),
             timestamp_writes: timestamps,
@@ -62,7 +67,7 @@ impl RainPass {
             })
             .filter(|&(_, groups)| groups > 0)
             .collect();
-        pass.set_pipeline(&self.simulate);
+        let splashes = self.settings.as_ref().is_some_and(|s| s.splashes);
         pass.set_bind_group(FRAME_GROUP, frame.frame, &[]);
         for i in 0..self.plan.steps.len() {
             for &(segment, groups) in &groups {
@@ -71,13 +76,27 @@ impl RainPass {
                     &segment.simulation_group,
                     &[(i as u64 * STEP_STRIDE) as u32],
                 );
+                pass.set_pipeline(&self.simulate);
                 pass.dispatch_workgroups(groups, 1, 1);
+                // The step's splashes of this buffer, appended to the ring
+                // in the order of the drops (after the buffers before it).
+                if splashes {
+                    pass.set_pipeline(&self.place_splashes);
+                    pass.dispatch_workgroups(1, 1, 1);
+                }
             }
         }
-        pass.set_pipeline(&self.cull);
-        pass.set_bind_group(FRAME_GROUP, frame.frame, &[]);
+        // The visibility lists: mark the drops in view (in the masks the
+        // last placement left clear), scan the workgroups' counts (one
+        // workgroup), scatter in the drops' order.
+        let [mark, scan, scatter] = &self.cull;
         for &(segment, groups) in &groups {
             pass.set_bind_group(1, &segment.visibility_group, &[]);
+            pass.set_pipeline(mark);
+            pass.dispatch_workgroups(groups, 1, 1);
+            pass.set_pipeline(scan);
+            pass.dispatch_workgroups(1, 1, 1);
+            pass.set_pipeline(scatter);
             pass.dispatch_workgroups(groups, 1, 1);
         }
     }

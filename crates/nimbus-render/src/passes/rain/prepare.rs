@@ -1,5 +1,6 @@
 //! Per-frame preparation: the state built for the settings, the drop buffers grown to the target count, the steps planned.
 
+use super::compaction::GROUP_WORDS;
 use super::gpu_types::{RainSegmentUniform, RainStepUniform, drops_per_buffer};
 use super::settings::{
     mean_rain_direction, occlusion_from_world, rain_box, rain_params, rain_uniform, rain_zones,
@@ -8,7 +9,7 @@ use super::settings::{
 use super::{
     DROP_BYTES, DropBuffers, DropSegment, FramePlan, OCCLUSION_REACH_ABOVE_M, OcclusionView,
     RainError, RainKey, RainPass, RainState, SPLASH_BYTES, SPLASH_CAPACITY, STEP_STRIDE,
-    SharedBuffers, ZONE_MAP_SIZE, ZonesKey,
+    SharedBuffers, WORKGROUP_SIZE, ZONE_MAP_SIZE, ZonesKey,
 };
 use crate::core::background::Precompute;
 use crate::core::{binding, limits};
@@ -34,7 +35,7 @@ impl RainPass {
         let splashes = device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("rain splashes"),
             size: SPLASH_CAPACITY as u64 * SPLASH_BYTES,
-            usage: storage,
+            usage: storage | wgpu::BufferUsages::COPY_SRC,
             mapped_at_creation: false,
         });
         queue.write_buffer(
@@ -45,7 +46,7 @@ impl RainPass {
         let splash_head = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
             label: Some("rain splash head"),
             contents: bytemuck::bytes_of(&0u32),
-            usage: storage,
+            usage: storage | wgpu::BufferUsages::COPY_SRC,
         });
         let grid_data: Vec<[f32; 4]> = wind
             .grid
@@ -105,7 +106,7 @@ impl RainPass {
         let draw_args = device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("rain draw arguments"),
             size: draw_args_stride * buffers as u64,
-            usage: storage | wgpu::BufferUsages::INDIRECT,
+            usage: storage | wgpu::BufferUsages::INDIRECT | wgpu::BufferUsages::COPY_SRC,
             mapped_at_creation: false,
         });
         let segments = (0..buffers)
@@ -121,6 +122,21 @@ impl RainPass {
                 let visible = device.create_buffer(&wgpu::BufferDescriptor {
                     label: Some("rain visible drops"),
                     size: held as u64 * 4,
+                    usage: storage | wgpu::BufferUsages::COPY_SRC,
+                    mapped_at_creation: false,
+                });
+                // The stable compactions' bit masks and offsets, per
+                // workgroup of drops.
+                let groups = held.div_ceil(WORKGROUP_SIZE) as u64;
+                let group_masks = device.create_buffer(&wgpu::BufferDescriptor {
+                    label: Some("rain group masks"),
+                    size: groups * GROUP_WORDS as u64 * 4,
+                    usage: storage,
+                    mapped_at_creation: false,
+                });
+                let group_offsets = device.create_buffer(&wgpu::BufferDescriptor {
+                    label: Some("rain group offsets"),
+                    size: groups * 4,
                     usage: storage,
                     mapped_at_creation: false,
                 });
@@ -151,6 +167,7 @@ impl RainPass {
                         shared.splashes.as_entire_binding(),
                         shared.splash_head.as_entire_binding(),
                         segment.as_entire_binding(),
+                        group_masks.as_entire_binding(),
                     ],
                 );
                 let visibility_group = binding::sequential_bind_group(
@@ -167,6 +184,8 @@ impl RainPass {
                             size: wgpu::BufferSize::new(16),
                         }),
                         segment.as_entire_binding(),
+                        group_masks.as_entire_binding(),
+                        group_offsets.as_entire_binding(),
                     ],
                 );
                 DropSegment {
@@ -174,6 +193,7 @@ impl RainPass {
                     capacity: held,
                     drops,
                     visible,
+                    group_masks,
                     simulation_group,
                     visibility_group,
                 }

@@ -102,6 +102,7 @@ impl RainPass {
                 buffer_entry(6, write, SPLASH_BYTES, compute),
                 buffer_entry(7, write, 4, compute),
                 uniform_layout_entry(8, compute, segment_size),
+                buffer_entry(9, write, 4, compute),
             ],
         });
         let visibility_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
@@ -112,6 +113,8 @@ impl RainPass {
                 buffer_entry(2, write, 4, compute),
                 buffer_entry(3, write, 16, compute),
                 uniform_layout_entry(4, compute, segment_size),
+                buffer_entry(5, write, 4, compute),
+                buffer_entry(6, write, 4, compute),
             ],
         });
         let draw_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
@@ -133,20 +136,25 @@ impl RainPass {
                 buffer_entry(4, read, 4, wgpu::ShaderStages::FRAGMENT),
             ],
         });
-        let simulate = compute_pipeline(
-            device,
-            "rain simulation",
-            simulation_shader_source(),
-            "simulate",
-            &[Some(frame.frame), Some(&simulation_layout)],
-        );
-        let cull = compute_pipeline(
-            device,
-            "rain visibility",
-            visibility_shader_source(),
-            "cull",
-            &[Some(frame.frame), Some(&visibility_layout)],
-        );
+        let simulation = |entry: &str| {
+            compute_pipeline(
+                device,
+                "rain simulation",
+                simulation_shader_source(),
+                entry,
+                &[Some(frame.frame), Some(&simulation_layout)],
+            )
+        };
+        let (simulate, place_splashes) = (simulation("simulate"), simulation("place_splashes"));
+        let cull = ["mark", "scan", "scatter"].map(|entry| {
+            compute_pipeline(
+                device,
+                "rain visibility",
+                visibility_shader_source(),
+                entry,
+                &[Some(frame.frame), Some(&visibility_layout)],
+            )
+        });
         let streaks_module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
             label: Some("rain streaks"),
             source: wgpu::ShaderSource::Wgsl(streaks_shader_source().into()),
@@ -249,6 +257,7 @@ impl RainPass {
             draw_layout,
             mist_layout,
             simulate,
+            place_splashes,
             cull,
             streaks,
             splash,
@@ -350,6 +359,35 @@ impl RainPass {
                 .map(|g| (&g.drops, g.capacity))
                 .collect()
         })
+    }
+
+    /// Each drops' buffer's list of the drops in view (indices into the
+    /// buffer's drops, in increasing order) with the byte offset of its
+    /// indirect draw's arguments (vertex count, instance count = the list's
+    /// length, …) in [`Self::draw_arguments`] (for tests and tools that read
+    /// the lists back).
+    pub fn visible_lists(&self) -> Vec<(&wgpu::Buffer, u64)> {
+        self.state.as_ref().map_or_else(Vec::new, |s| {
+            (s.drops.segments.iter().enumerate())
+                .map(|(i, g)| (&g.visible, i as u64 * s.drops.draw_args_stride))
+                .collect()
+        })
+    }
+
+    /// The streaks' indirect draw arguments of every drops' buffer (see
+    /// [`Self::visible_lists`]).
+    pub fn draw_arguments(&self) -> Option<&wgpu::Buffer> {
+        self.state.as_ref().map(|s| &s.drops.draw_args)
+    }
+
+    /// The splashes' ring ([`super::SPLASH_CAPACITY`] records of 8 floats: impact
+    /// point and time, the drop's velocity and diameter) and its head (the
+    /// splashes written since the rain started; the next is written at the
+    /// head modulo the capacity), for tests and tools.
+    pub fn splash_ring(&self) -> Option<(&wgpu::Buffer, &wgpu::Buffer)> {
+        self.state
+            .as_ref()
+            .map(|s| (&s.shared.splashes, &s.shared.splash_head))
     }
 
     /// Caps the drops per buffer below what the device binds in one

@@ -8,15 +8,39 @@
 // velocity relative to the wind, recycling by flux on the upstream boundary
 // of the rain box, ids against the Marshall–Palmer count, ghosts under
 // cover, splashes appended to a ring on a hit.
+//
+// The splashes of a step are appended in the order of the drops' ids, so
+// that the ring (which splash is in which slot, which are overwritten when
+// it wraps, and the droplets each slot throws) is the same in every run:
+// `simulate` marks the drops that splashed, a bit per drop in 8 words per
+// workgroup (an atomic OR, which is commutative), and `place_splashes`, one
+// workgroup dispatched after it, counts the bits in runs of workgroups,
+// scans the counts, writes each splash at the ring's head plus the
+// splashes before it and clears the bits (an atomicAdd per splash, as
+// before, gave the slots to the scheduler). `simulate` has no barrier
+// (lavapipe pays for one in so long a shader).
+// CPU twin of the placement: nimbus_render::rain::splash_slots.
 
 @group(1) @binding(2) var<storage, read_write> drops: array<Drop>;
 @group(1) @binding(5) var occlusion_map: texture_depth_2d;
 @group(1) @binding(6) var<storage, read_write> splashes: array<Splash>;
-// x: splashes written so far (the ring's head).
-@group(1) @binding(7) var<storage, read_write> splash_head: atomic<u32>;
+// Splashes written so far (the ring's head).
+@group(1) @binding(7) var<storage, read_write> splash_head: u32;
 // The drops' buffer's place among all drops (ids are global: they key the
 // random numbers and the count against Marshall–Palmer).
 @group(1) @binding(8) var<uniform> segment: RainSegment;
+// Per workgroup of drops: GROUP_WORDS words, a bit per drop that splashed
+// in this step (zero before the step: cleared before the frame's first
+// and by `place_splashes`).
+@group(1) @binding(9) var<storage, read_write> splash_masks: array<atomic<u32>>;
+
+// Invocations per workgroup (the pass's WORKGROUP_SIZE) and the mask's
+// words per workgroup.
+const GROUP_SIZE: u32 = 256u;
+const GROUP_WORDS: u32 = 8u;
+
+var<workgroup> run_sums: array<u32, 256>;
+var<workgroup> ring_head: u32;
 
 // ---- Intensity, counts and cover (nimbus_physics::rain::zones, dsd, simulation).
 
@@ -140,27 +164,39 @@ fn entering_drop(id: u32) -> Drop {
     return Drop(entry.xyz, d, terminal_velocity(d, entry.xyz), entry_state(id, entry.xyz));
 }
 
-fn emit_splash(position: vec3<f32>, velocity: vec3<f32>, d_mm: f32) {
-    // Only near the camera, where a splash's droplets can be seen.
-    if (rain.flags.w == 0u || rain.flags.y == 0u || distance(position, rain_step.box_center.xyz) > rain.mist.z) {
-        return;
-    }
-    let slot = atomicAdd(&splash_head, 1u) % rain.flags.y;
-    splashes[slot] = Splash(vec4<f32>(position, rain_step.box_center.w), vec4<f32>(velocity, d_mm));
+// Whether a splash at `position` is kept: only near the camera, where its
+// droplets can be seen.
+fn splash_wanted(position: vec3<f32>) -> bool {
+    return rain.flags.w != 0u && rain.flags.y != 0u && distance(position, rain_step.box_center.xyz) <= rain.mist.z;
 }
 
-fn step_drop(id: u32, drop: Drop) -> Drop {
+// Where the segment from `x` to `x_next` goes under cover, as a fraction
+// of it: the segment's depth along the rain runs linearly from start to
+// end, the cover's is the end texel's.
+fn cover_crossing(x: vec3<f32>, x_next: vec3<f32>) -> f32 {
+    let end = occlusion_depth(x_next);
+    let start = occlusion_depth(x).x;
+    return clamp((end.y - start) / max(end.x - start, 1e-9), 0.0, 1.0);
+}
+
+// A drop after a step, and whether it splashed (and the splash is kept).
+struct Stepped {
+    drop: Drop,
+    splashed: bool,
+}
+
+fn step_drop(id: u32, drop: Drop) -> Stepped {
     if (drop.state == DROP_LEAVING) {
-        return entering_drop(id);
+        return Stepped(entering_drop(id), false);
     }
     if (drop.state == DROP_DEAD) {
         let d = sample_diameter(id);
         let velocity = rain.wind_mean.xyz - vec3<f32>(0.0, terminal_speed_m_s(d), 0.0);
         let rate = inflow_rate(velocity) / rain.box_size.w;
         if (uniform_random(id, rain_step.index.x, SALT_REVIVE) < rain_step.box_velocity.w * rate) {
-            return entering_drop(id);
+            return Stepped(entering_drop(id), false);
         }
-        return drop;
+        return Stepped(drop, false);
     }
     let dt = rain_step.box_velocity.w;
     let x = drop.position_m;
@@ -174,21 +210,33 @@ fn step_drop(id: u32, drop: Drop) -> Drop {
     var moved = Drop(x_next, drop.diameter_mm, v_next, drop.state);
     if (!box_contains(x_next)) {
         moved.state = DROP_LEAVING;
-        return moved;
+        return Stepped(moved, false);
     }
     if (drop.state == DROP_ALIVE && rain.flags.z != 0u) {
         let end = occlusion_depth(x_next);
         if (end.x > end.y + OCCLUSION_BIAS) {
-            // The crossing of the segment with the cover's depth, seen
-            // along the rain: the segment's depth runs linearly from start
-            // to end, the cover's is the end texel's.
-            let start = occlusion_depth(x).x;
-            let t = clamp((end.y - start) / max(end.x - start, 1e-9), 0.0, 1.0);
-            emit_splash(x + (x_next - x) * t, v_next, drop.diameter_mm);
+            // It splashes where the segment crosses the cover's depth, seen
+            // along the rain.
+            let t = cover_crossing(x, x_next);
             moved.state = DROP_GHOST;
+            return Stepped(moved, splash_wanted(x + (x_next - x) * t));
         }
     }
-    return moved;
+    return Stepped(moved, false);
+}
+
+// The splash of a drop that splashed in this step, from the drop after the
+// step: its start x = x' − v'·dt (x' = x + v'·dt; the start is recovered to
+// within an ulp of x', well under a millimetre), the crossing as in the
+// step.
+fn splash_of(drop: Drop) -> Splash {
+    let x_next = drop.position_m;
+    let x = x_next - drop.velocity_m_s * rain_step.box_velocity.w;
+    let t = cover_crossing(x, x_next);
+    return Splash(
+        vec4<f32>(x + (x_next - x) * t, rain_step.box_center.w),
+        vec4<f32>(drop.velocity_m_s, drop.diameter_mm),
+    );
 }
 
 @compute @workgroup_size(256)
@@ -202,5 +250,68 @@ fn simulate(@builtin(global_invocation_id) global: vec3<u32>) {
         drops[slot] = initial_drop(id);
         return;
     }
-    drops[slot] = step_drop(id, drops[slot]);
+    let stepped = step_drop(id, drops[slot]);
+    drops[slot] = stepped.drop;
+    if (stepped.splashed) {
+        // Word slot / 32 is word (slot % 256) / 32 of workgroup slot / 256.
+        atomicOr(&splash_masks[slot / 32u], 1u << (slot % 32u));
+    }
+}
+
+// Splashes marked by the step's workgroups of this buffer, g in [start, end).
+fn marked_splashes(start: u32, end: u32) -> u32 {
+    var count = 0u;
+    for (var g = start; g < end; g++) {
+        for (var k = 0u; k < GROUP_WORDS; k++) {
+            count += countOneBits(atomicLoad(&splash_masks[g * GROUP_WORDS + k]));
+        }
+    }
+    return count;
+}
+
+// One workgroup, after `simulate` for the same step and buffer: invocation
+// i takes a run of consecutive workgroups of drops, the runs' counts are
+// scanned in workgroup memory (Hillis & Steele 1986), and each invocation
+// writes its run's splashes in the order of the drops, clearing the bits
+// for the next step.
+@compute @workgroup_size(256)
+fn place_splashes(@builtin(local_invocation_index) local: u32) {
+    if (local == 0u) {
+        ring_head = splash_head;
+    }
+    let first = min(segment.range.x, rain.counts.x);
+    let groups = (min(segment.range.y, rain.counts.x - first) + GROUP_SIZE - 1u) / GROUP_SIZE;
+    let per_invocation = (groups + GROUP_SIZE - 1u) / GROUP_SIZE;
+    let start = min(local * per_invocation, groups);
+    let end = min(start + per_invocation, groups);
+    let count = marked_splashes(start, end);
+    run_sums[local] = count;
+    workgroupBarrier();
+    for (var stride = 1u; stride < GROUP_SIZE; stride *= 2u) {
+        var before = 0u;
+        if (local >= stride) {
+            before = run_sums[local - stride];
+        }
+        workgroupBarrier();
+        run_sums[local] += before;
+        workgroupBarrier();
+    }
+    let capacity = max(rain.flags.y, 1u);
+    var place = ring_head + run_sums[local] - count;
+    for (var g = start; g < end; g++) {
+        for (var k = 0u; k < GROUP_WORDS; k++) {
+            var mask = atomicExchange(&splash_masks[g * GROUP_WORDS + k], 0u);
+            while (mask != 0u) {
+                let bit = firstTrailingBit(mask);
+                mask &= mask - 1u;
+                let slot = g * GROUP_SIZE + k * 32u + bit;
+                splashes[place % capacity] = splash_of(drops[slot]);
+                place += 1u;
+            }
+        }
+    }
+    if (local == GROUP_SIZE - 1u) {
+        // The head was read into workgroup memory before the scan's barriers.
+        splash_head = ring_head + run_sums[local];
+    }
 }
