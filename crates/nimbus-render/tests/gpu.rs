@@ -527,7 +527,10 @@ fn prepare_rejects_a_scene_out_of_range_with_one_line() {
         .render_hdr(&scene, 32, 18, 0.0)
         .expect_err("a field of view of 190° must be refused")
         .to_string();
-    assert_eq!(error, "scene: camera.fov_deg = 190: must be in (0, 179)");
+    assert_eq!(
+        error,
+        "scene: camera.fov_deg = 190: must be a finite number in [0.01, 179]"
+    );
     assert!(!error.contains('\n'));
     scene.camera.fov_deg = 60.0;
     scene.terrain.resolution = 64;

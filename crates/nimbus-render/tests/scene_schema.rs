@@ -74,7 +74,7 @@ fn schema_is_valid_draft_7() {
     let fov = &schema["definitions"]["CameraSettings"]["properties"]["fov_deg"];
     assert_eq!(
         fov["description"],
-        "Vertical field of view, degrees, in (0, 179)."
+        "Vertical field of view, degrees, in [0.01, 179]."
     );
     assert_eq!(fov["default"], 60.0);
     // TOML has no null: an optional key is its value's type alone.

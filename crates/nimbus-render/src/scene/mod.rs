@@ -131,7 +131,7 @@ pub struct CameraSettings {
     pub yaw_deg: Option<f64>,
     /// Elevation of the view axis above the horizon, degrees, in [−89, 89].
     pub pitch_deg: Option<f64>,
-    /// Vertical field of view, degrees, in (0, 179).
+    /// Vertical field of view, degrees, in [0.01, 179].
     pub fov_deg: f64,
     /// Exposure value at ISO 100; higher is darker. 15 suits a sunlit scene.
     /// Used when `auto_exposure` is false.
