@@ -391,3 +391,51 @@ fn a_single_root_without_levels_is_a_cloud() {
     assert!(report["triangles"].as_u64().unwrap_or(0) > 100, "{report}");
     std::fs::remove_dir_all(&dir).ok();
 }
+
+/// `cumulus`'s mesh, hierarchy and preview are replaced as a set: when one
+/// cannot be written, the previous run's files stay as they were (the mesh
+/// was replaced before the hierarchy failed), and no temporary is left.
+#[test]
+fn cumulus_outputs_are_replaced_together_or_not_at_all() {
+    let dir = temp_dir("set");
+    std::fs::write(
+        dir.join("one.json"),
+        r#"[{"centre_m": [0, 0, 0], "radius_m": 300, "flattening": 0.3}]"#,
+    )
+    .expect("roots");
+    std::fs::write(dir.join("one.glb"), b"the previous mesh").expect("write");
+    // A hierarchy path that is a directory: no file can be renamed onto it.
+    std::fs::create_dir(dir.join("one.json.d")).expect("mkdir");
+    let args = [
+        "cumulus",
+        "--roots",
+        "one.json",
+        "--levels",
+        "0",
+        "--lods",
+        "1",
+        "-o",
+        "one.glb",
+        "--hierarchy",
+        "one.json.d",
+        "--preview",
+        "one.png",
+    ];
+    assert_refused(
+        &args,
+        &dir,
+        &["one.json.d", "directory", "nothing was replaced"],
+    );
+    assert_eq!(
+        std::fs::read(dir.join("one.glb")).expect("read"),
+        b"the previous mesh"
+    );
+    let mut left: Vec<String> = std::fs::read_dir(&dir)
+        .expect("list")
+        .filter_map(Result::ok)
+        .map(|e| e.file_name().to_string_lossy().into_owned())
+        .collect();
+    left.sort();
+    assert_eq!(left, ["one.glb", "one.json", "one.json.d"]);
+    std::fs::remove_dir_all(&dir).ok();
+}

@@ -26,6 +26,119 @@ fn default_root_flattening() -> f64 {
     0.3
 }
 
+/// Most root blobs a hierarchy takes (given in a roots file or a scene).
+pub const MAX_ROOT_BLOBS: usize = 1000;
+
+/// A roots file that cannot be read: where in the document, and why.
+#[derive(Clone, Debug, thiserror::Error, PartialEq)]
+#[error(
+    "{path}: {message} (each root is {{\"centre_m\": [x, y, z], \"radius_m\": r, \"flattening\": e}})"
+)]
+pub struct RootsJsonError {
+    /// The place in the document (`[3].radius_m`, or `.` for the whole).
+    pub path: String,
+    /// What is wrong there.
+    pub message: String,
+}
+
+/// Reads root blobs from JSON: a list of roots, or an object whose `roots`
+/// key holds the list (the hierarchy file `nimbus cumulus` writes; its other
+/// keys are skipped).
+///
+/// The document is parsed as it streams: a list longer than
+/// [`MAX_ROOT_BLOBS`] is refused at its 1001st element, and skipped keys
+/// are walked without being kept, so no document makes the reader hold more
+/// than a thousand roots whatever its size or counts.
+pub fn roots_from_json(text: &str) -> Result<Vec<RootBlob>, RootsJsonError> {
+    let mut deserializer = serde_json::Deserializer::from_str(text);
+    let roots =
+        serde_path_to_error::deserialize::<_, RootsDocument>(&mut deserializer).map_err(|e| {
+            RootsJsonError {
+                path: e.path().to_string(),
+                message: e.inner().to_string(),
+            }
+        })?;
+    deserializer.end().map_err(|e| RootsJsonError {
+        path: ".".to_owned(),
+        message: e.to_string(),
+    })?;
+    Ok(roots.0)
+}
+
+/// The roots of a roots document, at most [`MAX_ROOT_BLOBS`] of them.
+struct RootsDocument(Vec<RootBlob>);
+
+/// The list itself, refused past [`MAX_ROOT_BLOBS`] while it is parsed.
+struct BoundedRoots(Vec<RootBlob>);
+
+impl<'de> Deserialize<'de> for BoundedRoots {
+    fn deserialize<D: serde::Deserializer<'de>>(deserializer: D) -> Result<Self, D::Error> {
+        struct Visitor;
+        impl<'de> serde::de::Visitor<'de> for Visitor {
+            type Value = BoundedRoots;
+            fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+                write!(f, "a list of at most {MAX_ROOT_BLOBS} roots")
+            }
+            fn visit_seq<A: serde::de::SeqAccess<'de>>(
+                self,
+                mut seq: A,
+            ) -> Result<Self::Value, A::Error> {
+                let mut roots = Vec::new();
+                while let Some(root) = seq.next_element::<RootBlob>()? {
+                    if roots.len() == MAX_ROOT_BLOBS {
+                        return Err(serde::de::Error::custom(format!(
+                            "more than {MAX_ROOT_BLOBS} roots (a hierarchy takes 1 to {MAX_ROOT_BLOBS})"
+                        )));
+                    }
+                    roots.push(root);
+                }
+                Ok(BoundedRoots(roots))
+            }
+        }
+        deserializer.deserialize_seq(Visitor)
+    }
+}
+
+impl<'de> Deserialize<'de> for RootsDocument {
+    fn deserialize<D: serde::Deserializer<'de>>(deserializer: D) -> Result<Self, D::Error> {
+        struct Visitor;
+        impl<'de> serde::de::Visitor<'de> for Visitor {
+            type Value = RootsDocument;
+            fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+                write!(f, "a list of roots, or an object with a \"roots\" list")
+            }
+            fn visit_seq<A: serde::de::SeqAccess<'de>>(
+                self,
+                seq: A,
+            ) -> Result<Self::Value, A::Error> {
+                let list =
+                    BoundedRoots::deserialize(serde::de::value::SeqAccessDeserializer::new(seq))?;
+                Ok(RootsDocument(list.0))
+            }
+            fn visit_map<A: serde::de::MapAccess<'de>>(
+                self,
+                mut map: A,
+            ) -> Result<Self::Value, A::Error> {
+                let mut roots = None;
+                while let Some(key) = map.next_key::<std::borrow::Cow<'de, str>>()? {
+                    if key == "roots" {
+                        if roots.is_some() {
+                            return Err(serde::de::Error::duplicate_field("roots"));
+                        }
+                        roots = Some(map.next_value::<BoundedRoots>()?.0);
+                    } else {
+                        map.next_value::<serde::de::IgnoredAny>()?;
+                    }
+                }
+                roots
+                    .map(RootsDocument)
+                    .ok_or_else(|| serde::de::Error::missing_field("roots"))
+            }
+        }
+        deserializer.deserialize_any(Visitor)
+    }
+}
+
 /// Where the roots come from.
 #[derive(Clone, Debug, PartialEq)]
 pub enum Roots {
@@ -162,7 +275,7 @@ impl CumulusParams {
         };
         match &self.roots {
             Roots::Given(roots) => {
-                if roots.is_empty() || roots.len() > 1000 {
+                if roots.is_empty() || roots.len() > MAX_ROOT_BLOBS {
                     return bad("roots", roots.len().to_string(), "1 to 1000 root blobs");
                 }
                 for (i, r) in roots.iter().enumerate() {
@@ -363,6 +476,41 @@ pub fn build(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn roots_files_are_lists_or_hierarchies_and_bounded_while_parsed() {
+        let one = r#"{"centre_m": [1, 2, 3], "radius_m": 300}"#;
+        let expected = vec![RootBlob {
+            centre_m: [1.0, 2.0, 3.0],
+            radius_m: 300.0,
+            flattening: 0.3,
+        }];
+        assert_eq!(roots_from_json(&format!("[{one}]")), Ok(expected.clone()));
+        // The hierarchy file: other keys skipped, whatever they hold.
+        let hierarchy =
+            format!(r#"{{"levels": [[{{"x": [1, {{}}]}}]], "roots": [{one}], "n": 1}}"#);
+        assert_eq!(roots_from_json(&hierarchy), Ok(expected));
+        // 1000 roots are read; the 1001st is refused where it stands.
+        let list = |n: usize| format!("[{}]", vec![one; n].join(","));
+        assert_eq!(
+            roots_from_json(&list(MAX_ROOT_BLOBS)).map(|r| r.len()),
+            Ok(1000)
+        );
+        let error = roots_from_json(&list(MAX_ROOT_BLOBS + 5)).expect_err("too many");
+        assert_eq!(error.path, ".");
+        assert!(error.message.contains("more than 1000 roots"), "{error}");
+        for (text, path, needle) in [
+            (r#"[{"centre": [0, 0, 0], "radius_m": 3}]"#, "[0].centre", "centre_m"),
+            (r#"{"roots": [], "roots": []}"#, ".", "duplicate"),
+            (r#"{"levels": []}"#, ".", "roots"),
+            ("[] []", ".", "trailing"),
+            ("7", ".", "a list of roots"),
+        ] {
+            let error = roots_from_json(text).expect_err(text);
+            assert_eq!(error.path, path, "{text}: {error}");
+            assert!(error.to_string().contains(needle), "{text}: {error}");
+        }
+    }
 
     fn small() -> CumulusParams {
         CumulusParams {

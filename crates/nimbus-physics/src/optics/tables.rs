@@ -184,14 +184,16 @@ impl CloudOpticsTables {
         let temporary = path.with_extension(format!("{}-{call}.tmp", std::process::id()));
         {
             let mut file = std::fs::File::create(&temporary)?;
-            file.write_all(&tables.to_bytes())?;
+            file.write_all(&tables.to_cache_bytes())?;
             file.sync_all()?;
         }
         std::fs::rename(&temporary, &path)?;
         Ok(tables)
     }
 
-    fn to_bytes(&self) -> Vec<u8> {
+    /// The cache file's bytes: magic, the parameters' hash, then each table
+    /// as its length and little-endian f32 values.
+    pub fn to_cache_bytes(&self) -> Vec<u8> {
         let mut out = Vec::new();
         out.extend_from_slice(b"NIMBUSCO");
         out.extend_from_slice(&self.params.cache_hash().to_le_bytes());
@@ -215,6 +217,14 @@ impl CloudOpticsTables {
         // far larger (or not a regular file) is not ours and is recomputed.
         let bytes = crate::io::read_bounded(path, MAX_CACHE_BYTES)
             .map_err(|e| std::io::Error::new(std::io::ErrorKind::InvalidData, e.to_string()))?;
+        Self::from_cache_bytes(&bytes, params)
+    }
+
+    /// Reads the bytes of a cache file written for `params`; an error when
+    /// they are not a whole, intact cache of exactly these parameters (the
+    /// caller then recomputes). Counts in the file are checked against the
+    /// parameters' table sizes before anything is allocated.
+    pub fn from_cache_bytes(bytes: &[u8], params: &CloudOpticsParams) -> std::io::Result<Self> {
         let bad = || {
             std::io::Error::new(
                 std::io::ErrorKind::InvalidData,
@@ -253,6 +263,9 @@ impl CloudOpticsTables {
         let peak_removed = take(3 * params.texels)?;
         let forward_peak = take(3 * params.peak_texels)?;
         let double_scattering = take(3 * params.texels)?;
+        if at != bytes.len() {
+            return Err(bad());
+        }
         Ok(Self {
             params: params.clone(),
             extinction_per_m,

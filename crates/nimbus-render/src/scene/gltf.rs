@@ -121,6 +121,18 @@ impl GltfMesh {
 /// file, refusing one with more than `max_triangles` before reading its
 /// buffers.
 pub fn load_gltf(path: &Path, max_triangles: u64) -> Result<GltfMesh, GltfError> {
+    let data = read_bounded(path, &path.display().to_string())?;
+    gltf_from_bytes(&data, path, max_triangles)
+}
+
+/// Reads the triangles of a glTF document (JSON or `.glb` bytes) as
+/// [`load_gltf`] reads the file at `path`: errors name `path`, and external
+/// buffers are looked up beside it.
+pub fn gltf_from_bytes(
+    data: &[u8],
+    path: &Path,
+    max_triangles: u64,
+) -> Result<GltfMesh, GltfError> {
     let name = path.display().to_string();
     let io = |e: std::io::Error| GltfError::Io {
         path: name.clone(),
@@ -130,9 +142,8 @@ pub fn load_gltf(path: &Path, max_triangles: u64) -> Result<GltfMesh, GltfError>
         path: name.clone(),
         message,
     };
-    let data = read_bounded(path, &name)?;
     let gltf::Gltf { document, blob } =
-        gltf::Gltf::from_slice(&data).map_err(|e| invalid(format!("not valid glTF 2.0: {e}")))?;
+        gltf::Gltf::from_slice(data).map_err(|e| invalid(format!("not valid glTF 2.0: {e}")))?;
     let scene = document
         .default_scene()
         .or_else(|| document.scenes().next())
@@ -238,9 +249,6 @@ pub fn load_gltf(path: &Path, max_triangles: u64) -> Result<GltfMesh, GltfError>
     Ok(mesh)
 }
 
-/// Triangles and vertices read from a TRIANGLES primitive, from its
-/// accessors' counts, after checking the accessors it uses. Vertices: the
-/// file's, or three per triangle where flat normals are made.
 /// The bytes of a glTF file: a regular file of at most
 /// [`MAX_GLTF_FILE_BYTES`], read through a bounded reader.
 fn read_bounded(path: &Path, name: &str) -> Result<Vec<u8>, GltfError> {
@@ -292,6 +300,9 @@ fn percent_decoded(uri: &str) -> String {
     String::from_utf8_lossy(&out).into_owned()
 }
 
+/// Triangles and vertices read from a TRIANGLES primitive, from its
+/// accessors' counts, after checking the accessors it uses. Vertices: the
+/// file's, or three per triangle where flat normals are made.
 fn primitive_size(primitive: &gltf::Primitive<'_>) -> Result<(u64, u64), String> {
     use gltf::accessor::{DataType, Dimensions};
     let positions = primitive

@@ -5,13 +5,12 @@
 mod preview;
 
 use super::check_output_dir;
-use crate::output::{write_bytes_atomically, write_png};
+use crate::output::{FileSet, encode_png};
 use crate::progress::Progress;
-use anyhow::Context;
 use clap::Args;
 use nimbus_physics::cumulus::gltf::to_glb;
 use nimbus_physics::cumulus::hierarchy::{
-    BuildProgress, Cumulus, CumulusParams, RootBlob, Roots, build,
+    BuildProgress, Cumulus, CumulusParams, RootBlob, Roots, build, roots_from_json,
 };
 use nimbus_physics::cumulus::mesh::check_closed_manifold;
 use nimbus_physics::cumulus::surface::{CumulusMesh, cumulus_lods};
@@ -60,25 +59,11 @@ const MAX_ROOTS_FILE_BYTES: u64 = 1024 * 1024;
 
 fn read_roots(path: &Path) -> anyhow::Result<Vec<RootBlob>> {
     // 1000 roots (the most a hierarchy takes) are ~100 kB of JSON; the
-    // bound keeps the parser's memory small whatever the file holds.
+    // bound keeps the file small, and the reader refuses the 1001st root
+    // as it parses.
     let text = nimbus_physics::io::read_text_bounded(path, MAX_ROOTS_FILE_BYTES)
         .map_err(|e| anyhow::anyhow!("--roots {}: {e}", path.display()))?;
-    let value: serde_json::Value = serde_json::from_str(&text)
-        .with_context(|| format!("--roots {}: not JSON", path.display()))?;
-    let list = if value.is_array() {
-        value
-    } else {
-        value.get("roots").cloned().unwrap_or(value)
-    };
-    let roots: Vec<RootBlob> = serde_path_to_error::deserialize(list).map_err(|e| {
-        anyhow::anyhow!(
-            "--roots {}: {}: {} (each root is {{\"centre_m\": [x, y, z], \"radius_m\": r, \"flattening\": e}})",
-            path.display(),
-            e.path(),
-            e.inner()
-        )
-    })?;
-    Ok(roots)
+    roots_from_json(&text).map_err(|e| anyhow::anyhow!("--roots {}: {e}", path.display()))
 }
 
 /// One level in the report.
@@ -249,12 +234,17 @@ pub fn run(args: &CumulusArgs) -> anyhow::Result<()> {
 
     let glb =
         to_glb(&lods).map_err(|e| anyhow::anyhow!("--output {}: {e}", args.output.display()))?;
-    write_bytes_atomically(&args.output, "--output", &glb)?;
+    // The mesh, its hierarchy and the preview describe one cloud: replaced
+    // together, so a failure leaves the previous run's three files.
+    let mut files = FileSet::new();
+    files.write_bytes(&args.output, "--output", &glb)?;
     let hierarchy = serde_json::to_vec_pretty(&hierarchy_json(&cumulus))?;
-    write_bytes_atomically(&hierarchy_path, "--hierarchy", &hierarchy)?;
+    files.write_bytes(&hierarchy_path, "--hierarchy", &hierarchy)?;
     if let Some(path) = &args.preview {
-        write_png(path, &preview::render(finest, 960, 640))?;
+        let png = encode_png(path, &preview::render(finest, 960, 640))?;
+        files.write_bytes(path, "--preview", &png)?;
     }
+    files.commit()?;
 
     let bounding_box_m = bounds(finest);
     let report = Report {

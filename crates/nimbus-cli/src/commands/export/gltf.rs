@@ -1,9 +1,10 @@
 //! `nimbus export SCENE --gltf FILE.glb`: the scene's cumulus field and
 //! terrain at `--time-s` as binary glTF, built by
-//! [`nimbus_render::export::scene_glb`] and written atomically.
+//! [`nimbus_render::export::scene_glb`] and written atomically (with
+//! `--mitsuba`, as one set with its files).
 
 use super::super::check_output_dir;
-use crate::output::write_bytes_atomically;
+use crate::output::FileSet;
 use nimbus_render::Scene;
 use std::path::Path;
 use std::time::Instant;
@@ -23,12 +24,18 @@ pub fn check_output(path: &Path) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// Writes `scene` (already at `time_s`) at `time_s` to `path`.
-pub fn write(scene: &Scene, time_s: f64, path: &Path) -> anyhow::Result<()> {
+/// Writes `scene` (already at `time_s`) at `time_s` to `path`, as one file
+/// of the export's set; returns the line that reports it once written.
+pub fn write(
+    scene: &Scene,
+    time_s: f64,
+    path: &Path,
+    files: &mut FileSet,
+) -> anyhow::Result<String> {
     let start = Instant::now();
     let export = nimbus_render::export::scene_glb(scene, time_s)
         .map_err(|e| anyhow::anyhow!("--gltf {}: {e}", path.display()))?;
-    write_bytes_atomically(path, "--gltf", &export.bytes)?;
+    files.write_bytes(path, "--gltf", &export.bytes)?;
     let terrain = match export.terrain_vertices {
         Some(n) => format!("terrain of {n} vertices"),
         None => "no terrain (ground.terrain = false)".to_owned(),
@@ -39,12 +46,11 @@ pub fn write(scene: &Scene, time_s: f64, path: &Path) -> anyhow::Result<()> {
         .map(|c| c.variant)
         .collect::<std::collections::BTreeSet<_>>()
         .len();
-    eprintln!(
+    Ok(format!(
         "nimbus: wrote {} ({} bytes) at {time_s} s: {terrain}, {} cumulus instancing {shapes} shapes, in {:.2} s",
         path.display(),
         export.bytes.len(),
         export.clouds.len(),
         start.elapsed().as_secs_f64()
-    );
-    Ok(())
+    ))
 }

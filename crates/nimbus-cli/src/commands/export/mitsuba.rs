@@ -4,7 +4,7 @@
 //! meshes, OpenEXR and PNG images; the XML follows Mitsuba 3's scene format
 //! (version 3.0.0).
 
-use crate::output::write_bytes_atomically;
+use crate::output::FileSet;
 use anyhow::Context;
 use glam::{DMat4, DVec3};
 use nimbus_physics::cumulus::volume::{ExtinctionGrid, VolumeParams, extinction_grid};
@@ -195,6 +195,7 @@ pub fn export(
     height: u32,
     time_s: f64,
     dir: &Path,
+    files: &mut FileSet,
 ) -> anyhow::Result<Summary> {
     let mut approximations = vec![
         "no atmosphere between the camera and the clouds or terrain (nimbus's aerial perspective is left out); the sky is an environment map at infinity, seen from the camera".to_string(),
@@ -215,7 +216,7 @@ pub fn export(
     let to_sun = DVec3::from_array(scene.sun.direction());
     remove_sun_disc(&mut sky.pixels, SKY_WIDTH_PX, sky_height, to_sun);
     let sky_file = dir.join("sky.exr");
-    crate::output::write_atomically(&sky_file, |temporary| {
+    files.write_with(&sky_file, |temporary| {
         exr::prelude::write_rgb_file(
             temporary,
             SKY_WIDTH_PX as usize,
@@ -299,7 +300,7 @@ pub fn export(
     );
 
     // 5. Terrain and sea.
-    write_terrain(scene, dir, &mut xml)?;
+    write_terrain(scene, dir, &mut xml, files)?;
 
     // 6. Droplets' optics (the stratus layer's size distribution; the
     // cumulus shader has none of its own, so the same droplets).
@@ -341,7 +342,7 @@ pub fn export(
                     .map_err(|e| anyhow::anyhow!("cumulus variant {}: {e}", cloud.variant))?;
                 let origin = variant_origin_m(&grid);
                 let file = format!("cumulus_{}.vol", cloud.variant);
-                write_bytes_atomically(&dir.join(&file), "--mitsuba", &grid.to_mitsuba_vol())?;
+                files.write_bytes(&dir.join(&file), "--mitsuba", &grid.to_mitsuba_vol())?;
                 *slot = Some((grid, origin));
             }
             let Some((grid, origin_m)) = slot.as_ref() else {
@@ -387,7 +388,7 @@ pub fn export(
             optics.extinction_per_m,
         );
         stratus_bottom_m = grid.origin_m.y;
-        write_bytes_atomically(
+        files.write_bytes(
             &dir.join("stratus.vol"),
             "--mitsuba",
             &grid.to_mitsuba_vol(),
@@ -473,9 +474,9 @@ pub fn export(
     let sensor = xml.find("    <sensor").unwrap_or(xml.len());
     xml.insert_str(sensor, &media);
     xml.push_str("</scene>\n");
-    write_bytes_atomically(&dir.join("scene.xml"), "--mitsuba", xml.as_bytes())?;
+    files.write_bytes(&dir.join("scene.xml"), "--mitsuba", xml.as_bytes())?;
     let notes: String = approximations.iter().map(|l| format!("- {l}\n")).collect();
-    write_bytes_atomically(
+    files.write_bytes(
         &dir.join("APPROXIMATIONS.md"),
         "--mitsuba",
         notes.as_bytes(),
@@ -566,7 +567,12 @@ fn stratus_grid(
 }
 
 /// Terrain mesh (PLY) with its albedo (PNG) and the sea plane.
-fn write_terrain(scene: &Scene, dir: &Path, xml: &mut String) -> anyhow::Result<()> {
+fn write_terrain(
+    scene: &Scene,
+    dir: &Path,
+    xml: &mut String,
+    files: &mut FileSet,
+) -> anyhow::Result<()> {
     let terrain = nimbus_physics::terrain::generate(&scene.terrain);
     let n = terrain.vertices_per_side();
     let stride = n.div_ceil(MAX_TERRAIN_VERTICES_PER_SIDE).max(1);
@@ -611,7 +617,7 @@ fn write_terrain(scene: &Scene, dir: &Path, xml: &mut String) -> anyhow::Result<
             }
         }
     }
-    write_bytes_atomically(&dir.join("terrain.ply"), "--mitsuba", &ply)?;
+    files.write_bytes(&dir.join("terrain.ply"), "--mitsuba", &ply)?;
     // The albedo, sRGB-encoded (Mitsuba decodes 8-bit textures as sRGB);
     // row b is v = b/(m − 1).
     let texels = terrain.albedo_rgba8();
@@ -630,7 +636,7 @@ fn write_terrain(scene: &Scene, dir: &Path, xml: &mut String) -> anyhow::Result<
         image::ExtendedColorType::Rgb8,
     )
     .context("terrain albedo: PNG encoding failed")?;
-    write_bytes_atomically(&dir.join("terrain_albedo.png"), "--mitsuba", &png)?;
+    files.write_bytes(&dir.join("terrain_albedo.png"), "--mitsuba", &png)?;
     let water = scene.terrain.albedo.water;
     let sea = DMat4::from_translation(DVec3::new(0.0, scene.terrain.water_level_m, 0.0))
         * DMat4::from_rotation_x(-std::f64::consts::FRAC_PI_2)

@@ -28,6 +28,7 @@
 mod gltf;
 mod mitsuba;
 
+use crate::output::FileSet;
 use anyhow::Context;
 use clap::Args;
 use std::path::PathBuf;
@@ -64,12 +65,16 @@ pub fn run(args: &ExportArgs) -> anyhow::Result<()> {
     }
     let (scene, width, height) = args.frame.scene_and_size()?;
     let scene = scene.at_time(args.time_s);
+    // Every file of the export is replaced together, once all are written.
+    let mut files = FileSet::new();
     let Some(mitsuba_dir) = args.mitsuba.as_deref() else {
         // --gltf alone (clap asks for one of the two): no GPU.
-        return args
-            .gltf
-            .as_deref()
-            .map_or(Ok(()), |path| gltf::write(&scene, args.time_s, path));
+        if let Some(path) = args.gltf.as_deref() {
+            let wrote = gltf::write(&scene, args.time_s, path, &mut files)?;
+            files.commit()?;
+            eprintln!("{wrote}");
+        }
+        return Ok(());
     };
     anyhow::ensure!(
         scene.camera.projection == nimbus_render::scene::Projection::Perspective,
@@ -85,9 +90,10 @@ pub fn run(args: &ExportArgs) -> anyhow::Result<()> {
         mitsuba_dir.display(),
         parent.display()
     );
-    if let Some(path) = &args.gltf {
-        gltf::write(&scene, args.time_s, path)?;
-    }
+    let wrote_gltf = match &args.gltf {
+        Some(path) => Some(gltf::write(&scene, args.time_s, path, &mut files)?),
+        None => None,
+    };
     std::fs::create_dir_all(mitsuba_dir).with_context(|| {
         format!(
             "--mitsuba {}: cannot create the directory",
@@ -109,8 +115,13 @@ pub fn run(args: &ExportArgs) -> anyhow::Result<()> {
         height,
         args.time_s,
         mitsuba_dir,
+        &mut files,
     )?;
+    files.commit()?;
     progress.finish();
+    if let Some(line) = wrote_gltf {
+        eprintln!("{line}");
+    }
     for line in &summary.approximations {
         eprintln!("nimbus: export: {line}");
     }
