@@ -20,15 +20,18 @@ pub enum ImageFormat {
     Exr,
 }
 
+/// A path's extension, lower-cased (`None` without one, or when it is not
+/// UTF-8): what chooses an output's format.
+pub fn lowercase_extension(path: &Path) -> Option<String> {
+    path.extension()
+        .and_then(|e| e.to_str())
+        .map(str::to_ascii_lowercase)
+}
+
 impl ImageFormat {
     /// The format of an output path, from its extension.
     pub fn from_path(path: &Path) -> anyhow::Result<Self> {
-        match path
-            .extension()
-            .and_then(|e| e.to_str())
-            .map(str::to_ascii_lowercase)
-            .as_deref()
-        {
+        match lowercase_extension(path).as_deref() {
             Some("png") => Ok(Self::Png),
             Some("exr") => Ok(Self::Exr),
             other => anyhow::bail!(

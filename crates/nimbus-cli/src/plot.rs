@@ -65,12 +65,7 @@ impl FigureFormat {
     /// The format of an output path, from its extension; `flag` names the
     /// option that gave the path, for the error message.
     pub fn from_path(path: &Path, flag: &str) -> anyhow::Result<Self> {
-        match path
-            .extension()
-            .and_then(|e| e.to_str())
-            .map(str::to_ascii_lowercase)
-            .as_deref()
-        {
+        match crate::output::lowercase_extension(path).as_deref() {
             Some("png") => Ok(Self::Png),
             Some("svg") => Ok(Self::Svg),
             other => anyhow::bail!(

@@ -362,6 +362,147 @@ fn the_next_run_removes_what_a_killed_run_left() {
     std::fs::remove_dir_all(&dir).ok();
 }
 
+/// Address space of the GPU runs below, KiB. The software adapter's
+/// device memory is the process's own, so this bound makes it run out of
+/// memory for real. Measured (llvmpipe, LLVM 15): a 64×64 frame needs
+/// 1.0–1.2 GiB (the device, the shader compiler, the pipelines); the
+/// targets of a 8192×8192 frame could not be allocated under 1.4–2.3 GiB
+/// and were under 2.6 GiB. Outside that window what fails is llvmpipe's
+/// compiler or Rust's allocator (an abort), not a GPU allocation.
+const GPU_ADDRESS_SPACE_KIB: u64 = 1792 * 1024;
+
+/// Longest a GPU run under the bound may take (a small frame on the
+/// software adapter, its shaders compiled).
+const GPU_DEADLINE: Duration = Duration::from_secs(300);
+
+/// Reads a child's pipe to the end on a thread of its own.
+fn drain<R: std::io::Read + Send + 'static>(pipe: Option<R>) -> std::thread::JoinHandle<String> {
+    std::thread::spawn(move || {
+        let mut text = String::new();
+        if let Some(mut pipe) = pipe {
+            pipe.read_to_string(&mut text).ok();
+        }
+        text
+    })
+}
+
+/// Runs `nimbus ARGS` in `dir` under [`GPU_ADDRESS_SPACE_KIB`], with the
+/// threads that reserve address space (llvmpipe's rasterizer, rayon's
+/// pool, glibc's malloc arenas) bounded so that what it needs does not
+/// grow with the machine's cores; kills it and fails past the deadline.
+/// Returns (exit code, stdout, stderr).
+fn gpu_run(args: &[&str], dir: &Path) -> (Option<i32>, String, String) {
+    let mut child = Command::new("bash")
+        .arg("-c")
+        .arg(format!(
+            "ulimit -v {GPU_ADDRESS_SPACE_KIB} && exec \"$0\" \"$@\""
+        ))
+        .arg(env!("CARGO_BIN_EXE_nimbus"))
+        .args(args)
+        .envs([
+            ("LP_NUM_THREADS", "2"),
+            ("RAYON_NUM_THREADS", "2"),
+            ("MALLOC_ARENA_MAX", "2"),
+        ])
+        .current_dir(dir)
+        .stdin(Stdio::null())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("runs");
+    let (stdout, stderr) = (drain(child.stdout.take()), drain(child.stderr.take()));
+    let start = Instant::now();
+    let status = loop {
+        if let Some(status) = child.try_wait().expect("waits") {
+            break status;
+        }
+        if start.elapsed() > GPU_DEADLINE {
+            child.kill().ok();
+            child.wait().ok();
+            panic!("nimbus {args:?} still running after {GPU_DEADLINE:?} (blocked?)");
+        }
+        std::thread::sleep(Duration::from_millis(50));
+    };
+    (
+        status.code(),
+        stdout.join().expect("stdout"),
+        stderr.join().expect("stderr"),
+    )
+}
+
+/// Out of GPU memory ends `render`, `animate` and `bench` with one line,
+/// no panic and nothing written. Forced for real on the software adapter
+/// (required: the bound on the address space exhausts its memory, not a
+/// hardware GPU's): under the bound a small frame renders (the control),
+/// the largest frame nimbus allows cannot allocate its targets. Device loss
+/// cannot be forced from the command line; `nimbus-render/tests/faults.rs`
+/// forces it in the library.
+#[test]
+fn out_of_gpu_memory_ends_render_animate_and_bench_with_one_line_and_nothing_written() {
+    let dir = temp_dir("gpu-memory");
+    let small = [
+        "render",
+        "--adapter",
+        "software",
+        "--width",
+        "64",
+        "--height",
+        "64",
+        "-o",
+        "small.png",
+    ];
+    let (code, _, stderr) = gpu_run(&small, &dir);
+    assert_eq!(
+        code,
+        Some(0),
+        "the control frame failed under the bound: {stderr}"
+    );
+    std::fs::remove_file(dir.join("small.png")).expect("the control frame was written");
+
+    let largest = [
+        "--adapter",
+        "software",
+        "--width",
+        "8192",
+        "--height",
+        "8192",
+    ];
+    let commands: [&[&str]; 3] = [
+        &["render", "-o", "big.png"],
+        &["animate", "--seconds", "1", "--fps", "1", "-o", "frames"],
+        &["bench", "--frames", "1", "--json"],
+    ];
+    for command in commands {
+        let args: Vec<&str> = command.iter().chain(&largest).copied().collect();
+        let (code, stdout, stderr) = gpu_run(&args, &dir);
+        assert_eq!(code, Some(1), "{args:?}: {stderr}");
+        let errors: Vec<&str> = stderr
+            .lines()
+            .filter(|l| l.starts_with("nimbus: error: "))
+            .collect();
+        assert_eq!(errors.len(), 1, "{args:?}: {stderr}");
+        assert!(
+            errors[0].contains("the GPU ran out of memory while rendering a 8192×8192 frame"),
+            "{args:?}: {}",
+            errors[0]
+        );
+        assert!(!stderr.contains("panicked"), "{args:?}: {stderr}");
+        assert!(stdout.is_empty(), "{args:?}: stdout {stdout}");
+    }
+    // No image, no temporary file; animate's directory holds no frame.
+    let names = |dir: &Path| -> Vec<String> {
+        let mut names: Vec<String> = std::fs::read_dir(dir)
+            .expect("dir")
+            .map(|e| e.expect("entry").file_name().to_string_lossy().into_owned())
+            .collect();
+        names.sort();
+        names
+    };
+    assert_eq!(names(&dir), ["frames"]);
+    assert!(names(&dir.join("frames")).is_empty());
+    std::fs::remove_dir_all(&dir).ok();
+}
+
 /// One root and no generated level is a valid cloud (a flattened sphere);
 /// it was refused as "surface empty" (the seed search started at the
 /// blob's centre, where the field's gradient vanishes).
@@ -437,5 +578,29 @@ fn cumulus_outputs_are_replaced_together_or_not_at_all() {
         .collect();
     left.sort();
     assert_eq!(left, ["one.glb", "one.json", "one.json.d"]);
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+/// The scene file's 1 MiB bound bounds every count the TOML parser can
+/// meet (at most ~500,000 of anything), so the costliest scenes of that
+/// size parse within the address-space bound and refuse in a second: a
+/// million-byte array of numbers, 75,000 dotted keys (the parser's worst
+/// measured: 128 MB resident), 87,000 `[[objects]]`.
+#[test]
+fn the_costliest_megabyte_scenes_stay_within_the_memory_bound() {
+    let dir = temp_dir("megabyte");
+    let n = 1024 * 1024 - 64;
+    let array = format!("a = [{}]\n", "1,".repeat((n - 10) / 2));
+    let dotted: String = (0..n / 14).map(|i| format!("a.b{i}.c=1\n")).collect();
+    let objects = "[[objects]]\n".repeat(n / 12);
+    for (name, text, needle) in [
+        ("array.toml", array, "unknown key"),
+        ("dotted.toml", dotted, "unknown key"),
+        ("objects.toml", objects, "objects"),
+    ] {
+        assert!(text.len() <= 1024 * 1024, "{name}: {} bytes", text.len());
+        std::fs::write(dir.join(name), text).expect("write");
+        assert_refused(&["scene", "--check", name], &dir, &[name, needle]);
+    }
     std::fs::remove_dir_all(&dir).ok();
 }

@@ -129,6 +129,40 @@ pub fn human_bytes(bytes: u64) -> String {
     }
 }
 
+/// Most characters of a value taken from a file that an error line shows.
+pub const MAX_SHOWN_CHARS: usize = 64;
+
+/// Whether `c` reorders or hides text on a terminal: controls, and the
+/// Unicode bidirectional formatting characters (UAX #9) and other
+/// invisible format characters (general category Cf).
+fn is_unsafe_to_print(c: char) -> bool {
+    c.is_control()
+        || matches!(c,
+            '\u{061c}' | '\u{200b}'..='\u{200f}' | '\u{202a}'..='\u{202e}'
+            | '\u{2060}'..='\u{2069}' | '\u{feff}')
+}
+
+/// `text` (taken from a file) as an error line shows it: characters that
+/// would act on the terminal escaped (`\u{202e}`, `\n`), and at most
+/// `max_chars` characters, the rest counted, so that an error stays one
+/// line of bounded length whatever the file holds.
+pub fn shown_text(text: &str, max_chars: usize) -> String {
+    let mut out = String::new();
+    let total = text.chars().count();
+    for (i, c) in text.chars().enumerate() {
+        if i == max_chars {
+            out.push_str(&format!("… ({total} characters)"));
+            break;
+        }
+        if is_unsafe_to_print(c) {
+            out.extend(c.escape_default());
+        } else {
+            out.push(c);
+        }
+    }
+    out
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -45,11 +45,12 @@ pub mod renderer;
 pub mod scene;
 pub mod shader;
 
-pub use self::core::{binding, cache, gpu, targets, timing};
+pub use self::core::{binding, cache, fault, gpu, targets, timing};
 pub use frame::occluders;
 pub use passes::stratus::radiosity;
 pub use passes::{atmosphere, cumulus, exposure, objects, rain, sky, stratus, terrain, tonemap};
 
+pub use self::core::fault::GpuFault;
 pub use self::core::gpu::{AdapterPreference, GpuContext, GpuError};
 pub use frame::{DepthConvention, Projection, View};
 pub use renderer::{

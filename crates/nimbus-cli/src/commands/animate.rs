@@ -1,5 +1,11 @@
 //! `nimbus animate`: a scene's keyframed weather rendered as a PNG sequence
 //! or, through ffmpeg, a video.
+//!
+//! A run that fails part-way (e.g. the GPU device lost, or out of memory)
+//! stops at the frame that failed: the frames written before it stay in the
+//! directory, each complete (every file is written atomically), and the
+//! failed frame leaves nothing; a video is written only when every frame
+//! was encoded.
 
 use crate::output::{write_exr_layers, write_png};
 use crate::progress::Progress;

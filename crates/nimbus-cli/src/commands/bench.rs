@@ -126,6 +126,10 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
             }
             totals.push(times.iter().flatten().sum());
         }
+        // Reading the timestamps back waits for the device as well, and
+        // reads as no times when it fails: a device lost there ends the run
+        // with the loss, not with a report short of frames.
+        headless.gpu.faults.check()?;
         progress.update(u64::from(frame) + 1);
     }
     progress.finish();

@@ -240,7 +240,10 @@ impl WindGrid {
         } else {
             return Err(WindGridError::Format(format!(
                 "dtype {}: must be little-endian float32 ('<f4') or float64 ('<f8')",
-                descr.split(',').next().unwrap_or(descr).trim()
+                crate::io::shown_text(
+                    descr.split(',').next().unwrap_or(descr).trim(),
+                    crate::io::MAX_SHOWN_CHARS
+                )
             )));
         };
         if !value_of("fortran_order").is_some_and(|v| v.starts_with("False")) {
@@ -250,6 +253,8 @@ impl WindGrid {
             .and_then(|v| v.strip_prefix('('))
             .and_then(|v| v.split(')').next())
             .ok_or_else(|| format("the header has no 'shape'"))?;
+        // The header's text is shown as error lines show file content.
+        let shown_shape = crate::io::shown_text(shape_text, crate::io::MAX_SHOWN_CHARS);
         let shape: Vec<usize> = shape_text
             .split(',')
             .map(str::trim)
@@ -257,17 +262,17 @@ impl WindGrid {
             .map(|t| t.parse::<usize>())
             .collect::<Result<_, _>>()
             .map_err(|_| {
-                WindGridError::Format(format!("shape ({shape_text}) is not a tuple of sizes"))
+                WindGridError::Format(format!("shape ({shown_shape}) is not a tuple of sizes"))
             })?;
         let [nz, ny, nx, 3] = shape[..] else {
             return Err(WindGridError::Format(format!(
-                "shape ({shape_text}): must be (nz, ny, nx, 3)"
+                "shape ({shown_shape}): must be (nz, ny, nx, 3)"
             )));
         };
         let points = (nx as u64) * (ny as u64) * (nz as u64);
         if nx < 2 || ny < 2 || nz < 2 || points > MAX_WIND_GRID_POINTS {
             return Err(WindGridError::Format(format!(
-                "shape ({shape_text}): needs at least 2 points per axis and at most {MAX_WIND_GRID_POINTS} points"
+                "shape ({shown_shape}): needs at least 2 points per axis and at most {MAX_WIND_GRID_POINTS} points"
             )));
         }
         let data = &bytes[start + header_len..];

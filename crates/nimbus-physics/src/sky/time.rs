@@ -59,9 +59,10 @@ fn civil_from_days(z: i64) -> (i32, u32, u32) {
 impl UtcDateTime {
     /// Parses `YYYY-MM-DDTHH:MM:SS[.fff](Z|±HH:MM)`; the zone is required.
     pub fn parse(text: &str) -> Result<Self, String> {
+        let shown = crate::io::shown_text(text, crate::io::MAX_SHOWN_CHARS);
         let bad = || {
             format!(
-                "`{text}` is not a date-time like 2026-06-21T12:00:00Z (ISO 8601, with Z or a ±HH:MM offset)"
+                "`{shown}` is not a date-time like 2026-06-21T12:00:00Z (ISO 8601, with Z or a ±HH:MM offset)"
             )
         };
         let (date, rest) = text.split_once(['T', 't', ' ']).ok_or_else(bad)?;
@@ -102,7 +103,7 @@ impl UtcDateTime {
             || minute > 59
             || !(0.0..61.0).contains(&second)
         {
-            return Err(format!("`{text}`: no such date or time"));
+            return Err(format!("`{shown}`: no such date or time"));
         }
         // Shift to UTC through whole minutes; the seconds are unaffected.
         let total_min = days_from_civil(year, month, day) * 1440 + hour as i64 * 60 + minute as i64

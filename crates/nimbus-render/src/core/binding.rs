@@ -184,15 +184,15 @@ pub fn sequential_bind_group(
 }
 
 /// Maps a `MAP_READ` buffer after its copies were submitted, waits for the
-/// device, and returns its bytes (the buffer is unmapped again).
+/// device, and returns its bytes (the buffer is unmapped again). An error
+/// (e.g. the device was lost) is wgpu's message; callers on a device with
+/// [`super::fault::DeviceFaults`] report the recorded fault instead.
 pub fn read_mapped(device: &wgpu::Device, buffer: &wgpu::Buffer) -> Result<Vec<u8>, String> {
     let (sender, receiver) = std::sync::mpsc::channel();
     buffer.map_async(wgpu::MapMode::Read, .., move |r| {
         let _ = sender.send(r);
     });
-    device
-        .poll(wgpu::PollType::wait_indefinitely())
-        .map_err(|e| e.to_string())?;
+    super::fault::wait_for_device(device)?;
     receiver
         .recv()
         .map_err(|e| e.to_string())?

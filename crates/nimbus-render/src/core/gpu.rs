@@ -5,6 +5,7 @@
 //! programs that have none, including machines without a GPU, where Mesa's
 //! software Vulkan driver (lavapipe) provides a CPU adapter.
 
+use super::fault::DeviceFaults;
 use std::fmt;
 
 /// Which kind of adapter to use.
@@ -78,6 +79,9 @@ pub struct GpuContext {
     pub adapter_info: wgpu::AdapterInfo,
     /// The adapter.
     pub adapter: wgpu::Adapter,
+    /// The device's loss and the errors it raised outside error scopes,
+    /// recorded instead of wgpu's default handler's panic.
+    pub faults: DeviceFaults,
 }
 
 fn is_software(info: &wgpu::AdapterInfo) -> bool {
@@ -97,7 +101,10 @@ fn rank(info: &wgpu::AdapterInfo) -> u8 {
 impl GpuContext {
     /// Picks an adapter by preference (backends from `WGPU_BACKEND`, else the
     /// primary ones: Vulkan, Metal, DX12) and creates a device with timestamp
-    /// queries where the adapter supports them.
+    /// queries where the adapter supports them. The device's uncaptured
+    /// errors and its loss are recorded in [`Self::faults`] instead of
+    /// panicking (an uncaptured-error handler installed later replaces the
+    /// record's).
     pub fn new(preference: AdapterPreference) -> Result<Self, GpuError> {
         Self::with_instance(&Self::instance(), preference, None)
     }
@@ -177,11 +184,13 @@ impl GpuContext {
             adapter: adapter_info.name.clone(),
             message: e.to_string(),
         })?;
+        let faults = DeviceFaults::install(&device);
         Ok(Self {
             device,
             queue,
             adapter_info,
             adapter,
+            faults,
         })
     }
 

@@ -7,6 +7,7 @@ pub mod panorama;
 
 pub use layers::{ImageLayers, SKY_DISTANCE_M};
 
+use crate::core::fault::{FaultScope, GpuFault, wait_for_device};
 use crate::core::gpu::{AdapterPreference, GpuContext, GpuError};
 use crate::core::targets::{DEPTH_FORMAT, Target};
 use crate::frame::{Camera, View};
@@ -30,6 +31,10 @@ pub enum HeadlessError {
     /// Reading the image back failed.
     #[error("reading the image back from the GPU failed: {0}")]
     Readback(String),
+    /// The device was lost, ran out of memory or refused the work: the
+    /// frame or read-back did not complete and its result was not returned.
+    #[error(transparent)]
+    Fault(#[from] GpuFault),
 }
 
 /// A tone-mapped image: sRGB-encoded RGBA8, rows top to bottom.
@@ -80,6 +85,7 @@ impl HeadlessRenderer {
     /// Opens an adapter of the preferred kind and creates the renderer.
     pub fn new(preference: AdapterPreference) -> Result<Self, HeadlessError> {
         let gpu = GpuContext::new(preference)?;
+        let scope = FaultScope::push(&gpu.device);
         let renderer = Renderer::new(
             &gpu.device,
             &gpu.queue,
@@ -87,6 +93,11 @@ impl HeadlessRenderer {
                 .with_timestamps(true)
                 .with_precompute(Precompute::Blocking),
         );
+        settle(
+            &gpu,
+            scope.pop("creating the renderer's pipelines and resources"),
+            Ok(()),
+        )?;
         Ok(Self {
             gpu,
             renderer,
@@ -129,6 +140,12 @@ impl HeadlessRenderer {
         height: u32,
         time_s: f32,
     ) -> Result<f64, HeadlessError> {
+        // A device lost since the last frame (or an error of work outside
+        // the frames) stops here, before any work.
+        self.gpu.faults.check()?;
+        // Everything the frame creates, records and submits, and the wait
+        // for it; a fault stops the frame there, before anything is read back.
+        let scope = FaultScope::push(&self.gpu.device);
         let prepare_start = std::time::Instant::now();
         self.renderer
             .prepare_view(scene, view, width, height, time_s)?;
@@ -174,10 +191,9 @@ impl HeadlessRenderer {
         };
         let start = std::time::Instant::now();
         self.gpu.queue.submit([commands]);
-        self.gpu
-            .device
-            .poll(wgpu::PollType::wait_indefinitely())
-            .map_err(|e| HeadlessError::Readback(e.to_string()))?;
+        let waited = wait_for_device(&self.gpu.device);
+        let scoped = scope.pop(&format!("rendering a {width}×{height} frame"));
+        settle(&self.gpu, scoped, waited)?;
         Ok(start.elapsed().as_secs_f64())
     }
 
@@ -308,6 +324,24 @@ fn padded_row_bytes(width: u32, bytes_per_pixel: u32) -> u32 {
         * wgpu::COPY_BYTES_PER_ROW_ALIGNMENT
 }
 
+/// The outcome of GPU work on `gpu`: what its error scope caught and the
+/// wait for it (or its read-back), against what the device recorded. Out of
+/// memory first (a device that ran out may be lost as well, and the errors
+/// on the resources it could not create follow from it), then the loss (the
+/// errors after it are its consequences), then the errors.
+fn settle<T>(
+    gpu: &GpuContext,
+    scoped: Result<(), GpuFault>,
+    waited: Result<T, String>,
+) -> Result<T, HeadlessError> {
+    if let Err(fault @ GpuFault::OutOfMemory { .. }) = scoped {
+        return Err(fault.into());
+    }
+    gpu.faults.check()?;
+    scoped?;
+    waited.map_err(HeadlessError::Readback)
+}
+
 /// Checks, before rendering, that the image can be read back on this device.
 fn check_readback(
     gpu: &GpuContext,
@@ -346,6 +380,7 @@ impl HeadlessRenderer {
         buffer: &wgpu::Buffer,
         size: u64,
     ) -> Result<Vec<u8>, HeadlessError> {
+        let scope = FaultScope::push(&self.gpu.device);
         let staging = self.gpu.device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("buffer readback"),
             size,
@@ -355,8 +390,9 @@ impl HeadlessRenderer {
         let mut encoder = self.gpu.device.create_command_encoder(&Default::default());
         encoder.copy_buffer_to_buffer(buffer, 0, &staging, 0, size);
         self.gpu.queue.submit([encoder.finish()]);
-        crate::core::binding::read_mapped(&self.gpu.device, &staging)
-            .map_err(HeadlessError::Readback)
+        let bytes = crate::core::binding::read_mapped(&self.gpu.device, &staging);
+        let scoped = scope.pop(&format!("reading back {size} bytes of a buffer"));
+        settle(&self.gpu, scoped, bytes)
     }
 
     /// The exposure the last frame applied.
@@ -375,6 +411,7 @@ pub fn read_texture(
     let layers = texture.depth_or_array_layers();
     let row_bytes = width * bytes_per_pixel;
     let padded_row = padded_row_bytes(width, bytes_per_pixel);
+    let scope = FaultScope::push(&gpu.device);
     let buffer = gpu.device.create_buffer(&wgpu::BufferDescriptor {
         label: Some("readback"),
         size: padded_row as u64 * height as u64 * layers as u64,
@@ -399,8 +436,9 @@ pub fn read_texture(
         },
     );
     gpu.queue.submit([encoder.finish()]);
-    let bytes =
-        crate::core::binding::read_mapped(&gpu.device, &buffer).map_err(HeadlessError::Readback)?;
+    let bytes = crate::core::binding::read_mapped(&gpu.device, &buffer);
+    let scoped = scope.pop(&format!("reading back a {width}×{height}×{layers} texture"));
+    let bytes = settle(gpu, scoped, bytes)?;
     let mut out = Vec::with_capacity((row_bytes * height * layers) as usize);
     for row in bytes.chunks(padded_row as usize) {
         out.extend_from_slice(&row[..row_bytes as usize]);

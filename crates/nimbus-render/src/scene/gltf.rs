@@ -142,8 +142,27 @@ pub fn gltf_from_bytes(
         path: name.clone(),
         message,
     };
-    let gltf::Gltf { document, blob } =
-        gltf::Gltf::from_slice(data).map_err(|e| invalid(format!("not valid glTF 2.0: {e}")))?;
+    let not_gltf = |e: gltf::Error| invalid(format!("not valid glTF 2.0: {e}"));
+    // gltf-json 1.4.1's validation indexes the accessor a primitive's
+    // POSITION names without checking it exists (a panic found by fuzzing:
+    // fuzz/regressions/gltf/); those indices are checked first.
+    let unchecked = gltf::Gltf::from_slice_without_validation(data).map_err(not_gltf)?;
+    let root = unchecked.document.as_json();
+    for (m, mesh) in root.meshes.iter().enumerate() {
+        for (p, primitive) in mesh.primitives.iter().enumerate() {
+            let position = gltf::json::validation::Checked::Valid(gltf::Semantic::Positions);
+            if let Some(accessor) = primitive.attributes.get(&position)
+                && accessor.value() >= root.accessors.len()
+            {
+                return Err(invalid(format!(
+                    "mesh {m} primitive {p}: POSITION is accessor {}, but the file has {} accessors",
+                    accessor.value(),
+                    root.accessors.len()
+                )));
+            }
+        }
+    }
+    let gltf::Gltf { document, blob } = gltf::Gltf::from_slice(data).map_err(not_gltf)?;
     let scene = document
         .default_scene()
         .or_else(|| document.scenes().next())

@@ -73,40 +73,12 @@ fn one_line(message: &str) -> String {
 }
 
 /// Most characters of a value shown in an error line.
-const MAX_SHOWN_CHARS: usize = 64;
+const MAX_SHOWN_CHARS: usize = nimbus_physics::io::MAX_SHOWN_CHARS;
 
 /// Most characters of a parser's message in an error line.
 const MAX_MESSAGE_CHARS: usize = 240;
 
-/// Whether `c` reorders or hides text on a terminal: controls, and the
-/// Unicode bidirectional formatting characters (UAX #9) and other
-/// invisible format characters (general category Cf).
-fn is_unsafe_to_print(c: char) -> bool {
-    c.is_control()
-        || matches!(c,
-            '\u{061c}' | '\u{200b}'..='\u{200f}' | '\u{202a}'..='\u{202e}'
-            | '\u{2060}'..='\u{2069}' | '\u{feff}')
-}
-
-/// `text` as an error line shows it: characters that would act on the
-/// terminal escaped (`\u{202e}`), and at most `max_chars` characters, the
-/// rest counted.
-fn shown(text: &str, max_chars: usize) -> String {
-    let mut out = String::new();
-    let total = text.chars().count();
-    for (i, c) in text.chars().enumerate() {
-        if i == max_chars {
-            out.push_str(&format!("… ({total} characters)"));
-            break;
-        }
-        if is_unsafe_to_print(c) {
-            out.extend(c.escape_default());
-        } else {
-            out.push(c);
-        }
-    }
-    out
-}
+use nimbus_physics::io::shown_text as shown;
 
 /// `message` with each `quoted` value in it shortened (see [`shown`]).
 fn shorten_quoted(message: &str) -> String {
@@ -289,7 +261,9 @@ impl Checker<'_> {
             file: self.file.to_owned(),
             key: key.to_owned(),
             value: shown_value(&value.to_string()),
-            allowed: allowed.into(),
+            // Messages may quote the file (a date-time, a mesh's error):
+            // escaped so the error stays one line.
+            allowed: shown(&allowed.into(), usize::MAX),
         }
     }
 

@@ -5,7 +5,7 @@
 mod preview;
 
 use super::check_output_dir;
-use crate::output::{FileSet, encode_png};
+use crate::output::{FileSet, encode_png, lowercase_extension};
 use crate::progress::Progress;
 use clap::Args;
 use nimbus_physics::cumulus::gltf::to_glb;
@@ -155,12 +155,7 @@ fn bounds(mesh: &CumulusMesh) -> [[f32; 3]; 2] {
 pub fn run(args: &CumulusArgs) -> anyhow::Result<()> {
     let start = Instant::now();
     anyhow::ensure!(
-        args.output
-            .extension()
-            .and_then(|e| e.to_str())
-            .map(str::to_ascii_lowercase)
-            .as_deref()
-            == Some("glb"),
+        lowercase_extension(&args.output).as_deref() == Some("glb"),
         "--output {}: must end in .glb (binary glTF)",
         args.output.display()
     );
@@ -172,11 +167,7 @@ pub fn run(args: &CumulusArgs) -> anyhow::Result<()> {
     check_output_dir(&hierarchy_path)?;
     if let Some(p) = &args.preview {
         anyhow::ensure!(
-            p.extension()
-                .and_then(|e| e.to_str())
-                .map(str::to_ascii_lowercase)
-                .as_deref()
-                == Some("png"),
+            lowercase_extension(p).as_deref() == Some("png"),
             "--preview {}: must end in .png",
             p.display()
         );

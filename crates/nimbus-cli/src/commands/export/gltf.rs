@@ -4,17 +4,14 @@
 //! `--mitsuba`, as one set with its files).
 
 use super::super::check_output_dir;
-use crate::output::FileSet;
+use crate::output::{FileSet, lowercase_extension};
 use nimbus_render::Scene;
 use std::path::Path;
 use std::time::Instant;
 
 /// Checks, before any work, that `path` ends in `.glb` and its directory exists.
 pub fn check_output(path: &Path) -> anyhow::Result<()> {
-    let extension = path
-        .extension()
-        .and_then(|e| e.to_str())
-        .map(str::to_ascii_lowercase);
+    let extension = lowercase_extension(path);
     anyhow::ensure!(
         extension.as_deref() == Some("glb"),
         "--gltf {}: must end in .glb (binary glTF)",

@@ -469,6 +469,10 @@ impl RadiosityPass {
             let raw = crate::core::binding::read_mapped(&gpu.device, b)?;
             Ok(bytemuck::cast_slice(&raw).to_vec())
         };
-        Ok((read(&ground)?, read(&cloud)?))
+        let read_back = (read(&ground)?, read(&cloud)?);
+        // A lost device or an error of this work (recorded, not panicked)
+        // leaves the read-back meaningless.
+        gpu.faults.check().map_err(|e| e.to_string())?;
+        Ok(read_back)
     }
 }
