@@ -5,6 +5,8 @@
 
 #![cfg(unix)]
 
+mod support;
+
 use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
@@ -490,16 +492,8 @@ fn out_of_gpu_memory_ends_render_animate_and_bench_with_one_line_and_nothing_wri
         assert!(stdout.is_empty(), "{args:?}: stdout {stdout}");
     }
     // No image, no temporary file; animate's directory holds no frame.
-    let names = |dir: &Path| -> Vec<String> {
-        let mut names: Vec<String> = std::fs::read_dir(dir)
-            .expect("dir")
-            .map(|e| e.expect("entry").file_name().to_string_lossy().into_owned())
-            .collect();
-        names.sort();
-        names
-    };
-    assert_eq!(names(&dir), ["frames"]);
-    assert!(names(&dir.join("frames")).is_empty());
+    assert_eq!(support::files_in(&dir), ["frames"]);
+    assert!(support::files_in(&dir.join("frames")).is_empty());
     std::fs::remove_dir_all(&dir).ok();
 }
 
@@ -571,13 +565,10 @@ fn cumulus_outputs_are_replaced_together_or_not_at_all() {
         std::fs::read(dir.join("one.glb")).expect("read"),
         b"the previous mesh"
     );
-    let mut left: Vec<String> = std::fs::read_dir(&dir)
-        .expect("list")
-        .filter_map(Result::ok)
-        .map(|e| e.file_name().to_string_lossy().into_owned())
-        .collect();
-    left.sort();
-    assert_eq!(left, ["one.glb", "one.json", "one.json.d"]);
+    assert_eq!(
+        support::files_in(&dir),
+        ["one.glb", "one.json", "one.json.d"]
+    );
     std::fs::remove_dir_all(&dir).ok();
 }
 

@@ -144,21 +144,25 @@ fn is_unsafe_to_print(c: char) -> bool {
 
 /// `text` (taken from a file) as an error line shows it: characters that
 /// would act on the terminal escaped (`\u{202e}`, `\n`), and at most
-/// `max_chars` characters, the rest counted, so that an error stays one
-/// line of bounded length whatever the file holds.
+/// `max_chars` characters shown, escapes counted as they are printed, the
+/// rest counted, so that an error stays one line of bounded length
+/// whatever the file holds.
 pub fn shown_text(text: &str, max_chars: usize) -> String {
     let mut out = String::new();
-    let total = text.chars().count();
-    for (i, c) in text.chars().enumerate() {
-        if i == max_chars {
-            out.push_str(&format!("… ({total} characters)"));
+    let mut shown_chars = 0usize;
+    for c in text.chars() {
+        let escaped: String = if is_unsafe_to_print(c) {
+            c.escape_default().collect()
+        } else {
+            c.to_string()
+        };
+        let width = escaped.chars().count();
+        if shown_chars + width > max_chars {
+            out.push_str(&format!("… ({} characters)", text.chars().count()));
             break;
         }
-        if is_unsafe_to_print(c) {
-            out.extend(c.escape_default());
-        } else {
-            out.push(c);
-        }
+        shown_chars += width;
+        out.push_str(&escaped);
     }
     out
 }
@@ -166,6 +170,17 @@ pub fn shown_text(text: &str, max_chars: usize) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn file_text_is_shown_on_one_bounded_line() {
+        assert_eq!(shown_text("plain", 64), "plain");
+        assert_eq!(shown_text("a\nb\u{202e}", 64), "a\\nb\\u{202e}");
+        assert_eq!(shown_text("abcdef", 3), "abc… (6 characters)");
+        // Escapes count as printed: 100 DEL characters stay within the bound.
+        let shown = shown_text(&"\u{7f}".repeat(100), 64);
+        assert!(shown.chars().count() <= 64 + 20, "{shown}");
+        assert!(!shown.contains('\u{7f}') && shown.ends_with("(100 characters)"));
+    }
     use std::io::Write;
 
     fn temp(name: &str) -> std::path::PathBuf {

@@ -51,11 +51,14 @@ pub struct RootsJsonError {
 /// than a thousand roots whatever its size or counts.
 pub fn roots_from_json(text: &str) -> Result<Vec<RootBlob>, RootsJsonError> {
     let mut deserializer = serde_json::Deserializer::from_str(text);
+    // Paths and messages quote the document's keys: shown as error lines
+    // show file text (escaped, shortened), so the error stays one line.
+    let shown = |text: String, max_chars| crate::io::shown_text(&text, max_chars);
     let roots =
         serde_path_to_error::deserialize::<_, RootsDocument>(&mut deserializer).map_err(|e| {
             RootsJsonError {
-                path: e.path().to_string(),
-                message: e.inner().to_string(),
+                path: shown(e.path().to_string(), crate::io::MAX_SHOWN_CHARS),
+                message: shown(e.inner().to_string(), 4 * crate::io::MAX_SHOWN_CHARS),
             }
         })?;
     deserializer.end().map_err(|e| RootsJsonError {
@@ -500,7 +503,11 @@ mod tests {
         assert_eq!(error.path, ".");
         assert!(error.message.contains("more than 1000 roots"), "{error}");
         for (text, path, needle) in [
-            (r#"[{"centre": [0, 0, 0], "radius_m": 3}]"#, "[0].centre", "centre_m"),
+            (
+                r#"[{"centre": [0, 0, 0], "radius_m": 3}]"#,
+                "[0].centre",
+                "centre_m",
+            ),
             (r#"{"roots": [], "roots": []}"#, ".", "duplicate"),
             (r#"{"levels": []}"#, ".", "roots"),
             ("[] []", ".", "trailing"),
