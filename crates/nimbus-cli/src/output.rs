@@ -233,19 +233,10 @@ pub fn write_atomically(
     path: &Path,
     write: impl FnOnce(&Path) -> anyhow::Result<()>,
 ) -> anyhow::Result<()> {
-    let temporary = temporary_path(path);
-    let result = write(&temporary).and_then(|()| {
-        std::fs::rename(&temporary, path).with_context(|| {
-            format!(
-                "output {}: cannot move the image into place",
-                path.display()
-            )
-        })
-    });
-    if result.is_err() {
-        let _ = std::fs::remove_file(&temporary);
-    }
-    result
+    // A set of one file: the same temporary, clean-up and rename.
+    let mut files = FileSet::new();
+    files.write_with(path, write)?;
+    files.commit()
 }
 
 /// Writes `bytes` to `path` atomically; `flag` names the option that gave

@@ -6,10 +6,11 @@
 #![cfg(unix)]
 
 mod support;
+use support::temp_dir;
 
 use std::io::Write;
-use std::path::{Path, PathBuf};
-use std::process::{Command, Stdio};
+use std::path::Path;
+use std::process::{Command, Output, Stdio};
 use std::time::{Duration, Instant};
 
 /// Address space the binary may use, KiB: room for the executable, its
@@ -20,52 +21,81 @@ const ADDRESS_SPACE_KIB: u64 = 512 * 1024;
 /// Longest a refusal may take.
 const DEADLINE: Duration = Duration::from_secs(60);
 
-fn temp_dir(name: &str) -> PathBuf {
-    let dir =
-        std::env::temp_dir().join(format!("nimbus-reliability-{}-{name}", std::process::id()));
-    std::fs::remove_dir_all(&dir).ok();
-    std::fs::create_dir_all(&dir).expect("temp dir");
-    dir
+/// How a run of the binary is bounded.
+struct Bounds {
+    /// Address space (`ulimit -v`), KiB.
+    address_space_kib: u64,
+    /// Past this the run is killed and the test fails (it blocked).
+    deadline: Duration,
+    /// Environment set for the run.
+    envs: &'static [(&'static str, &'static str)],
 }
 
-/// Runs `nimbus ARGS` in `dir` under the address-space bound; kills it and
-/// fails past the deadline. Returns (exit code, stderr).
-fn bounded_run(args: &[&str], dir: &Path) -> (Option<i32>, String) {
+/// The bounds of a refusal of hostile input.
+const INPUT_BOUNDS: Bounds = Bounds {
+    address_space_kib: ADDRESS_SPACE_KIB,
+    deadline: DEADLINE,
+    envs: &[],
+};
+
+/// Runs `nimbus ARGS` in `dir` within `bounds`; kills it and fails past the
+/// deadline. Both pipes are read as the run goes (a full pipe would block
+/// it).
+fn bounded_run(args: &[&str], dir: &Path, bounds: &Bounds) -> Output {
     let mut child = Command::new("bash")
         .arg("-c")
         .arg(format!(
-            "ulimit -v {ADDRESS_SPACE_KIB} && exec \"$0\" \"$@\""
+            "ulimit -v {} && exec \"$0\" \"$@\"",
+            bounds.address_space_kib
         ))
         .arg(env!("CARGO_BIN_EXE_nimbus"))
         .args(args)
+        .envs(bounds.envs.iter().copied())
         .current_dir(dir)
         .stdin(Stdio::null())
-        .stdout(Stdio::null())
+        .stdout(Stdio::piped())
         .stderr(Stdio::piped())
         .spawn()
         .expect("runs");
+    let (stdout, stderr) = (drain(child.stdout.take()), drain(child.stderr.take()));
     let start = Instant::now();
-    loop {
+    let status = loop {
         if let Some(status) = child.try_wait().expect("waits") {
-            let mut stderr = String::new();
-            if let Some(mut pipe) = child.stderr.take() {
-                std::io::Read::read_to_string(&mut pipe, &mut stderr).expect("stderr");
-            }
-            return (status.code(), stderr);
+            break status;
         }
-        if start.elapsed() > DEADLINE {
+        if start.elapsed() > bounds.deadline {
             child.kill().ok();
             child.wait().ok();
-            panic!("nimbus {args:?} still running after {DEADLINE:?} (blocked?)");
+            panic!(
+                "nimbus {args:?} still running after {:?} (blocked?)",
+                bounds.deadline
+            );
         }
         std::thread::sleep(Duration::from_millis(20));
+    };
+    Output {
+        status,
+        stdout: stdout.join().expect("stdout"),
+        stderr: stderr.join().expect("stderr"),
     }
+}
+
+/// Reads a child's pipe to the end on a thread of its own.
+fn drain<R: std::io::Read + Send + 'static>(pipe: Option<R>) -> std::thread::JoinHandle<Vec<u8>> {
+    std::thread::spawn(move || {
+        let mut bytes = Vec::new();
+        if let Some(mut pipe) = pipe {
+            pipe.read_to_end(&mut bytes).ok();
+        }
+        bytes
+    })
 }
 
 /// The run failed with exit code 1 and one line containing every `needle`.
 fn assert_refused(args: &[&str], dir: &Path, needles: &[&str]) {
-    let (code, stderr) = bounded_run(args, dir);
-    assert_eq!(code, Some(1), "{args:?}: {stderr}");
+    let out = bounded_run(args, dir, &INPUT_BOUNDS);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{args:?}: {stderr}");
     assert_eq!(stderr.trim_end().lines().count(), 1, "{args:?}: {stderr}");
     for needle in needles {
         assert!(
@@ -110,7 +140,7 @@ fn wind_scene(dir: &Path, file: &str) {
 
 #[test]
 fn wind_fields_that_never_end_block_or_are_huge_are_refused_unread() {
-    let dir = temp_dir("wind");
+    let dir = temp_dir("reliability", "wind");
     std::os::unix::fs::symlink("/dev/zero", dir.join("zero.npy")).expect("symlink");
     wind_scene(&dir, "zero.npy");
     assert_refused(
@@ -151,7 +181,7 @@ fn wind_fields_that_never_end_block_or_are_huge_are_refused_unread() {
 
 #[test]
 fn meshes_and_their_buffers_are_bounded() {
-    let dir = temp_dir("mesh");
+    let dir = temp_dir("reliability", "mesh");
     let scene = |mesh: &str| {
         std::fs::write(
             dir.join("scene.toml"),
@@ -196,7 +226,7 @@ fn meshes_and_their_buffers_are_bounded() {
 
 #[test]
 fn scene_and_roots_files_are_bounded_before_parsing() {
-    let dir = temp_dir("scene");
+    let dir = temp_dir("reliability", "scene");
     // 600,000 objects (~50 MB): refused by size, not after a 2.5 GB parse.
     let mut text = String::with_capacity(56 << 20);
     for _ in 0..600_000 {
@@ -240,7 +270,7 @@ fn scene_and_roots_files_are_bounded_before_parsing() {
 /// and the limits themselves give finite documents.
 #[test]
 fn json_documents_hold_only_finite_numbers() {
-    let dir = temp_dir("json");
+    let dir = temp_dir("reliability", "json");
     for (args, needles) in [
         (
             &[
@@ -338,7 +368,7 @@ fn json_documents_hold_only_finite_numbers() {
 /// temporary file of a run still going.
 #[test]
 fn the_next_run_removes_what_a_killed_run_left() {
-    let dir = temp_dir("stale");
+    let dir = temp_dir("reliability", "stale");
     // Beyond Linux's largest pid (2²²): no such process.
     let stale = dir.join(".phase.svg.999999999.tmp");
     let live = dir.join(format!(".phase.svg.{}.tmp", std::process::id()));
@@ -346,7 +376,7 @@ fn the_next_run_removes_what_a_killed_run_left() {
     for file in [&stale, &live, &other] {
         std::fs::write(file, b"partial").expect("write");
     }
-    let (code, stderr) = bounded_run(
+    let out = bounded_run(
         &[
             "optics",
             "dsd",
@@ -356,8 +386,9 @@ fn the_next_run_removes_what_a_killed_run_left() {
             "phase.svg",
         ],
         &dir,
+        &INPUT_BOUNDS,
     );
-    assert_eq!(code, Some(0), "{stderr}");
+    support::assert_success(&out);
     assert!(dir.join("phase.svg").exists());
     assert!(!stale.exists(), "the killed run's file is still there");
     assert!(live.exists() && other.exists());
@@ -377,60 +408,19 @@ const GPU_ADDRESS_SPACE_KIB: u64 = 1792 * 1024;
 /// software adapter, its shaders compiled).
 const GPU_DEADLINE: Duration = Duration::from_secs(300);
 
-/// Reads a child's pipe to the end on a thread of its own.
-fn drain<R: std::io::Read + Send + 'static>(pipe: Option<R>) -> std::thread::JoinHandle<String> {
-    std::thread::spawn(move || {
-        let mut text = String::new();
-        if let Some(mut pipe) = pipe {
-            pipe.read_to_string(&mut text).ok();
-        }
-        text
-    })
-}
-
-/// Runs `nimbus ARGS` in `dir` under [`GPU_ADDRESS_SPACE_KIB`], with the
-/// threads that reserve address space (llvmpipe's rasterizer, rayon's
-/// pool, glibc's malloc arenas) bounded so that what it needs does not
-/// grow with the machine's cores; kills it and fails past the deadline.
-/// Returns (exit code, stdout, stderr).
-fn gpu_run(args: &[&str], dir: &Path) -> (Option<i32>, String, String) {
-    let mut child = Command::new("bash")
-        .arg("-c")
-        .arg(format!(
-            "ulimit -v {GPU_ADDRESS_SPACE_KIB} && exec \"$0\" \"$@\""
-        ))
-        .arg(env!("CARGO_BIN_EXE_nimbus"))
-        .args(args)
-        .envs([
-            ("LP_NUM_THREADS", "2"),
-            ("RAYON_NUM_THREADS", "2"),
-            ("MALLOC_ARENA_MAX", "2"),
-        ])
-        .current_dir(dir)
-        .stdin(Stdio::null())
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .expect("runs");
-    let (stdout, stderr) = (drain(child.stdout.take()), drain(child.stderr.take()));
-    let start = Instant::now();
-    let status = loop {
-        if let Some(status) = child.try_wait().expect("waits") {
-            break status;
-        }
-        if start.elapsed() > GPU_DEADLINE {
-            child.kill().ok();
-            child.wait().ok();
-            panic!("nimbus {args:?} still running after {GPU_DEADLINE:?} (blocked?)");
-        }
-        std::thread::sleep(Duration::from_millis(50));
-    };
-    (
-        status.code(),
-        stdout.join().expect("stdout"),
-        stderr.join().expect("stderr"),
-    )
-}
+/// The bounds of the GPU runs: [`GPU_ADDRESS_SPACE_KIB`], with the
+/// threads that reserve address space (llvmpipe's rasterizer, rayon's pool,
+/// glibc's malloc arenas) bounded so that what a run needs does not grow
+/// with the machine's cores.
+const GPU_BOUNDS: Bounds = Bounds {
+    address_space_kib: GPU_ADDRESS_SPACE_KIB,
+    deadline: GPU_DEADLINE,
+    envs: &[
+        ("LP_NUM_THREADS", "2"),
+        ("RAYON_NUM_THREADS", "2"),
+        ("MALLOC_ARENA_MAX", "2"),
+    ],
+};
 
 /// Out of GPU memory ends `render`, `animate` and `bench` with one line,
 /// no panic and nothing written. Forced for real on the software adapter
@@ -441,7 +431,7 @@ fn gpu_run(args: &[&str], dir: &Path) -> (Option<i32>, String, String) {
 /// forces it in the library.
 #[test]
 fn out_of_gpu_memory_ends_render_animate_and_bench_with_one_line_and_nothing_written() {
-    let dir = temp_dir("gpu-memory");
+    let dir = temp_dir("reliability", "gpu-memory");
     let small = [
         "render",
         "--adapter",
@@ -453,12 +443,8 @@ fn out_of_gpu_memory_ends_render_animate_and_bench_with_one_line_and_nothing_wri
         "-o",
         "small.png",
     ];
-    let (code, _, stderr) = gpu_run(&small, &dir);
-    assert_eq!(
-        code,
-        Some(0),
-        "the control frame failed under the bound: {stderr}"
-    );
+    // The control: a small frame renders under the bound.
+    support::assert_success(&bounded_run(&small, &dir, &GPU_BOUNDS));
     std::fs::remove_file(dir.join("small.png")).expect("the control frame was written");
 
     let largest = [
@@ -476,20 +462,13 @@ fn out_of_gpu_memory_ends_render_animate_and_bench_with_one_line_and_nothing_wri
     ];
     for command in commands {
         let args: Vec<&str> = command.iter().chain(&largest).copied().collect();
-        let (code, stdout, stderr) = gpu_run(&args, &dir);
-        assert_eq!(code, Some(1), "{args:?}: {stderr}");
-        let errors: Vec<&str> = stderr
-            .lines()
-            .filter(|l| l.starts_with("nimbus: error: "))
-            .collect();
-        assert_eq!(errors.len(), 1, "{args:?}: {stderr}");
-        assert!(
-            errors[0].contains("the GPU ran out of memory while rendering a 8192×8192 frame"),
-            "{args:?}: {}",
-            errors[0]
+        let out = bounded_run(&args, &dir, &GPU_BOUNDS);
+        assert_eq!(out.status.code(), Some(1), "{args:?}");
+        support::assert_fails_with(
+            &out,
+            &["the GPU ran out of memory while rendering a 8192×8192 frame"],
         );
-        assert!(!stderr.contains("panicked"), "{args:?}: {stderr}");
-        assert!(stdout.is_empty(), "{args:?}: stdout {stdout}");
+        assert!(out.stdout.is_empty(), "{args:?}: stdout {:?}", out.stdout);
     }
     // No image, no temporary file; animate's directory holds no frame.
     assert_eq!(support::files_in(&dir), ["frames"]);
@@ -497,30 +476,24 @@ fn out_of_gpu_memory_ends_render_animate_and_bench_with_one_line_and_nothing_wri
     std::fs::remove_dir_all(&dir).ok();
 }
 
+/// A roots file of one root blob.
+const ONE_ROOT: &str = r#"[{"centre_m": [0, 0, 0], "radius_m": 300, "flattening": 0.3}]"#;
+
 /// One root and no generated level is a valid cloud (a flattened sphere);
 /// it was refused as "surface empty" (the seed search started at the
 /// blob's centre, where the field's gradient vanishes).
 #[test]
 fn a_single_root_without_levels_is_a_cloud() {
-    let dir = temp_dir("one-root");
-    std::fs::write(
-        dir.join("one.json"),
-        r#"[{"centre_m": [0, 0, 0], "radius_m": 300, "flattening": 0.3}]"#,
-    )
-    .expect("roots");
-    let out = Command::new(env!("CARGO_BIN_EXE_nimbus"))
-        .args([
+    let dir = temp_dir("reliability", "one-root");
+    std::fs::write(dir.join("one.json"), ONE_ROOT).expect("roots");
+    let out = support::nimbus(
+        &[
             "cumulus", "--roots", "one.json", "--levels", "0", "--lods", "1", "-o", "one.glb",
             "--json",
-        ])
-        .current_dir(&dir)
-        .output()
-        .expect("runs");
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
+        ],
+        &dir,
     );
+    support::assert_success(&out);
     let report: serde_json::Value = serde_json::from_slice(&out.stdout).expect("one JSON document");
     assert_eq!(report["watertight"], true, "{report}");
     assert!(report["triangles"].as_u64().unwrap_or(0) > 100, "{report}");
@@ -532,12 +505,8 @@ fn a_single_root_without_levels_is_a_cloud() {
 /// was replaced before the hierarchy failed), and no temporary is left.
 #[test]
 fn cumulus_outputs_are_replaced_together_or_not_at_all() {
-    let dir = temp_dir("set");
-    std::fs::write(
-        dir.join("one.json"),
-        r#"[{"centre_m": [0, 0, 0], "radius_m": 300, "flattening": 0.3}]"#,
-    )
-    .expect("roots");
+    let dir = temp_dir("reliability", "set");
+    std::fs::write(dir.join("one.json"), ONE_ROOT).expect("roots");
     std::fs::write(dir.join("one.glb"), b"the previous mesh").expect("write");
     // A hierarchy path that is a directory: no file can be renamed onto it.
     std::fs::create_dir(dir.join("one.json.d")).expect("mkdir");
@@ -579,7 +548,7 @@ fn cumulus_outputs_are_replaced_together_or_not_at_all() {
 /// measured: 128 MB resident), 87,000 `[[objects]]`.
 #[test]
 fn the_costliest_megabyte_scenes_stay_within_the_memory_bound() {
-    let dir = temp_dir("megabyte");
+    let dir = temp_dir("reliability", "megabyte");
     let n = 1024 * 1024 - 64;
     let array = format!("a = [{}]\n", "1,".repeat((n - 10) / 2));
     let dotted: String = (0..n / 14).map(|i| format!("a.b{i}.c=1\n")).collect();

@@ -145,9 +145,14 @@ pub fn gltf_from_bytes(
     let not_gltf = |e: gltf::Error| invalid(format!("not valid glTF 2.0: {e}"));
     // gltf-json 1.4.1's validation indexes the accessor a primitive's
     // POSITION names without checking it exists (a panic found by fuzzing:
-    // fuzz/regressions/gltf/); those indices are checked first.
-    let unchecked = gltf::Gltf::from_slice_without_validation(data).map_err(not_gltf)?;
-    let root = unchecked.document.as_json();
+    // fuzz/regressions/gltf/); those indices are checked first, then the
+    // parsed document is validated (parsed once: a .glb's binary chunk is
+    // copied by the parse).
+    let gltf::Gltf {
+        document: unchecked,
+        blob,
+    } = gltf::Gltf::from_slice_without_validation(data).map_err(not_gltf)?;
+    let root = unchecked.as_json();
     for (m, mesh) in root.meshes.iter().enumerate() {
         for (p, primitive) in mesh.primitives.iter().enumerate() {
             let position = gltf::json::validation::Checked::Valid(gltf::Semantic::Positions);
@@ -162,7 +167,7 @@ pub fn gltf_from_bytes(
             }
         }
     }
-    let gltf::Gltf { document, blob } = gltf::Gltf::from_slice(data).map_err(not_gltf)?;
+    let document = gltf::Document::from_json(unchecked.into_json()).map_err(not_gltf)?;
     let scene = document
         .default_scene()
         .or_else(|| document.scenes().next())

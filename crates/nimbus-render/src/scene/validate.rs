@@ -5,6 +5,7 @@
 //! `scene.toml: camera.fov_deg = 190: must be a finite number in [0.01, 179]`.
 
 use super::Scene;
+use nimbus_physics::io::shown_text as shown;
 use std::fmt::Display;
 
 /// What errors of a scene made in code name in place of a file ([`Scene::check`]).
@@ -77,8 +78,6 @@ const MAX_SHOWN_CHARS: usize = nimbus_physics::io::MAX_SHOWN_CHARS;
 
 /// Most characters of a parser's message in an error line.
 const MAX_MESSAGE_CHARS: usize = 240;
-
-use nimbus_physics::io::shown_text as shown;
 
 /// `message` with each `quoted` value in it shortened (see [`shown`]).
 fn shorten_quoted(message: &str) -> String {
