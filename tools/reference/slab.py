@@ -91,7 +91,7 @@ def parse_args(argv):
     if a.spp < 1 or a.runs < 2:
         p.error("--spp must be at least 1 and --runs at least 2")
     if not os.access(a.nimbus, os.X_OK):
-        p.error(f"--nimbus {a.nimbus}: not an executable (build it with cargo build -p nimbus-cli)")
+        p.error(f"--nimbus {a.nimbus}: not an executable (build it with cargo build -p nimbus-sky)")
     return a
 
 

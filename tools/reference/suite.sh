@@ -33,7 +33,7 @@ fi
 : "${DRJIT_LIBLLVM_PATH:=/usr/lib/x86_64-linux-gnu/libLLVM.so.19.1}"
 export DRJIT_LIBLLVM_PATH
 
-cargo build -p nimbus-cli --quiet
+cargo build -p nimbus-sky --quiet
 nimbus=target/debug/nimbus
 mkdir -p scenes/realism/references
 

@@ -15,6 +15,20 @@ pub fn nimbus(args: &[&str], dir: &Path) -> Output {
         .expect("run nimbus")
 }
 
+/// Runs `nimbus ARGS` in `dir` as on a machine without a display: no
+/// `XDG_RUNTIME_DIR`, `WAYLAND_DISPLAY` or `DISPLAY`.
+pub fn nimbus_without_display(args: &[&str], dir: &Path) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_nimbus"))
+        .args(args)
+        .current_dir(dir)
+        .env_remove("XDG_RUNTIME_DIR")
+        .env_remove("WAYLAND_DISPLAY")
+        .env_remove("DISPLAY")
+        .stdin(Stdio::null())
+        .output()
+        .expect("run nimbus")
+}
+
 /// An empty scratch directory for one test (`group` names the test file).
 pub fn temp_dir(group: &str, name: &str) -> PathBuf {
     let dir = std::env::temp_dir().join(format!("nimbus-{group}-{name}-{}", std::process::id()));

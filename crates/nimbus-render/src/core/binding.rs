@@ -183,6 +183,45 @@ pub fn sequential_bind_group(
     })
 }
 
+/// Bind groups that bind a texture view handed in at encode time (the
+/// caller's depth buffer), made the first time a view is seen and kept while
+/// the same view comes back, instead of made and dropped every frame. Holds
+/// one view's groups: a new view replaces them. Owned by whatever owns the
+/// groups' other resources, so that it goes with them.
+#[derive(Debug)]
+pub struct PerViewGroups<T> {
+    cached: std::sync::Mutex<Option<(wgpu::TextureView, T)>>,
+}
+
+impl<T> Default for PerViewGroups<T> {
+    fn default() -> Self {
+        Self {
+            cached: std::sync::Mutex::new(None),
+        }
+    }
+}
+
+impl<T: Clone> PerViewGroups<T> {
+    /// The groups made for `view`: those kept when `view` is the one they
+    /// were made for, else `make()`'s, kept for the next call.
+    pub fn get(&self, view: &wgpu::TextureView, make: impl FnOnce() -> T) -> T {
+        // A poisoned lock only means a panic elsewhere while it was held:
+        // the cache is then remade.
+        let mut cached = self
+            .cached
+            .lock()
+            .unwrap_or_else(std::sync::PoisonError::into_inner);
+        match &*cached {
+            Some((kept, groups)) if kept == view => groups.clone(),
+            _ => {
+                let groups = make();
+                *cached = Some((view.clone(), groups.clone()));
+                groups
+            }
+        }
+    }
+}
+
 /// Maps a `MAP_READ` buffer after its copies were submitted, waits for the
 /// device, and returns its bytes (the buffer is unmapped again). An error
 /// (e.g. the device was lost) is wgpu's message; callers on a device with

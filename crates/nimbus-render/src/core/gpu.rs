@@ -44,6 +44,75 @@ impl fmt::Display for AdapterPreference {
     }
 }
 
+/// The window systems' Vulkan surface extensions on Unix desktops. A
+/// headless instance leaves them out: with any of them enabled, Mesa's
+/// device-selection layer (installed with its drivers, software Vulkan
+/// included) connects to the display server to choose a default device,
+/// and without one libwayland prints `error: XDG_RUNTIME_DIR is invalid or
+/// not set in the environment.` on standard error at each enumeration.
+#[cfg(all(
+    unix,
+    not(target_os = "macos"),
+    not(target_os = "ios"),
+    not(target_os = "android")
+))]
+const WINDOW_SYSTEM_EXTENSIONS: [&std::ffi::CStr; 3] = [
+    c"VK_KHR_wayland_surface",
+    c"VK_KHR_xcb_surface",
+    c"VK_KHR_xlib_surface",
+];
+
+/// A Vulkan-only instance without [`WINDOW_SYSTEM_EXTENSIONS`], for
+/// drawing offscreen; `None` where Vulkan cannot be loaded (the caller then
+/// makes wgpu's usual instance, which reports the missing driver).
+#[cfg(all(
+    unix,
+    not(target_os = "macos"),
+    not(target_os = "ios"),
+    not(target_os = "android")
+))]
+#[allow(unsafe_code)]
+fn headless_vulkan_instance(descriptor: &wgpu::InstanceDescriptor) -> Option<wgpu::Instance> {
+    use wgpu::hal;
+    let hal_descriptor = hal::InstanceDescriptor {
+        name: "nimbus",
+        flags: descriptor.flags,
+        memory_budget_thresholds: descriptor.memory_budget_thresholds,
+        backend_options: descriptor.backend_options.clone(),
+        telemetry: None,
+        display: None,
+    };
+    let leave_out_window_systems: Box<hal::vulkan::CreateInstanceCallback<'_>> = Box::new(|args| {
+        args.extensions
+            .retain(|name| !WINDOW_SYSTEM_EXTENSIONS.contains(name));
+    });
+    // SAFETY: `init_with_callback` asks that the callback remove no
+    // feature wgpu relies on. The three extensions removed serve only
+    // `create_surface_from_{wayland,xcb,xlib}`, which check the instance's
+    // enabled extensions first and return an error when one is missing;
+    // nimbus never creates a surface on this instance (it draws offscreen;
+    // the viewer makes its own instance with a display).
+    let instance = unsafe {
+        hal::vulkan::Instance::init_with_callback(&hal_descriptor, Some(leave_out_window_systems))
+    }
+    .ok()?;
+    // SAFETY: a valid Vulkan instance, made just above and handed over
+    // whole: wgpu owns and destroys it.
+    Some(unsafe { wgpu::Instance::from_hal::<hal::api::Vulkan>(instance) })
+}
+
+/// Elsewhere, the platform's window systems do not open connections when an
+/// instance is made: wgpu's usual instance.
+#[cfg(not(all(
+    unix,
+    not(target_os = "macos"),
+    not(target_os = "ios"),
+    not(target_os = "android")
+)))]
+fn headless_vulkan_instance(_descriptor: &wgpu::InstanceDescriptor) -> Option<wgpu::Instance> {
+    None
+}
+
 /// What to install when no adapter is found.
 pub const NO_ADAPTER_HELP: &str = "install a Vulkan driver; without a GPU use software Vulkan (Debian/Ubuntu: apt-get install mesa-vulkan-drivers)";
 
@@ -104,19 +173,40 @@ impl GpuContext {
     /// queries where the adapter supports them. The device's uncaptured
     /// errors and its loss are recorded in [`Self::faults`] instead of
     /// panicking (an uncaptured-error handler installed later replaces the
-    /// record's).
+    /// record's). The instance is [`Self::headless_instance`]'s: no
+    /// display server is asked.
     pub fn new(preference: AdapterPreference) -> Result<Self, GpuError> {
-        Self::with_instance(&Self::instance(), preference, None)
+        Self::with_instance(&Self::headless_instance(), preference, None)
     }
 
     /// A wgpu instance on the backends named by `WGPU_BACKEND`, else the
-    /// primary ones (Vulkan, Metal, DX12).
+    /// primary ones (Vulkan, Metal, DX12), that can present to windows.
     pub fn instance() -> wgpu::Instance {
+        wgpu::Instance::new(Self::instance_descriptor())
+    }
+
+    /// A wgpu instance for drawing offscreen, on the same backends as
+    /// [`Self::instance`]. Where that is Vulkan on a Unix desktop, it
+    /// enables no window system's surface extension (with one, Mesa's
+    /// device-selection layer asks the display server for its device, and
+    /// prints errors where there is none), so that opening it touches no
+    /// display server.
+    pub fn headless_instance() -> wgpu::Instance {
+        let descriptor = Self::instance_descriptor();
+        if std::env::var_os("WGPU_BACKEND").is_none()
+            && let Some(instance) = headless_vulkan_instance(&descriptor)
+        {
+            return instance;
+        }
+        wgpu::Instance::new(descriptor)
+    }
+
+    fn instance_descriptor() -> wgpu::InstanceDescriptor {
         let mut descriptor = wgpu::InstanceDescriptor::new_without_display_handle_from_env();
         if std::env::var_os("WGPU_BACKEND").is_none() {
             descriptor.backends = wgpu::Backends::PRIMARY;
         }
-        wgpu::Instance::new(descriptor)
+        descriptor
     }
 
     /// Like [`Self::new`] on the caller's instance, with an adapter that can

@@ -310,7 +310,7 @@ impl Renderer {
             run.remove(PassId::StratusLighting);
             run.remove(PassId::Stratus);
         }
-        // 3. The cumulus shadow map (cleared to "no cloud" when there is none).
+        // 3. The cumulus shadow map, when what it shows has changed.
         self.cumulus.encode_shadow(
             encoder,
             &frame,
@@ -319,7 +319,7 @@ impl Renderer {
                 .as_ref()
                 .map(|t| (t.query_set(), PassId::CumulusShadow.timer_index())),
         );
-        if !self.cumulus.shadow_enabled() {
+        if !self.cumulus.shadow_redrawn() {
             run.remove(PassId::CumulusShadow);
         }
         // 3b. The rain: its shadow map when needed, the steps since the last

@@ -484,6 +484,9 @@ impl Renderer {
         self.check_output()?;
         let camera = &view.pinhole(height);
         if self.hdr.as_ref().map(Target::size) != Some((width, height)) {
+            // A software driver may end the process where it runs out of
+            // memory: the targets are refused first where they cannot fit.
+            limits::check_frame_memory(&self.device, width, height)?;
             let hdr = Target::new(
                 &self.device,
                 "hdr colour",
@@ -690,6 +693,12 @@ impl Renderer {
     /// Makes the next frame recompute every atmosphere LUT (for benchmarks).
     pub fn invalidate_atmosphere(&self) {
         self.atmosphere.invalidate();
+    }
+
+    /// Makes the next frame redraw the cloud shadow map even where what it
+    /// shows has not changed (for benchmarks).
+    pub fn invalidate_cloud_shadow(&self) {
+        self.cumulus.invalidate_shadow();
     }
 
     /// The exposure pass (its state buffer holds the applied EV100).

@@ -14,7 +14,7 @@
 //!    what lies behind in alpha) blended premultiplied "over" the caller's
 //!    colour target, so that a pixel nimbus did not draw over keeps its value.
 
-use crate::core::binding::{self, UniformBinding};
+use crate::core::binding::{self, PerViewGroups, UniformBinding};
 use crate::core::pipeline::{DrawPipeline, PREMULTIPLIED_OVER, depth_state, hdr_target};
 use crate::frame::{FrameBindings, FrameLayouts, View};
 use crate::shader::{self, WgslFile};
@@ -63,6 +63,9 @@ pub struct CompositePass {
     /// The groups of nimbus's own targets (its depth for the air, its colour
     /// for the export), made when they are ([`Self::set_targets`]).
     target_groups: Option<(wgpu::BindGroup, wgpu::BindGroup)>,
+    /// The depth import's group with the caller's depth, made once per
+    /// depth view the caller hands in.
+    import_group: PerViewGroups<wgpu::BindGroup>,
     depth_import: wgpu::RenderPipeline,
     aerial: wgpu::RenderPipeline,
     export: wgpu::RenderPipeline,
@@ -152,6 +155,7 @@ impl CompositePass {
             aerial_layout,
             export_layout,
             target_groups: None,
+            import_group: PerViewGroups::default(),
             depth_import,
             aerial,
             export,
@@ -189,21 +193,23 @@ impl CompositePass {
         frame: &FrameBindings<'_>,
         timestamp_writes: Option<wgpu::RenderPassTimestampWrites<'_>>,
     ) {
-        let group = self.group(
-            device,
-            "depth import",
-            &self.import_layout,
-            &[
-                wgpu::BindGroupEntry {
-                    binding: 0,
-                    resource: self.params.buffer.as_entire_binding(),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 1,
-                    resource: wgpu::BindingResource::TextureView(caller_depth),
-                },
-            ],
-        );
+        let group = self.import_group.get(caller_depth, || {
+            self.group(
+                device,
+                "depth import",
+                &self.import_layout,
+                &[
+                    wgpu::BindGroupEntry {
+                        binding: 0,
+                        resource: self.params.buffer.as_entire_binding(),
+                    },
+                    wgpu::BindGroupEntry {
+                        binding: 1,
+                        resource: wgpu::BindingResource::TextureView(caller_depth),
+                    },
+                ],
+            )
+        });
         let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
             label: Some("depth import"),
             color_attachments: &[],

@@ -33,6 +33,16 @@ pub struct CumulusUniform {
 }
 
 impl CumulusUniform {
+    /// The uniform without the sun's radiance (`sun_at_base`'s colour,
+    /// `sun_per_m`): what the shadow map's drawing reads of it.
+    pub fn without_sun(&self) -> Self {
+        Self {
+            sun_at_base: [0.0, 0.0, 0.0, self.sun_at_base[3]],
+            sun_per_m: [0.0; 4],
+            ..*self
+        }
+    }
+
     /// The uniform of a scene's cumulus settings.
     ///
     /// C_s is computed here rather than per pixel from the transmittance

@@ -31,6 +31,7 @@ use nimbus_physics::cumulus::forward_peak::ForwardPeakTable;
 use nimbus_physics::optics::tables::CloudOpticsParams;
 use std::ops::Range;
 use std::sync::Arc;
+use std::sync::atomic::AtomicBool;
 use variants::{CumulusVariant, VariantParams};
 
 /// The shader's terms (CPU twin: `nimbus_physics::cumulus::shading`).
@@ -103,6 +104,7 @@ mod gpu_types;
 mod node;
 mod prepare;
 mod resources;
+mod shadow;
 
 pub use field::{
     CumulusField, cumulus_field_at, level_of_detail, shadow_clip_from_world, sphere_in_frustum,
@@ -203,7 +205,17 @@ pub struct CumulusPass {
     draws: Vec<Draw>,
     shadow_draws: Vec<Draw>,
     enabled: bool,
+    /// The clouds cast shadows this frame (the map's uniform says so).
     shadow_enabled: bool,
+    /// What the shadow map holds, or is to hold once this frame's encode
+    /// has drawn it.
+    shadow_content: Option<shadow::ShadowContent>,
+    /// This frame's encode draws the map (its content changed).
+    shadow_redraw: bool,
+    /// An encode has recorded the drawing of [`Self::shadow_content`]; until
+    /// then a frame whose clouds match it still draws it. Atomic: encoding
+    /// takes `&self`.
+    shadow_drawn: AtomicBool,
 }
 
 #[cfg(test)]

@@ -4,6 +4,7 @@ use super::{CumulusPass, Draw, FringeTargets};
 use crate::core::binding;
 use crate::frame::cloud_shadow::CloudShadowMap;
 use crate::frame::{CLOUD_LIGHTING_GROUP, FRAME_GROUP, FrameBindings, PASS_GROUP};
+use std::sync::atomic::Ordering;
 
 impl CumulusPass {
     pub(super) fn ensure_fringe_targets(&mut self, device: &wgpu::Device, width: u32, height: u32) {
@@ -53,7 +54,10 @@ impl CumulusPass {
         }
     }
 
-    /// Records the shadow map: nearest cores, then farthest.
+    /// Records the shadow map, nearest cores then farthest, when its
+    /// content changed this frame (see [`super::shadow`]); nothing when the
+    /// map it holds is this frame's or the clouds cast no shadow (the
+    /// map's uniform then says it holds none, and nothing reads it).
     pub fn encode_shadow(
         &self,
         encoder: &mut wgpu::CommandEncoder,
@@ -61,6 +65,9 @@ impl CumulusPass {
         shadow_map: &CloudShadowMap,
         timestamps: Option<(&wgpu::QuerySet, u32)>,
     ) {
+        if !self.shadow_redrawn() {
+            return;
+        }
         for (layer, pipeline) in self.shadow_pipelines.iter().enumerate() {
             let clear = if layer == 0 { 1.0 } else { 0.0 };
             let timestamp_writes =
@@ -84,15 +91,13 @@ impl CumulusPass {
                 occlusion_query_set: None,
                 multiview_mask: None,
             });
-            if !self.shadow_enabled {
-                continue;
-            }
             pass.set_pipeline(pipeline);
             pass.set_bind_group(FRAME_GROUP, frame.frame, &[]);
             pass.set_bind_group(PASS_GROUP, &self.group, &[]);
             pass.set_bind_group(CLOUD_LIGHTING_GROUP, shadow_map.uniform_group(), &[]);
             self.record(&mut pass, &self.shadow_draws);
         }
+        self.shadow_drawn.store(true, Ordering::Release);
     }
 
     /// Records the opaque bodies into a pass on the HDR target and depth.

@@ -5,6 +5,7 @@ use super::field::{
     sphere_in_frustum,
 };
 use super::gpu_types::{CloudPlacement, CumulusInstance, CumulusUniform};
+use super::shadow::{ShadowContent, ShadowKey};
 use super::variants::{CumulusVariant, VariantParams};
 use super::{
     CumulusError, CumulusPass, Draw, FieldCloud, FieldKey, GpuLod, GpuVariant,
@@ -19,6 +20,7 @@ use glam::{DVec3, Vec3};
 use nimbus_physics::cumulus::forward_peak::{self, ForwardPeakTable};
 use nimbus_physics::cumulus::shading::CLOUD_ASYMMETRY;
 use std::sync::Arc;
+use std::sync::atomic::Ordering;
 use wgpu::util::DeviceExt;
 
 impl CumulusPass {
@@ -81,6 +83,7 @@ impl CumulusPass {
         self.moved.clear();
         self.enabled = false;
         self.shadow_enabled = false;
+        self.shadow_redraw = false;
         shadow_map.write(queue, &CloudShadowUniform::default());
     }
 
@@ -89,9 +92,15 @@ impl CumulusPass {
         self.enabled
     }
 
-    /// Whether the shadow map is drawn this frame.
-    pub fn shadow_enabled(&self) -> bool {
-        self.shadow_enabled
+    /// Whether the shadow map is drawn this frame: the clouds cast shadows
+    /// and what the map holds is not this frame's already.
+    pub fn shadow_redrawn(&self) -> bool {
+        self.shadow_enabled && self.shadow_redraw
+    }
+
+    /// Makes the next [`Self::prepare`] redraw the shadow map.
+    pub fn invalidate_shadow(&self) {
+        self.shadow_drawn.store(false, Ordering::Release);
     }
 
     /// The clouds of the last prepared frame, where the wind has carried
@@ -192,6 +201,7 @@ impl CumulusPass {
                 .collect();
             self.variants = Some((params, gpu));
             self.field = None;
+            self.shadow_content = None;
         }
         let Some((_, variants)) = &self.variants else {
             return Ok(());
@@ -273,19 +283,58 @@ impl CumulusPass {
         let sun = scene.sun.direction();
         let to_sun = DVec3::from_array(sun);
         self.shadow_enabled = to_sun.y > 0.0 && !clouds.is_empty() && settings.terms.shadow;
+        self.shadow_redraw = false;
         if self.shadow_enabled {
-            let mut shadow_list: Vec<(usize, usize, CumulusInstance)> = clouds
+            let shapes: Vec<(usize, usize)> = clouds
                 .iter()
                 .map(|cloud| {
                     let lods = variants[cloud.variant].lods.len();
-                    (cloud.variant, SHADOW_LOD.min(lods - 1), cloud.instance)
+                    (cloud.variant, SHADOW_LOD.min(lods - 1))
                 })
                 .collect();
-            shadow_list.sort_by_key(|(v, l, _)| (*v, *l));
-            push_runs(&shadow_list, &mut self.shadow_draws, &mut data);
-            let spheres: Vec<(DVec3, f64)> =
-                clouds.iter().map(|c| (c.centre_m, c.radius_m)).collect();
-            let (matrix, depth_m) = shadow_clip_from_world(to_sun, &spheres);
+            let key = ShadowKey {
+                uniform: uniform.without_sun(),
+                shapes,
+            };
+            let centres_m: Vec<DVec3> = clouds.iter().map(|c| c.centre_m).collect();
+            // The map kept (translated with the field's drift) where its
+            // clouds and sun are this frame's; else redrawn.
+            let kept = self
+                .shadow_content
+                .as_ref()
+                .filter(|_| self.shadow_drawn.load(Ordering::Acquire))
+                .and_then(|held| {
+                    let matrix =
+                        held.reused_transform(&key, &centres_m, drift, to_sun, SHADOW_MAP_SIZE)?;
+                    Some((matrix, held.depth_m))
+                });
+            let (matrix, depth_m) = match kept {
+                Some(kept) => kept,
+                None => {
+                    let mut shadow_list: Vec<(usize, usize, CumulusInstance)> = key
+                        .shapes
+                        .iter()
+                        .zip(clouds)
+                        .map(|(&(variant, lod), cloud)| (variant, lod, cloud.instance))
+                        .collect();
+                    shadow_list.sort_by_key(|(v, l, _)| (*v, *l));
+                    push_runs(&shadow_list, &mut self.shadow_draws, &mut data);
+                    let spheres: Vec<(DVec3, f64)> =
+                        clouds.iter().map(|c| (c.centre_m, c.radius_m)).collect();
+                    let (matrix, depth_m) = shadow_clip_from_world(to_sun, &spheres);
+                    self.shadow_content = Some(ShadowContent {
+                        key,
+                        centres_m,
+                        drift_m: drift,
+                        to_sun,
+                        clip_from_world: matrix,
+                        depth_m,
+                    });
+                    self.shadow_drawn.store(false, Ordering::Release);
+                    self.shadow_redraw = true;
+                    (matrix, depth_m)
+                }
+            };
             shadow_map.write(
                 queue,
                 &CloudShadowUniform {

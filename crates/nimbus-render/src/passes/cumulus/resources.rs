@@ -12,6 +12,7 @@ use crate::core::pipeline::{DrawPipeline, PREMULTIPLIED_OVER, depth_state, hdr_t
 use crate::frame::FrameLayouts;
 use crate::frame::cloud_shadow::CloudShadowMap;
 use crate::shader;
+use std::sync::atomic::AtomicBool;
 
 impl CumulusPass {
     /// Creates the pipelines; shapes and the field are made by [`Self::prepare`].
@@ -211,6 +212,9 @@ impl CumulusPass {
             shadow_draws: Vec::new(),
             enabled: false,
             shadow_enabled: false,
+            shadow_content: None,
+            shadow_redraw: false,
+            shadow_drawn: AtomicBool::new(false),
         }
     }
 }

@@ -18,6 +18,7 @@
 //! and splashes are drawn, and blended, in the same order.
 
 use crate::core::background::Deferred;
+use crate::core::binding::PerViewGroups;
 use crate::core::limits::LimitError;
 use crate::scene::{FileStamp, RainBoxKind, RainSettings, Scene};
 use crate::shader::{self, WgslFile};
@@ -302,6 +303,9 @@ struct DropBuffers {
     /// Each segment's indirect draw arguments, `draw_args_stride` bytes apart.
     draw_args: wgpu::Buffer,
     draw_args_stride: u64,
+    /// The streaks' and splashes' bind groups, one per segment, with the
+    /// frame's depth: made once per depth view, not per frame.
+    draw_groups: PerViewGroups<Vec<wgpu::BindGroup>>,
 }
 
 /// The rain's buffers besides the drops', which the drops' bind groups bind.
@@ -311,6 +315,8 @@ struct SharedBuffers {
     wind_grid: wgpu::Buffer,
     zones: wgpu::Buffer,
     occlusion_view: wgpu::TextureView,
+    /// The mist's bind group with the frame's depth, made once per depth view.
+    mist_group: PerViewGroups<wgpu::BindGroup>,
 }
 
 struct RainState {

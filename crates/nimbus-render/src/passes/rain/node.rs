@@ -101,26 +101,30 @@ impl RainPass {
         }
     }
 
-    /// The bind group of the draws of one drops' buffer, with the frame's
-    /// depth (read-only).
-    pub(super) fn draw_group(
-        &self,
-        state: &RainState,
-        segment: &DropSegment,
-        depth: &wgpu::TextureView,
-    ) -> wgpu::BindGroup {
-        binding::sequential_bind_group(
-            &self.device,
-            "rain draw",
-            &self.draw_layout,
-            vec![
-                self.uniform.as_entire_binding(),
-                segment.drops.as_entire_binding(),
-                segment.visible.as_entire_binding(),
-                state.shared.splashes.as_entire_binding(),
-                wgpu::BindingResource::TextureView(depth),
-            ],
-        )
+    /// The bind groups of the draws, one per drops' buffer, with the
+    /// frame's depth (read-only): made the first time `depth` is seen.
+    fn draw_groups(&self, state: &RainState, depth: &wgpu::TextureView) -> Vec<wgpu::BindGroup> {
+        state.drops.draw_groups.get(depth, || {
+            state
+                .drops
+                .segments
+                .iter()
+                .map(|segment| {
+                    binding::sequential_bind_group(
+                        &self.device,
+                        "rain draw",
+                        &self.draw_layout,
+                        vec![
+                            self.uniform.as_entire_binding(),
+                            segment.drops.as_entire_binding(),
+                            segment.visible.as_entire_binding(),
+                            state.shared.splashes.as_entire_binding(),
+                            wgpu::BindingResource::TextureView(depth),
+                        ],
+                    )
+                })
+                .collect()
+        })
     }
 
     /// Draws the streaks and splashes into `pass` (whose depth attachment is
@@ -137,11 +141,12 @@ impl RainPass {
         // Group 1 differs per drops' buffer, set below.
         frame.set_on(pass, None);
         pass.set_pipeline(&self.streaks);
-        for (index, segment) in state.drops.segments.iter().enumerate() {
+        let groups = self.draw_groups(state, depth);
+        for (index, (segment, group)) in state.drops.segments.iter().zip(&groups).enumerate() {
             if index > 0 && segment.dispatched(state.dispatched) == 0 {
                 break;
             }
-            pass.set_bind_group(PASS_GROUP, &self.draw_group(state, segment, depth), &[]);
+            pass.set_bind_group(PASS_GROUP, group, &[]);
             pass.draw_indirect(
                 &state.drops.draw_args,
                 index as u64 * state.drops.draw_args_stride,
@@ -164,23 +169,25 @@ impl RainPass {
         frame: &FrameBindings<'_>,
     ) {
         let Some(state) = &self.state else { return };
-        let group = self.device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("rain mist"),
-            layout: &self.mist_layout,
-            entries: &[
-                wgpu::BindGroupEntry {
-                    binding: 0,
-                    resource: self.uniform.as_entire_binding(),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 2,
-                    resource: wgpu::BindingResource::TextureView(depth),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 4,
-                    resource: state.shared.zones.as_entire_binding(),
-                },
-            ],
+        let group = state.shared.mist_group.get(depth, || {
+            self.device.create_bind_group(&wgpu::BindGroupDescriptor {
+                label: Some("rain mist"),
+                layout: &self.mist_layout,
+                entries: &[
+                    wgpu::BindGroupEntry {
+                        binding: 0,
+                        resource: self.uniform.as_entire_binding(),
+                    },
+                    wgpu::BindGroupEntry {
+                        binding: 2,
+                        resource: wgpu::BindingResource::TextureView(depth),
+                    },
+                    wgpu::BindGroupEntry {
+                        binding: 4,
+                        resource: state.shared.zones.as_entire_binding(),
+                    },
+                ],
+            })
         });
         pass.set_pipeline(&self.mist);
         frame.set_on(pass, Some(&group));

@@ -12,6 +12,7 @@ use super::{
     SharedBuffers, WORKGROUP_SIZE, ZONE_MAP_SIZE, ZonesKey,
 };
 use crate::core::background::Precompute;
+use crate::core::binding::PerViewGroups;
 use crate::core::{binding, limits};
 use crate::frame::Camera;
 use crate::scene::Scene;
@@ -72,6 +73,7 @@ impl RainPass {
             wind_grid,
             zones,
             occlusion_view: self.occlusion_texture.create_view(&Default::default()),
+            mist_group: PerViewGroups::default(),
         };
         RainState {
             key,
@@ -204,6 +206,7 @@ impl RainPass {
             segments,
             draw_args,
             draw_args_stride,
+            draw_groups: PerViewGroups::default(),
         }
     }
 
