@@ -30,8 +30,9 @@ enum Command {
     /// Open a window on a scene: fly and orbit cameras, a panel of every
     /// parameter, hot reload of the scene file and the shaders.
     View(commands::view::ViewArgs),
-    /// Render frames repeatedly and report per-pass GPU times.
-    Bench(commands::bench::BenchArgs),
+    /// Render frames repeatedly and report per-pass GPU times; `bench
+    /// table` makes a Markdown table of such reports.
+    Bench(commands::bench::BenchCommand),
     /// Print or check scene files.
     Scene(commands::scene::SceneArgs),
     /// The sun's position for a date, time and place (NREL SPA).

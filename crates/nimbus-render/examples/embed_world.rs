@@ -8,7 +8,12 @@
 //! nimbus, in `OutputMode::LinearHdr`, composites linear radiance over it
 //! by depth; the roof and boxes stop the rain (`Renderer::set_occluders`).
 //! Then the program tone maps its target itself. Run with
-//! `cargo run --release -p nimbus-render --example embed_world -- [out.png]`.
+//! `cargo run --release -p nimbus-render --example embed_world -- [out.png]`;
+//! `--width PX --height PX` set the size (960×540 by default), `--timings
+//! FRAMES` measures nimbus's passes over that many frames, `--json FILE|-`
+//! writes the measurement in the shape of `nimbus bench --json` (the GPU
+//! benchmark kit, `tools/gpu-bench/`, runs it so), `--adapter
+//! auto|hardware|software` picks the adapter; `--help` says more.
 
 use glam::{DVec3, Mat4};
 use nimbus_render::frame::FrameResources;
@@ -371,7 +376,8 @@ impl Program {
 /// The last rendered frame: the tone-mapped RGBA8 (sRGB) pixels and the
 /// linear radiance (RGBA, W·sr⁻¹·m⁻², the pre-exposure undone), row-major;
 /// with timestamps, each frame's GPU time per nimbus pass, ms, in
-/// `PASS_NAMES` order (`None`: not run that frame).
+/// `PASS_NAMES` order (`None`: not run that frame); and each frame's wall
+/// and CPU times.
 pub struct WorldFrame {
     /// Tone-mapped pixels, RGBA8 sRGB.
     pub pixels: Vec<u8>,
@@ -379,6 +385,22 @@ pub struct WorldFrame {
     pub radiance: Vec<[f32; 4]>,
     /// Per frame, nimbus's pass times, ms (empty without timestamps).
     pub pass_times_ms: Vec<Vec<Option<f64>>>,
+    /// Per frame, the times the program measured around nimbus's calls.
+    pub frame_times: Vec<FrameTimes>,
+    /// Rain drops simulated and drawn in the last frame (`None` without rain).
+    pub rain_drops: Option<u32>,
+}
+
+/// One frame's times, ms.
+#[derive(Clone, Copy, Debug)]
+pub struct FrameTimes {
+    /// Wall clock from the frame's submission to the device's completion of
+    /// it (the program's world and tone mapping included).
+    pub wall_ms: f64,
+    /// CPU time of `Renderer::prepare_view`.
+    pub prepare_ms: f64,
+    /// CPU time of nimbus's `encode_lighting` and `encode` calls.
+    pub encode_ms: f64,
 }
 
 /// Renders `frames` frames of the program's world with nimbus's sky, clouds
@@ -395,6 +417,8 @@ pub fn render_world(
     frames: u32,
     timestamps: bool,
 ) -> Result<WorldFrame, Box<dyn std::error::Error>> {
+    // The size against the device's limits before anything is allocated.
+    Renderer::check_size(device, width, height)?;
     // 1. nimbus, compositing linear radiance into the program's HDR target.
     let mut renderer = Renderer::new(
         device,
@@ -466,13 +490,19 @@ pub fn render_world(
 
     // 4. The frame: nimbus's lighting (shadows, rain), the program's world
     // lit through the include, nimbus over it, the program's tone mapping.
+    // Each frame is waited for, so that its wall time is its own (as
+    // `nimbus bench` measures); the last one is then read back.
     let mut pass_times_ms = Vec::new();
-    let mut frame = 0;
-    let encoder = loop {
+    let mut frame_times = Vec::new();
+    for frame in 0..frames {
         let t = first_s + frame as f32 / 30.0;
+        let prepare_start = std::time::Instant::now();
         renderer.prepare_view(scene, &view, width, height, t)?;
+        let prepare_ms = prepare_start.elapsed().as_secs_f64() * 1e3;
         let mut encoder = device.create_command_encoder(&Default::default());
+        let lighting_start = std::time::Instant::now();
         renderer.encode_lighting(&mut encoder);
+        let mut encode_ms = lighting_start.elapsed().as_secs_f64() * 1e3;
         {
             let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
                 label: Some("program world"),
@@ -506,6 +536,7 @@ pub fn render_world(
             pass.set_index_buffer(program.indices.slice(..), wgpu::IndexFormat::Uint32);
             pass.draw_indexed(0..program.index_count, 0, 0..1);
         }
+        let encode_start = std::time::Instant::now();
         renderer.encode(
             &mut encoder,
             &FrameTargets {
@@ -514,6 +545,7 @@ pub fn render_world(
                 load: TargetLoad::Keep,
             },
         );
+        encode_ms += encode_start.elapsed().as_secs_f64() * 1e3;
         {
             let group = device.create_bind_group(&wgpu::BindGroupDescriptor {
                 label: Some("program tone mapping"),
@@ -543,19 +575,26 @@ pub fn render_world(
             pass.set_bind_group(0, &group, &[]);
             pass.draw(0..3, 0..1);
         }
-        if frame + 1 == frames {
-            break encoder;
-        }
-        queue.submit([encoder.finish()]);
+        let commands = encoder.finish();
+        let submitted = std::time::Instant::now();
+        queue.submit([commands]);
+        device.poll(wgpu::PollType::wait_indefinitely())?;
+        frame_times.push(FrameTimes {
+            wall_ms: submitted.elapsed().as_secs_f64() * 1e3,
+            prepare_ms,
+            encode_ms,
+        });
         if let Some(times) = renderer.read_pass_times_ms() {
             pass_times_ms.push(times);
         }
-        frame += 1;
-    };
-    let display_pixels = read_back(device, queue, encoder, &display, 4)?;
-    if let Some(times) = renderer.read_pass_times_ms() {
-        pass_times_ms.push(times);
     }
+    let display_pixels = read_back(
+        device,
+        queue,
+        device.create_command_encoder(&Default::default()),
+        &display,
+        4,
+    )?;
     let radiance = read_back(
         device,
         queue,
@@ -567,10 +606,16 @@ pub fn render_world(
         .chunks(4)
         .map(|c| [0, 1, 2, 3].map(|k| c[k].to_f32() / pre_exposure))
         .collect();
+    let rain_drops = {
+        let rain = renderer.rain();
+        rain.enabled().then(|| rain.dispatched_drops())
+    };
     Ok(WorldFrame {
         pixels: display_pixels,
         radiance,
         pass_times_ms,
+        frame_times,
+        rain_drops,
     })
 }
 
@@ -616,68 +661,390 @@ fn read_back(
 }
 
 #[allow(dead_code)] // The golden test includes this file and calls `render_world`.
-fn main() -> Result<(), Box<dyn std::error::Error>> {
-    // `embed_world [out.png] [--timings FRAMES]`: with --timings, nimbus's
-    // per-pass GPU times over that many frames (median, ms) on standard error.
-    let args: Vec<String> = std::env::args().skip(1).collect();
-    let timings = args
-        .iter()
-        .position(|a| a == "--timings")
-        .and_then(|i| args.get(i + 1))
-        .map(|n| n.parse::<u32>())
-        .transpose()?;
-    let output_path = args
-        .first()
-        .filter(|a| !a.starts_with("--"))
-        .cloned()
-        .unwrap_or_else(|| "embed_world.png".to_owned());
-    let (width, height) = (960u32, 540u32);
-    let instance =
-        wgpu::Instance::new(wgpu::InstanceDescriptor::new_without_display_handle_from_env());
-    let adapter =
-        pollster::block_on(instance.request_adapter(&wgpu::RequestAdapterOptions::default()))?;
-    // Timestamps where the adapter has them (for --timings).
-    let features = adapter.features()
-        & (wgpu::Features::TIMESTAMP_QUERY | wgpu::Features::TIMESTAMP_QUERY_INSIDE_ENCODERS);
-    let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
-        required_features: features,
-        ..Default::default()
-    }))?;
-    let scene = Scene::from_toml_str(WORLD_SCENE, "embed_world.toml")?;
-    let frames = timings.unwrap_or(1);
-    let frame = render_world(
-        &device,
-        &queue,
-        &scene,
-        width,
-        height,
-        10.0,
-        frames,
-        timings.is_some(),
-    )?;
-    for (i, name) in nimbus_render::PASS_NAMES.iter().enumerate() {
-        let mut times: Vec<f64> = frame
-            .pass_times_ms
-            .iter()
-            .filter_map(|frame| frame[i])
-            .collect();
-        if times.is_empty() {
-            continue;
+fn main() -> std::process::ExitCode {
+    use std::process::ExitCode;
+    let options = match command_line::Options::parse(std::env::args().skip(1)) {
+        Ok(command_line::Parsed::Run(options)) => options,
+        Ok(command_line::Parsed::Help) => {
+            use std::io::Write as _;
+            // A closed pipe (`--help | head`) is not an error.
+            let _ = writeln!(std::io::stdout(), "{}", command_line::USAGE);
+            return ExitCode::SUCCESS;
         }
-        times.sort_by(f64::total_cmp);
-        eprintln!(
-            "{name:<20} median {:8.3} ms over {} frames",
-            times[times.len() / 2],
-            times.len()
-        );
+        Err(message) => {
+            eprintln!(
+                "embed_world: error: {message} (usage: {})",
+                command_line::SYNOPSIS
+            );
+            return ExitCode::from(2);
+        }
+    };
+    match command_line::run(&options) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(error) => {
+            let message = error.to_string();
+            eprintln!(
+                "embed_world: error: {}",
+                message.lines().collect::<Vec<_>>().join(" ")
+            );
+            ExitCode::FAILURE
+        }
     }
-    image::save_buffer(
-        &output_path,
-        &frame.pixels,
-        width,
-        height,
-        image::ExtendedColorType::Rgba8,
-    )?;
-    println!("wrote {output_path}");
-    Ok(())
+}
+
+/// The program's command line, its run and its timing report (only `main`
+/// uses them; the golden test includes this file for `render_world`).
+#[allow(dead_code)]
+mod command_line {
+    use super::{Scene, WORLD_SCENE, render_world};
+    use nimbus_render::{AdapterPreference, GpuContext, PASS_NAMES};
+    use serde::Serialize;
+    use std::path::{Path, PathBuf};
+
+    /// The command line in one line, for error messages.
+    pub const SYNOPSIS: &str = "embed_world [OUT.png] [--width PX] [--height PX] [--timings FRAMES] [--adapter auto|hardware|software] [--json FILE|-]";
+
+    /// `--help`.
+    pub const USAGE: &str = "\
+nimbus in a program's own frame: its world, camera and tone mapping, nimbus's
+sky, clouds and rain composited in LinearHdr; writes a PNG.
+
+Usage: embed_world [OUT.png] [--width PX] [--height PX] [--timings FRAMES]
+                   [--adapter auto|hardware|software] [--json FILE|-]
+
+  OUT.png            the tone-mapped image (default embed_world.png)
+  --width PX         image width, 1 to 16384 (default 960)
+  --height PX        image height, 1 to 16384 (default 540)
+  --timings FRAMES   render FRAMES measured frames (1 to 100000) after one
+                     warm-up frame; nimbus's per-pass GPU medians on stderr
+  --adapter KIND     auto (default: a GPU, else software), hardware, software
+  --json FILE|-      the timings as one JSON document, in the shape of
+                     `nimbus bench --json` (adapter, size, per-pass median
+                     and p95, GPU total, wall and CPU times); `-` for standard
+                     output (the `wrote` line then goes to standard error);
+                     60 frames unless --timings is given";
+
+    /// Largest `--timings`.
+    const MAX_FRAMES: u32 = 100_000;
+    /// Measured frames of `--json` without `--timings` (`nimbus bench`'s default).
+    const DEFAULT_JSON_FRAMES: u32 = 60;
+
+    /// What the command line asked for.
+    #[derive(Debug)]
+    pub struct Options {
+        output: PathBuf,
+        width: u32,
+        height: u32,
+        /// Measured frames (after one warm-up), when timing.
+        timings: Option<u32>,
+        adapter: AdapterPreference,
+        /// Where the JSON report goes (`-`: standard output).
+        json: Option<String>,
+    }
+
+    /// A parsed command line.
+    #[derive(Debug)]
+    pub enum Parsed {
+        /// Render with these options.
+        Run(Options),
+        /// `--help`: print the usage.
+        Help,
+    }
+
+    fn value(flag: &str, args: &mut impl Iterator<Item = String>) -> Result<String, String> {
+        args.next()
+            .filter(|v| !v.starts_with("--"))
+            .ok_or_else(|| format!("{flag} needs a value"))
+    }
+
+    fn number(flag: &str, text: &str, max: u32, what: &str) -> Result<u32, String> {
+        text.parse::<u32>()
+            .ok()
+            .filter(|n| (1..=max).contains(n))
+            .ok_or_else(|| {
+                format!("{flag} `{text}`: must be a whole number of {what} in [1, {max}]")
+            })
+    }
+
+    impl Options {
+        /// Parses the arguments after the program's name; an error is one line.
+        pub fn parse(args: impl IntoIterator<Item = String>) -> Result<Parsed, String> {
+            let mut args = args.into_iter();
+            let mut output = None;
+            let (mut width, mut height) = (960, 540);
+            let mut timings = None;
+            let mut adapter = AdapterPreference::Auto;
+            let mut json = None;
+            let max_side = nimbus_render::scene::MAX_IMAGE_SIDE_PX;
+            while let Some(arg) = args.next() {
+                match arg.as_str() {
+                    "-h" | "--help" => return Ok(Parsed::Help),
+                    "--width" => {
+                        width =
+                            number("--width", &value("--width", &mut args)?, max_side, "pixels")?
+                    }
+                    "--height" => {
+                        height = number(
+                            "--height",
+                            &value("--height", &mut args)?,
+                            max_side,
+                            "pixels",
+                        )?
+                    }
+                    "--timings" => {
+                        timings = Some(number(
+                            "--timings",
+                            &value("--timings", &mut args)?,
+                            MAX_FRAMES,
+                            "frames",
+                        )?)
+                    }
+                    "--adapter" => adapter = value("--adapter", &mut args)?.parse()?,
+                    "--json" => {
+                        // `-` is a value here, not a flag.
+                        let file = args.next().filter(|v| v == "-" || !v.starts_with('-'));
+                        json =
+                            Some(file.ok_or(
+                                "--json needs a value (a file, or `-` for standard output)",
+                            )?);
+                    }
+                    flag if flag.starts_with('-') => return Err(format!("unknown flag `{flag}`")),
+                    path if output.is_none() => output = Some(PathBuf::from(path)),
+                    extra => {
+                        return Err(format!(
+                            "unexpected argument `{extra}` (one output image only)"
+                        ));
+                    }
+                }
+            }
+            let output = output.unwrap_or_else(|| PathBuf::from("embed_world.png"));
+            let is_png = output
+                .extension()
+                .is_some_and(|e| e.eq_ignore_ascii_case("png"));
+            if !is_png {
+                return Err(format!(
+                    "output `{}`: must be a .png file",
+                    output.display()
+                ));
+            }
+            if json.is_some() && timings.is_none() {
+                timings = Some(DEFAULT_JSON_FRAMES);
+            }
+            Ok(Parsed::Run(Self {
+                output,
+                width,
+                height,
+                timings,
+                adapter,
+                json,
+            }))
+        }
+    }
+
+    /// Median, 95th percentile and largest value of a series, ms (as
+    /// `nimbus bench` reports them: nearest-rank percentiles).
+    #[derive(Debug, Serialize)]
+    struct Stats {
+        median_ms: f64,
+        p95_ms: f64,
+        max_ms: f64,
+    }
+
+    impl Stats {
+        fn of(values: &[f64]) -> Option<Self> {
+            let mut sorted = values.to_vec();
+            sorted.sort_by(f64::total_cmp);
+            let rank = |p: f64| {
+                sorted[((p * sorted.len() as f64).ceil() as usize).clamp(1, sorted.len()) - 1]
+            };
+            (!sorted.is_empty()).then(|| Self {
+                median_ms: rank(0.5),
+                p95_ms: rank(0.95),
+                max_ms: rank(1.0),
+            })
+        }
+    }
+
+    /// One nimbus pass in the report.
+    #[derive(Debug, Serialize)]
+    struct PassReport {
+        name: &'static str,
+        /// Measured frames in which the pass ran.
+        frames: usize,
+        #[serde(flatten)]
+        stats: Option<Stats>,
+    }
+
+    /// The `--json` report: `nimbus bench --json`'s fields where they apply.
+    #[derive(Debug, Serialize)]
+    struct Report {
+        scene: &'static str,
+        output_mode: &'static str,
+        adapter: String,
+        backend: String,
+        device_type: String,
+        driver: String,
+        width: u32,
+        height: u32,
+        frames: u32,
+        #[serde(skip_serializing_if = "Option::is_none")]
+        rain_drops: Option<u32>,
+        timestamps_supported: bool,
+        /// nimbus's passes (the program's own world and tone mapping are
+        /// not among them).
+        passes: Vec<PassReport>,
+        gpu_total: Option<Stats>,
+        frame_wall: Option<Stats>,
+        cpu_prepare: Option<Stats>,
+        cpu_encode: Option<Stats>,
+        cpu_total: Option<Stats>,
+        note: String,
+    }
+
+    /// Writes `text` to `path` through a temporary file and a rename.
+    fn write_atomically(path: &Path, text: &str) -> Result<(), String> {
+        let name = path
+            .file_name()
+            .ok_or_else(|| format!("--json {}: not a file name", path.display()))?;
+        let mut temporary = name.to_owned();
+        temporary.push(format!(".{}.tmp", std::process::id()));
+        let temporary = path.with_file_name(temporary);
+        std::fs::write(&temporary, text)
+            .and_then(|()| std::fs::rename(&temporary, path))
+            .map_err(|e| {
+                let _ = std::fs::remove_file(&temporary);
+                format!("--json {}: cannot write: {e}", path.display())
+            })
+    }
+
+    /// Renders the world and writes the image (and the report).
+    pub fn run(options: &Options) -> Result<(), Box<dyn std::error::Error>> {
+        let Options {
+            output,
+            width,
+            height,
+            timings,
+            adapter,
+            json,
+        } = options;
+        let (width, height) = (*width, *height);
+        // The outputs' folders exist, before the work.
+        let json_path = json.as_deref().filter(|j| *j != "-").map(Path::new);
+        for path in std::iter::once(output.as_path()).chain(json_path) {
+            let dir = path.parent().filter(|d| !d.as_os_str().is_empty());
+            if let Some(dir) = dir.filter(|d| !d.is_dir()) {
+                return Err(format!("{}: no folder {}", path.display(), dir.display()).into());
+            }
+        }
+        // A program has its own device; this one takes nimbus's convenience
+        // for picking an adapter by kind (timestamp queries where it has them).
+        let gpu = GpuContext::new(*adapter)?;
+        let scene = Scene::from_toml_str(WORLD_SCENE, "embed_world.toml")?;
+        // With --timings, one warm-up frame before the measured ones (the
+        // pipelines' first use), as `nimbus bench` does.
+        let frames = timings.map_or(1, |n| n + 1);
+        let frame = render_world(
+            &gpu.device,
+            &gpu.queue,
+            &scene,
+            width,
+            height,
+            10.0,
+            frames,
+            timings.is_some(),
+        )?;
+        gpu.faults.check()?;
+        let skip = usize::from(timings.is_some());
+        let pass_times = frame.pass_times_ms.get(skip..).unwrap_or_default();
+        let frame_times = frame.frame_times.get(skip..).unwrap_or_default();
+        let per_pass: Vec<Vec<f64>> = (0..PASS_NAMES.len())
+            .map(|i| {
+                pass_times
+                    .iter()
+                    .filter_map(|f| f.get(i).copied().flatten())
+                    .collect()
+            })
+            .collect();
+        if timings.is_some() {
+            for (name, times) in PASS_NAMES.iter().zip(&per_pass) {
+                if let Some(stats) = Stats::of(times) {
+                    eprintln!(
+                        "{name:<20} median {:8.3} ms over {} frames",
+                        stats.median_ms,
+                        times.len()
+                    );
+                }
+            }
+        }
+        if let Some(destination) = json {
+            let timestamps = !pass_times.is_empty();
+            let totals: Vec<f64> = pass_times
+                .iter()
+                .map(|f| f.iter().flatten().sum())
+                .collect();
+            let info = &gpu.adapter_info;
+            let series = |f: fn(&super::FrameTimes) -> f64| -> Vec<f64> {
+                frame_times.iter().map(f).collect()
+            };
+            let report = Report {
+                scene: "embed_world",
+                output_mode: "linear_hdr",
+                adapter: info.name.clone(),
+                backend: format!("{:?}", info.backend),
+                device_type: format!("{:?}", info.device_type),
+                driver: format!("{} {}", info.driver, info.driver_info).trim().to_owned(),
+                width,
+                height,
+                frames: timings.unwrap_or(1),
+                rain_drops: frame.rain_drops,
+                timestamps_supported: timestamps,
+                passes: if timestamps {
+                    PASS_NAMES
+                        .iter()
+                        .zip(&per_pass)
+                        .map(|(name, times)| PassReport {
+                            name,
+                            frames: times.len(),
+                            stats: Stats::of(times),
+                        })
+                        .collect()
+                } else {
+                    Vec::new()
+                },
+                gpu_total: if timestamps { Stats::of(&totals) } else { None },
+                frame_wall: Stats::of(&series(|t| t.wall_ms)),
+                cpu_prepare: Stats::of(&series(|t| t.prepare_ms)),
+                cpu_encode: Stats::of(&series(|t| t.encode_ms)),
+                cpu_total: Stats::of(&series(|t| t.prepare_ms + t.encode_ms)),
+                note: "the program's own frame: its world drawn, nimbus composited over it by depth (LinearHdr), its tone mapping; passes are nimbus's, frame_wall the whole frame's".to_owned(),
+            };
+            let text = serde_json::to_string_pretty(&report)?;
+            if destination == "-" {
+                print_line(&text)?;
+            } else {
+                write_atomically(Path::new(destination), &(text + "\n"))?;
+            }
+        }
+        image::save_buffer(
+            output,
+            &frame.pixels,
+            width,
+            height,
+            image::ExtendedColorType::Rgba8,
+        )
+        .map_err(|e| format!("{}: cannot write: {e}", output.display()))?;
+        if json.as_deref() == Some("-") {
+            eprintln!("wrote {}", output.display());
+        } else {
+            print_line(&format!("wrote {}", output.display()))?;
+        }
+        Ok(())
+    }
+
+    /// A line on standard output; a failed write is an error, not a panic.
+    fn print_line(text: &str) -> Result<(), String> {
+        use std::io::Write as _;
+        writeln!(std::io::stdout().lock(), "{text}")
+            .map_err(|e| format!("cannot write to standard output: {e}"))
+    }
 }

@@ -1,14 +1,48 @@
 //! `nimbus bench`: per-pass GPU times, and the CPU time of the renderer's
-//! per-frame calls, over many frames.
+//! per-frame calls, over many frames; `nimbus bench table`: a Markdown
+//! table of such reports.
+
+mod table;
 
 use crate::progress::Progress;
-use clap::Args;
+use clap::{Args, Subcommand};
 use nimbus_render::headless::HeadlessRenderer;
 use nimbus_render::{PASS_NAMES, PassId, Precompute};
 use serde::Serialize;
 
 /// Largest frame count of one benchmark.
 const MAX_FRAMES: u32 = 100_000;
+
+/// `nimbus bench`: one benchmark, or a subcommand. No `help` subcommand:
+/// beside the scene argument it would only shadow a scene file named so.
+#[derive(Debug, Args)]
+#[command(
+    args_conflicts_with_subcommands = true,
+    subcommand_negates_reqs = true,
+    disable_help_subcommand = true
+)]
+pub struct BenchCommand {
+    #[command(subcommand)]
+    action: Option<BenchAction>,
+    #[command(flatten)]
+    run: BenchArgs,
+}
+
+#[derive(Debug, Subcommand)]
+enum BenchAction {
+    /// Read `nimbus bench --json` reports (and the embedding example's) and
+    /// print a Markdown table of them, one row per report: scene,
+    /// resolution, adapter, per-pass GPU medians, GPU total and wall time.
+    Table(table::TableArgs),
+}
+
+/// Runs `nimbus bench` or its subcommand.
+pub fn run(command: &BenchCommand) -> anyhow::Result<()> {
+    match &command.action {
+        Some(BenchAction::Table(args)) => table::run(args),
+        None => run_benchmark(&command.run),
+    }
+}
 
 /// Arguments of `nimbus bench`.
 #[derive(Debug, Args)]
@@ -18,9 +52,11 @@ pub struct BenchArgs {
     /// Number of measured frames (after one warm-up frame).
     #[arg(long, default_value_t = 60, value_parser = clap::value_parser!(u32).range(1..=MAX_FRAMES as i64))]
     frames: u32,
-    /// Recompute every atmosphere LUT each frame (by default the
-    /// transmittance and multiple-scattering LUTs run only when the
-    /// atmosphere changes, the view-dependent ones when the camera or sun moves).
+    /// Recompute every atmosphere LUT and redraw the cloud shadow map each
+    /// frame (by default the transmittance and multiple-scattering LUTs run
+    /// only when the atmosphere changes, the view-dependent ones when the
+    /// camera or sun moves, the shadow map when the clouds' shapes or the
+    /// sun change).
     #[arg(long)]
     update_luts: bool,
     /// Print one JSON document on standard output.
@@ -62,6 +98,8 @@ struct PassReport {
 
 #[derive(Debug, Serialize)]
 struct Report {
+    /// The scene file's name without `.toml`; `default` for the embedded scene.
+    scene: String,
     adapter: String,
     backend: String,
     device_type: String,
@@ -89,8 +127,8 @@ struct Report {
     note: Option<String>,
 }
 
-/// Runs the subcommand.
-pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
+/// Runs one benchmark.
+fn run_benchmark(args: &BenchArgs) -> anyhow::Result<()> {
     let (scene, width, height) = args.frame.scene_and_size()?;
     let mut headless = HeadlessRenderer::new(args.frame.adapter())?;
     eprintln!(
@@ -113,6 +151,7 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
     for frame in 0..args.frames {
         if args.update_luts {
             headless.renderer.invalidate_atmosphere();
+            headless.renderer.invalidate_cloud_shadow();
         }
         let seconds = headless.render_frame(&scene, width, height, frame as f32 / 60.0)?;
         wall_ms.push(seconds * 1e3);
@@ -136,6 +175,7 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
     let timestamps = headless.renderer.has_timestamps() && !totals.is_empty();
     let info = &headless.gpu.adapter_info;
     let report = Report {
+        scene: args.frame.scene_name(),
         adapter: info.name.clone(),
         backend: format!("{:?}", info.backend),
         device_type: format!("{:?}", info.device_type),
@@ -195,8 +235,13 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
                     pass.frames
                 ),
                 None => outln!(
-                    "{:<20} not run (inputs unchanged; --update-luts to measure)",
-                    pass.name
+                    "{:<20} not run (its inputs did not change{})",
+                    pass.name,
+                    if PassId::ATMOSPHERE.map(PassId::name).contains(&pass.name) {
+                        "; --update-luts to measure"
+                    } else {
+                        ""
+                    }
                 ),
             }
         }

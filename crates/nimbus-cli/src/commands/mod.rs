@@ -86,6 +86,19 @@ impl FrameArgs {
         Ok((scene, width, height))
     }
 
+    /// The scene's name in reports: the file's name without its extension,
+    /// `default` for the embedded scene.
+    pub fn scene_name(&self) -> String {
+        match &self.scene {
+            Some(path) => path
+                .file_stem()
+                .unwrap_or(path.as_os_str())
+                .to_string_lossy()
+                .into_owned(),
+            None => "default".to_owned(),
+        }
+    }
+
     /// The adapter asked for.
     pub fn adapter(&self) -> AdapterPreference {
         self.adapter.into()

@@ -55,7 +55,7 @@ impl CumulusPass {
     }
 
     /// Records the shadow map, nearest cores then farthest, when its
-    /// content changed this frame (see [`super::shadow`]); nothing when the
+    /// content changed this frame (see the `shadow` module); nothing when the
     /// map it holds is this frame's or the clouds cast no shadow (the
     /// map's uniform then says it holds none, and nothing reads it).
     pub fn encode_shadow(
