@@ -299,3 +299,59 @@ fn gpu_terms_match_the_cpu_reference() {
         );
     }
 }
+
+/// The cloud shadow map kept while the wind carries the field (drawn once,
+/// then translated with the drift) gives the picture a renderer that draws
+/// it for that frame gives: the default scene without rain or keyframes,
+/// five seconds of an 8 m/s wind later, against a fresh renderer.
+#[test]
+fn a_kept_shadow_map_shades_as_a_redrawn_one() {
+    let mut scene = nimbus_render::Scene::embedded_default();
+    scene.rain = None;
+    scene.keyframes.clear();
+    scene.terrain.resolution = 64;
+    scene.camera.auto_exposure = false;
+    let (width, height) = (64, 36);
+    let mut kept = HeadlessRenderer::new(AdapterPreference::Auto).expect("a wgpu adapter");
+    kept.render_hdr(&scene, width, height, 0.0).expect("frame");
+    assert!(kept.renderer.cumulus().shadow_redrawn(), "the first frame draws the map");
+    let carried = kept.render_hdr(&scene, width, height, 5.0).expect("frame");
+    assert!(
+        !kept.renderer.cumulus().shadow_redrawn(),
+        "the drifted field keeps its map"
+    );
+    let mut fresh = HeadlessRenderer::new(AdapterPreference::Auto).expect("a wgpu adapter");
+    let redrawn = fresh.render_hdr(&scene, width, height, 5.0).expect("frame");
+    assert!(fresh.renderer.cumulus().shadow_redrawn());
+    let luminance = |p: &[f32; 3]| 0.2126 * p[0] + 0.7152 * p[1] + 0.0722 * p[2];
+    let mean = redrawn.pixels.iter().map(luminance).sum::<f32>() / redrawn.pixels.len() as f32;
+    let largest = carried
+        .pixels
+        .iter()
+        .zip(&redrawn.pixels)
+        .map(|(a, b)| (luminance(a) - luminance(b)).abs())
+        .fold(0.0f32, f32::max);
+    eprintln!("kept against redrawn: largest luminance difference {largest}, mean {mean}");
+    assert!(
+        largest <= 1e-3 * mean,
+        "largest difference {largest} against a mean luminance of {mean}"
+    );
+    // The shadows are in the picture: without them it differs far more.
+    let mut unshadowed = scene.clone();
+    if let Some(cumulus) = &mut unshadowed.cumulus {
+        cumulus.terms.shadow = false;
+    }
+    let bare = fresh
+        .render_hdr(&unshadowed, width, height, 5.0)
+        .expect("frame");
+    let shadowing = bare
+        .pixels
+        .iter()
+        .zip(&redrawn.pixels)
+        .map(|(a, b)| (luminance(a) - luminance(b)).abs())
+        .fold(0.0f32, f32::max);
+    assert!(
+        shadowing > 0.05 * mean,
+        "the clouds' shadows change the picture by at most {shadowing}"
+    );
+}
