@@ -314,7 +314,10 @@ fn a_kept_shadow_map_shades_as_a_redrawn_one() {
     let (width, height) = (64, 36);
     let mut kept = HeadlessRenderer::new(AdapterPreference::Auto).expect("a wgpu adapter");
     kept.render_hdr(&scene, width, height, 0.0).expect("frame");
-    assert!(kept.renderer.cumulus().shadow_redrawn(), "the first frame draws the map");
+    assert!(
+        kept.renderer.cumulus().shadow_redrawn(),
+        "the first frame draws the map"
+    );
     let carried = kept.render_hdr(&scene, width, height, 5.0).expect("frame");
     assert!(
         !kept.renderer.cumulus().shadow_redrawn(),
