@@ -328,12 +328,14 @@ fn a_kept_shadow_map_shades_as_a_redrawn_one() {
     assert!(fresh.renderer.cumulus().shadow_redrawn());
     let luminance = |p: &[f32; 3]| 0.2126 * p[0] + 0.7152 * p[1] + 0.0722 * p[2];
     let mean = redrawn.pixels.iter().map(luminance).sum::<f32>() / redrawn.pixels.len() as f32;
-    let largest = carried
-        .pixels
-        .iter()
-        .zip(&redrawn.pixels)
-        .map(|(a, b)| (luminance(a) - luminance(b)).abs())
-        .fold(0.0f32, f32::max);
+    let largest_difference = |image: &[[f32; 3]]| {
+        image
+            .iter()
+            .zip(&redrawn.pixels)
+            .map(|(a, b)| (luminance(a) - luminance(b)).abs())
+            .fold(0.0f32, f32::max)
+    };
+    let largest = largest_difference(&carried.pixels);
     eprintln!("kept against redrawn: largest luminance difference {largest}, mean {mean}");
     assert!(
         largest <= 1e-3 * mean,
@@ -347,12 +349,7 @@ fn a_kept_shadow_map_shades_as_a_redrawn_one() {
     let bare = fresh
         .render_hdr(&unshadowed, width, height, 5.0)
         .expect("frame");
-    let shadowing = bare
-        .pixels
-        .iter()
-        .zip(&redrawn.pixels)
-        .map(|(a, b)| (luminance(a) - luminance(b)).abs())
-        .fold(0.0f32, f32::max);
+    let shadowing = largest_difference(&bare.pixels);
     assert!(
         shadowing > 0.05 * mean,
         "the clouds' shadows change the picture by at most {shadowing}"
