@@ -9,7 +9,7 @@
 //! # Layers
 //!
 //! Each module imports only those above it in this list (checked by
-//! `tests/layering.rs`):
+//! `tests/integration/layering.rs`):
 //!
 //! 1. [`core`]: GPU context, targets, timing, binding and pipeline helpers,
 //!    device limits, the cache directory.

@@ -2,7 +2,7 @@
 //! above it. The GPU context and its targets, timestamp timing, bind-group
 //! and pipeline helpers, the device-limit checks, GPU faults as typed
 //! errors, and the on-disk cache.
-//! Imports nothing of the crate's other layers (see `tests/layering.rs`).
+//! Imports nothing of the crate's other layers (see `tests/integration/layering.rs`).
 
 pub mod background;
 pub mod binding;

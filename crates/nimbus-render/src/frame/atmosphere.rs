@@ -23,7 +23,7 @@ use nimbus_physics::sky::SOLAR_ILLUMINANCE_CONSTANT_LUX;
 /// sun's direction and irradiance after the atmosphere, the sky's
 /// irradiance, the ground's radiance and the environment's SH
 /// ([`SkyLighting`]), the same quantities the GPU lighting step writes for
-/// nimbus's own passes (tested against them in `tests/atmosphere.rs`). For
+/// nimbus's own passes (tested against them in `tests/integration/atmosphere.rs`). For
 /// a renderer that embeds nimbus, so that its lights and image-based
 /// lighting match nimbus's sky. It builds the atmosphere's tables
 /// (`AtmosphereTables::new`: 0.14–0.17 s on one core of a 2-core AMD EPYC

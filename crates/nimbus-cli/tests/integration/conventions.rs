@@ -4,9 +4,8 @@
 //! JSON document), and progress drawn on standard error only when it is a
 //! terminal. None of these needs a GPU.
 
-mod support;
 use std::process::{Command, Output, Stdio};
-use support::*;
+use crate::support::*;
 
 fn text(bytes: &[u8]) -> String {
     String::from_utf8_lossy(bytes).into_owned()

@@ -3,10 +3,7 @@
 //! are read, within a memory bound (the binary runs under `ulimit -v`) and a
 //! time bound (a run that blocks is killed and fails the test).
 
-#![cfg(unix)]
-
-mod support;
-use support::temp_dir;
+use crate::support::temp_dir;
 
 use std::io::Write;
 use std::path::Path;
@@ -434,7 +431,7 @@ const GPU_BOUNDS: Bounds = Bounds {
 /// it before allocating (the software adapter's memory is the process's,
 /// which it reads): Mesa 25's lavapipe ends the process where it runs out,
 /// where Mesa 22's reported it. Device loss cannot be forced from the
-/// command line; `nimbus-render/tests/faults.rs` forces it in the library.
+/// command line; `nimbus-render/tests/integration/faults.rs` forces it in the library.
 #[test]
 fn out_of_gpu_memory_ends_render_animate_and_bench_with_one_line_and_nothing_written() {
     let dir = temp_dir("reliability", "gpu-memory");

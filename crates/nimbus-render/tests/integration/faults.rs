@@ -3,7 +3,7 @@
 //! wgpu raises on the device outside and inside nimbus's error scopes
 //! (forced with a buffer wgpu refuses). Out of memory takes the same paths
 //! (the scope's other filter, the same record); it is forced for real by
-//! the CLI's tests (`nimbus-cli/tests/reliability.rs`), under a bound on
+//! the CLI's tests (`nimbus-cli/tests/integration/reliability.rs`), under a bound on
 //! the address space of the software adapter.
 //!
 //! These tests fail, never skip, when no adapter is found; the message says

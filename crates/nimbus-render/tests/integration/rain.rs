@@ -12,12 +12,10 @@ use nimbus_render::rain::{
 
 use nimbus_render::scene::Scene;
 
-#[path = "support/caller_depth.rs"]
-mod support;
 
 use glam::{DMat4, DVec3};
 use nimbus_render::{DepthConvention, OccluderDepth, Projection, View};
-use support::DepthRect;
+use crate::support::{self, DepthRect};
 
 fn headless() -> HeadlessRenderer {
     HeadlessRenderer::new(AdapterPreference::Auto).unwrap_or_else(|e| {
@@ -600,7 +598,7 @@ fn the_callers_occluders_stop_the_rain() {
     );
 }
 
-/// The rain scenes with golden images (`tests/gpu.rs`).
+/// The rain scenes with golden images (`tests/integration/gpu.rs`).
 const RAIN_GOLDEN_SCENES: [&str; 6] = [
     "rain-drizzle",
     "rain-heavy",

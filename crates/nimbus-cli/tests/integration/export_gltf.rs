@@ -4,8 +4,7 @@
 //! one `[[objects]] gltf = …` uses: node transforms applied, world
 //! metres); one-line errors and no file on bad input. CPU only.
 
-mod support;
-use support::*;
+use crate::support::*;
 
 /// The JSON chunk of a `.glb` (glTF 2.0 §4.4), as the gltf crate frames it
 /// (its header, chunk lengths and types checked).

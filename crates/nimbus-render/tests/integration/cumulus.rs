@@ -3,7 +3,7 @@
 //! cover front-lit, back-lit and grazing views, every lower level, the bump
 //! and both light-trap models.
 
-mod common;
+use crate::common;
 
 use glam::DVec3;
 use nimbus_physics::cumulus::forward_peak::ForwardPeakTable;

@@ -2,10 +2,9 @@
 //! crate, the equirectangular panorama's seam, `nimbus compare`, and the
 //! Mitsuba export's files.
 
-mod support;
 use std::path::{Path, PathBuf};
 use std::process::Output;
-use support::*;
+use crate::support::*;
 
 fn scenes_dir() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenes")

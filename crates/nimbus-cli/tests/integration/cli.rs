@@ -1,10 +1,9 @@
 //! Integration tests of the `nimbus` binary: exit codes, one-line errors,
 //! outputs, and no partial files on failure.
 
-mod support;
 use std::path::Path;
 use std::process::{Command, Output};
-use support::*;
+use crate::support::*;
 
 #[test]
 fn help_is_available_for_every_subcommand() {

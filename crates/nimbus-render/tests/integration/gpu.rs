@@ -14,7 +14,7 @@ use nimbus_render::headless::{HeadlessRenderer, Rgba8Image};
 use nimbus_render::{AdapterPreference, Scene};
 use std::path::PathBuf;
 
-#[path = "../examples/embed_world.rs"]
+#[path = "../../examples/embed_world.rs"]
 mod embed_world;
 
 const GOLDEN_WIDTH: u32 = 160;

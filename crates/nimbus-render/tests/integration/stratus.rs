@@ -3,7 +3,7 @@
 //! the 1-D slab model, and the frame's radiosity result against
 //! nimbus_physics::radiosity::iterate run on the inputs the GPU computed.
 
-mod common;
+use crate::common;
 
 use nimbus_physics::cloud_layer::CloudLayerField;
 use nimbus_physics::radiosity::{PlaneField, RadiosityInputs, iterate};

@@ -13,10 +13,8 @@ use nimbus_render::{
     RendererDescriptor, Scene, TargetLoad, View,
 };
 
-#[path = "support/caller_depth.rs"]
-mod support;
 
-use support::DepthRect;
+use crate::support::{self, DepthRect};
 
 const WIDTH: u32 = 64;
 const HEIGHT: u32 = 36;

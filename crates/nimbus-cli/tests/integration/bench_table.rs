@@ -1,8 +1,7 @@
 //! `nimbus bench table`: benchmark reports (hand-written here, so no GPU is
 //! needed) as one Markdown table, and one-line errors naming the file.
 
-mod support;
-use support::*;
+use crate::support::*;
 
 /// A `nimbus bench --json` report of a GPU run (fields the table does not
 /// use included, as the bench writes them).

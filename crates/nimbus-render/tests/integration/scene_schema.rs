@@ -4,7 +4,7 @@
 //! it accepts or refuses a document exactly where serde does.
 //!
 //! After an intended change of the settings types,
-//! `NIMBUS_BLESS=1 cargo test -p nimbus-render --test scene_schema`
+//! `NIMBUS_BLESS=1 cargo test -p nimbus-render --test integration scene_schema::`
 //! rewrites the shipped file.
 
 use nimbus_render::scene::{SCHEMA_PATH, Scene, json_schema, json_schema_text};
@@ -47,7 +47,7 @@ fn shipped_schema_is_current() {
     }
     let shipped = std::fs::read_to_string(&path).unwrap_or_else(|e| {
         panic!(
-            "{}: {e} (run NIMBUS_BLESS=1 cargo test -p nimbus-render --test scene_schema to create it)",
+            "{}: {e} (run NIMBUS_BLESS=1 cargo test -p nimbus-render --test integration scene_schema:: to create it)",
             path.display()
         )
     });
@@ -56,7 +56,7 @@ fn shipped_schema_is_current() {
     assert!(
         shipped == text,
         "{} is stale: the scene settings types changed; run \
-         NIMBUS_BLESS=1 cargo test -p nimbus-render --test scene_schema and commit the file",
+         NIMBUS_BLESS=1 cargo test -p nimbus-render --test integration scene_schema:: and commit the file",
         path.display()
     );
 }
