@@ -38,7 +38,7 @@ fn help_is_available_for_every_subcommand() {
 #[test]
 fn render_writes_a_png_of_the_default_scene() {
     let dir = temp_dir("cli", "render-png");
-    let out = support::nimbus_without_display(
+    let out = crate::support::nimbus_without_display(
         &["render", "-o", "sky.png", "--width", "96", "--height", "54"],
         &dir,
     );

@@ -385,7 +385,7 @@ fn the_next_run_removes_what_a_killed_run_left() {
         &dir,
         &INPUT_BOUNDS,
     );
-    support::assert_success(&out);
+    crate::support::assert_success(&out);
     assert!(dir.join("phase.svg").exists());
     assert!(!stale.exists(), "the killed run's file is still there");
     assert!(live.exists() && other.exists());
@@ -447,7 +447,7 @@ fn out_of_gpu_memory_ends_render_animate_and_bench_with_one_line_and_nothing_wri
         "small.png",
     ];
     // The control: a small frame renders under the bound.
-    support::assert_success(&bounded_run(&small, &dir, &GPU_BOUNDS));
+    crate::support::assert_success(&bounded_run(&small, &dir, &GPU_BOUNDS));
     std::fs::remove_file(dir.join("small.png")).expect("the control frame was written");
 
     let largest = [
@@ -467,7 +467,7 @@ fn out_of_gpu_memory_ends_render_animate_and_bench_with_one_line_and_nothing_wri
         let args: Vec<&str> = command.iter().chain(&largest).copied().collect();
         let out = bounded_run(&args, &dir, &GPU_BOUNDS);
         assert_eq!(out.status.code(), Some(1), "{args:?}");
-        support::assert_fails_with(
+        crate::support::assert_fails_with(
             &out,
             &[
                 "a 8192×8192 frame needs about",
@@ -478,8 +478,8 @@ fn out_of_gpu_memory_ends_render_animate_and_bench_with_one_line_and_nothing_wri
         assert!(out.stdout.is_empty(), "{args:?}: stdout {:?}", out.stdout);
     }
     // No image, no temporary file; animate's directory holds no frame.
-    assert_eq!(support::files_in(&dir), ["frames"]);
-    assert!(support::files_in(&dir.join("frames")).is_empty());
+    assert_eq!(crate::support::files_in(&dir), ["frames"]);
+    assert!(crate::support::files_in(&dir.join("frames")).is_empty());
     std::fs::remove_dir_all(&dir).ok();
 }
 
@@ -493,14 +493,14 @@ const ONE_ROOT: &str = r#"[{"centre_m": [0, 0, 0], "radius_m": 300, "flattening"
 fn a_single_root_without_levels_is_a_cloud() {
     let dir = temp_dir("reliability", "one-root");
     std::fs::write(dir.join("one.json"), ONE_ROOT).expect("roots");
-    let out = support::nimbus(
+    let out = crate::support::nimbus(
         &[
             "cumulus", "--roots", "one.json", "--levels", "0", "--lods", "1", "-o", "one.glb",
             "--json",
         ],
         &dir,
     );
-    support::assert_success(&out);
+    crate::support::assert_success(&out);
     let report: serde_json::Value = serde_json::from_slice(&out.stdout).expect("one JSON document");
     assert_eq!(report["watertight"], true, "{report}");
     assert!(report["triangles"].as_u64().unwrap_or(0) > 100, "{report}");
@@ -542,7 +542,7 @@ fn cumulus_outputs_are_replaced_together_or_not_at_all() {
         b"the previous mesh"
     );
     assert_eq!(
-        support::files_in(&dir),
+        crate::support::files_in(&dir),
         ["one.glb", "one.json", "one.json.d"]
     );
     std::fs::remove_dir_all(&dir).ok();
