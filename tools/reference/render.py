@@ -10,7 +10,8 @@ progress line (pass k of n, elapsed, ETA) can be printed to standard error.
 With --halves the passes alternate between two independent halves, written
 as OUT_a.exr and OUT_b.exr beside OUT.exr (their mean): the difference of the
 halves measures the reference's own noise (the full image's per-pixel
-variance is about ((a - b) / 2)^2).
+variance is about ((a - b) / 2)^2). OUT.json records the samples, seed,
+variant, threads and seconds of the render.
 
 Usage:
     python3 tools/reference/render.py DIR/scene.xml --spp 1024 -o ref.exr
@@ -153,6 +154,23 @@ def main(argv=None):
         for h, tag in ((0, "a"), (1, "b")):
             write_exr(mi, f"{stem}_{tag}.exr", sums[h] / counts[h], names)
             written.append(f"{stem}_{tag}.exr")
+    # What was rendered, beside the image: the samples, seeds and seconds.
+    import json
+    info = {
+        "scene": a.scene,
+        "spp": spp_total,
+        "spp_per_pass": a.spp_per_pass,
+        "halves": a.halves,
+        "seed": a.seed,
+        "defines": params,
+        "variant": a.variant,
+        "threads": dr.thread_count(),
+        "render_seconds": round(time.time() - t0, 1),
+        "total_seconds": round(time.time() - start, 1),
+        "mitsuba": mi.__version__,
+    }
+    with open(a.output[: -len(".exr")] + ".json", "w") as f:
+        json.dump(info, f, indent=2)
     if not a.quiet:
         print(
             f"render.py: wrote {', '.join(written)} ({spp_total} spp, {fmt_time(time.time() - start)})",

@@ -1,6 +1,10 @@
 //! `nimbus compare`: how far a real-time image is from a path-traced
-//! reference of the same scene (see `docs/REALISM.md`).
+//! reference of the same scene (see `docs/REALISM.md`). With the reference
+//! given as two independent halves (`--halves A.exr B.exr`), also the error
+//! that the reference's noise does not inflate and the standard errors of
+//! the means ([`halves`]).
 
+pub mod halves;
 pub mod metrics;
 
 use anyhow::Context;
@@ -28,8 +32,18 @@ pub struct CompareArgs {
     /// `cloud.A` layer gives the cloud mask).
     realtime: PathBuf,
     /// The reference: an EXR of linear radiance of the same size (e.g.
-    /// path-traced by tools/reference/render.py).
-    reference: PathBuf,
+    /// path-traced by tools/reference/render.py). Leave it out with --halves.
+    #[arg(required_unless_present = "halves", conflicts_with = "halves")]
+    reference: Option<PathBuf>,
+    /// The reference as two independent halves of its samples (written by
+    /// tools/reference/render.py --halves): the reference is their mean, and
+    /// the report adds the unbiased error, the reference's noise and the
+    /// standard errors of the means.
+    #[arg(long, num_args = 2, value_names = ["A.exr", "B.exr"])]
+    halves: Option<Vec<PathBuf>>,
+    /// Side of the blocks for the block metrics of --halves, pixels (1 to 256).
+    #[arg(long, default_value_t = halves::DEFAULT_BLOCK_PX, value_name = "K")]
+    block: u32,
     /// Pixels compared.
     #[arg(long, value_enum, default_value_t = Mask::Cloud)]
     mask: Mask,
@@ -64,29 +78,49 @@ pub fn run(args: &CompareArgs) -> anyhow::Result<()> {
             )
         })?);
     }
-    let reference = read_exr(&args.reference)?;
-    ensure_same_size(
-        &reference.image,
-        &args.reference,
-        &realtime.image,
-        &args.realtime,
-        "",
-    )?;
+    anyhow::ensure!(
+        (1..=halves::MAX_BLOCK_PX).contains(&args.block),
+        "--block {}: must be a whole number of pixels in [1, {}]",
+        args.block,
+        halves::MAX_BLOCK_PX
+    );
+    // The reference, or its two halves and their mean.
+    let (reference, halves_images, reference_name) = match (&args.reference, &args.halves) {
+        (Some(path), _) => {
+            let image = read_exr(path)?.image;
+            ensure_same_size(&image, path, &realtime.image, &args.realtime, "")?;
+            (image, None, path.display().to_string())
+        }
+        (None, Some(paths)) if paths.len() == 2 => {
+            let mut images = Vec::new();
+            for path in paths {
+                let image = read_exr(path)?.image;
+                ensure_same_size(&image, path, &realtime.image, &args.realtime, "--halves ")?;
+                images.push(image);
+            }
+            let (a, b) = (images.remove(0), images.remove(0));
+            let name = format!("{} + {}", paths[0].display(), paths[1].display());
+            (halves::mean_of_halves(&a, &b), Some((a, b)), name)
+        }
+        _ => anyhow::bail!("give the reference as REFERENCE or as --halves A.exr B.exr"),
+    };
     if let Some(out) = &args.out {
         super::check_output_dir(out)?;
     }
-    let report = compare(&realtime, &reference.image, args.mask).with_context(|| {
-        format!(
-            "{} vs {}",
-            args.realtime.display(),
-            args.reference.display()
-        )
-    })?;
+    let report = compare(&realtime, &reference, args.mask)
+        .with_context(|| format!("{} vs {reference_name}", args.realtime.display()))?;
+    let unbiased = halves_images
+        .as_ref()
+        .and_then(|(a, b)| halves::halves_metrics(&realtime.image, a, b, &report.mask, args.block));
     if let Some(out) = &args.out {
-        write_report(out, &realtime.image, &reference.image, &report.flip)?;
+        write_report(out, &realtime.image, &reference, &report.flip)?;
     }
     if args.json {
-        outln!("{}", serde_json::to_string_pretty(&report.metrics)?);
+        let document = Document {
+            metrics: &report.metrics,
+            halves: unbiased.as_ref(),
+        };
+        outln!("{}", serde_json::to_string_pretty(&document)?);
     } else {
         let m = &report.metrics;
         outln!("pixels compared          {}", m.pixels);
@@ -103,6 +137,35 @@ pub fn run(args: &CompareArgs) -> anyhow::Result<()> {
             "chromaticity Δxy         {:.4}",
             m.mean_chromaticity_difference_xy
         );
+        if let Some(h) = &unbiased {
+            for (scale, s) in [
+                ("per pixel".to_string(), &h.pixels),
+                (format!("{0}×{0} blocks", h.block_px), &h.blocks),
+            ] {
+                outln!(
+                    "{scale} ({}): unbiased luminance RMSE / mean {:.4} ± {:.4} (raw MSE {:.4} ± {:.4}), naive {:.4}, reference noise {:.4}",
+                    s.count,
+                    s.luminance_relative_rmse_unbiased,
+                    s.luminance_relative_rmse_unbiased_se,
+                    s.luminance_relative_mse_unbiased_raw,
+                    s.luminance_relative_mse_unbiased_se,
+                    s.luminance_relative_rmse_naive,
+                    s.reference_noise_relative_rmse
+                );
+            }
+            outln!(
+                "mean luminance ratio     {:.4} ± {:.4}",
+                h.mean_luminance_ratio,
+                h.mean_luminance_ratio_se
+            );
+            outln!(
+                "red/blue ratio           {:.4} ± {:.4} (reference {:.4} ± {:.4})",
+                h.red_over_blue_ratio,
+                h.red_over_blue_ratio_se,
+                h.red_over_blue_reference,
+                h.red_over_blue_reference_se
+            );
+        }
     }
     if let Some(out) = &args.out {
         eprintln!("nimbus: wrote {}", out.display());
@@ -146,6 +209,18 @@ pub struct Report {
     pub metrics: Metrics,
     /// HDR-FLIP error per pixel.
     pub flip: Vec<f32>,
+    /// The pixels compared.
+    pub mask: Vec<bool>,
+}
+
+/// The JSON document: the metrics against the reference and, with
+/// `--halves`, the unbiased ones under `halves`.
+#[derive(serde::Serialize)]
+struct Document<'a> {
+    #[serde(flatten)]
+    metrics: &'a Metrics,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    halves: Option<&'a halves::HalvesMetrics>,
 }
 
 /// Compares a real-time image with a reference over a mask.
@@ -167,6 +242,7 @@ pub fn compare(realtime: &ExrImage, reference: &RgbImage, mask: Mask) -> anyhow:
     Ok(Report {
         metrics: metrics::metrics(&realtime.image, reference, &flip, &mask),
         flip,
+        mask,
     })
 }
 

@@ -63,14 +63,81 @@ pub struct Summary {
 }
 
 /// Droplet optics for Mitsuba: the phase function at 550 nm sampled
-/// uniformly in cos θ, the extinction at 550 nm and the albedo per channel.
+/// uniformly in cos θ, the extinction at 550 nm and the albedo per channel,
+/// after the δ-M truncation of the forward peak (when asked for).
 struct DropletOptics {
     phase_values: Vec<f64>,
     extinction_per_m: f64,
     albedo_rgb: [f64; 3],
+    truncation: Truncation,
 }
 
-fn droplet_optics(settings: &StratusSettings) -> DropletOptics {
+/// The δ-M truncation of the droplets' forward diffraction peak
+/// (Wiscombe 1977, "The Delta-M Method: Rapid Yet Accurate Radiative Flux
+/// Calculations for Strongly Asymmetric Phase Functions", J. Atmos. Sci.
+/// 34, 1408–1422; Potter 1970, J. Atmos. Sci. 27, 943): inside the
+/// truncation angle θ_t the phase function p is replaced by its value
+/// p(θ_t); the fraction f of the scattered light removed that way is
+/// treated as not scattered at all (it continues in the forward
+/// direction), so the medium's extinction becomes σ_t (1 − ω f), its
+/// albedo ω (1 − f) / (1 − ω f), and the flattened phase function is
+/// renormalised by 1 / (1 − f). Radiance transport is unchanged to the
+/// extent that light scattered by less than θ_t may be counted as unscattered;
+/// Monte-Carlo variance falls by the peak's huge next-event weights.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Truncation {
+    /// Truncation angle θ_t, degrees (0: the full phase function).
+    pub angle_deg: f64,
+    /// Fraction f of the phase function removed, 0 to 1.
+    pub fraction: f64,
+    /// Scale of the extinction, 1 − ω f (ω at 550 nm).
+    pub extinction_scale: f64,
+}
+
+/// Largest `--phase-truncation-deg`, degrees: beyond it the flattened peak
+/// changes the light seen around the sun's direction over most of a view.
+pub const MAX_PHASE_TRUNCATION_DEG: f64 = 30.0;
+
+/// Flattens `values` (a phase function sampled uniformly in μ = cos θ over
+/// [−1, 1], linear between samples, as Mitsuba's `tabphase` reads it) inside
+/// `angle_deg` to the value at `angle_deg`, and returns the fraction f of
+/// the integral removed (0 for an angle of 0). The values are left
+/// unnormalised: `tabphase` normalises them itself, which is the δ-M
+/// method's 1 / (1 − f).
+pub fn truncate_forward_peak(values: &mut [f64], angle_deg: f64) -> f64 {
+    let n = values.len();
+    if angle_deg <= 0.0 || n < 2 {
+        return 0.0;
+    }
+    let step = 2.0 / (n - 1) as f64;
+    // Integral over μ of the piecewise-linear table (trapezoids): 2π times
+    // it is the integral over the sphere.
+    let integral = |v: &[f64]| {
+        v.windows(2)
+            .map(|w| 0.5 * (w[0] + w[1]) * step)
+            .sum::<f64>()
+    };
+    let full = integral(values);
+    let mu_t = angle_deg.to_radians().cos();
+    // The table's value at μ_t, interpolated.
+    let x = (mu_t + 1.0) / step;
+    let i = (x.floor() as usize).min(n - 2);
+    let t = x - i as f64;
+    let at_cut = values[i] * (1.0 - t) + values[i + 1] * t;
+    for (k, v) in values.iter_mut().enumerate() {
+        let mu = -1.0 + k as f64 * step;
+        if mu > mu_t {
+            *v = at_cut;
+        }
+    }
+    if full > 0.0 {
+        (1.0 - integral(values) / full).max(0.0)
+    } else {
+        0.0
+    }
+}
+
+fn droplet_optics(settings: &StratusSettings, truncation_deg: f64) -> DropletOptics {
     let dsd = SizeDistribution::ModifiedGamma {
         number_density_per_m3: settings.droplet_concentration_cm3 * 1e6,
         gamma: 2.0,
@@ -101,16 +168,30 @@ fn droplet_optics(settings: &StratusSettings) -> DropletOptics {
     );
     // Mitsuba's `tabphase` takes the values over cos θ from −1 (back
     // scattering) to +1 (forward), θ the scattering angle, and normalises them.
-    let phase_values = (0..PHASE_SAMPLES)
+    let mut phase_values: Vec<f64> = (0..PHASE_SAMPLES)
         .map(|i| {
             let mu = -1.0 + 2.0 * i as f64 / (PHASE_SAMPLES - 1) as f64;
             table.at(mu.clamp(-1.0, 1.0).acos().to_degrees())
         })
         .collect();
+    let fraction = truncate_forward_peak(&mut phase_values, truncation_deg);
+    // One extinction grid serves all channels (Mitsuba's `scale` is a
+    // scalar): its scale takes ω at 550 nm (the green channel), and each
+    // channel's albedo keeps its scattering coefficient exact,
+    // σ_s' = σ_t ω (1 − f); the absorption is then off by σ_t f (ω_c − ω_g),
+    // < 1e-5 σ_t for cloud droplets.
+    let omega = albedo_rgb[1];
+    let extinction_scale = 1.0 - omega * fraction;
+    let albedo_rgb = albedo_rgb.map(|w| (w * (1.0 - fraction) / extinction_scale).clamp(0.0, 1.0));
     DropletOptics {
         phase_values,
         extinction_per_m: optics.extinction_per_m,
         albedo_rgb,
+        truncation: Truncation {
+            angle_deg: truncation_deg,
+            fraction,
+            extinction_scale,
+        },
     }
 }
 
@@ -153,10 +234,11 @@ fn medium_shape(
             <transform name="to_world"><matrix value="{grid}"/></transform>
         </volume>
         <rgb name="albedo" value="{r:.7}, {g:.7}, {b:.7}"/>
-        <float name="scale" value="1"/>
+        <float name="scale" value="{scale:.9}"/>
     </medium>
 "#,
         grid = matrix(world_from_grid),
+        scale = optics.truncation.extinction_scale,
     );
     cube_shape(xml, id, &world_from_cube);
     world_from_cube
@@ -187,16 +269,30 @@ fn box_from_unit(grid: &ExtinctionGrid) -> DMat4 {
     DMat4::from_translation(grid.origin_m) * DMat4::from_scale(grid.max_corner_m() - grid.origin_m)
 }
 
+/// What to export beside the scene: the frame's time and the droplets'
+/// phase truncation.
+#[derive(Clone, Copy, Debug)]
+pub struct Options {
+    /// Animation time, s.
+    pub time_s: f64,
+    /// δ-M truncation angle of the droplets' forward peak, degrees (0: none).
+    pub phase_truncation_deg: f64,
+}
+
 /// Writes the scene.
 pub fn export(
     headless: &mut HeadlessRenderer,
     scene: &Scene,
     width: u32,
     height: u32,
-    time_s: f64,
+    options: Options,
     dir: &Path,
     files: &mut FileSet,
 ) -> anyhow::Result<Summary> {
+    let Options {
+        time_s,
+        phase_truncation_deg,
+    } = options;
     let mut approximations = vec![
         "no atmosphere between the camera and the clouds or terrain (nimbus's aerial perspective is left out); the sky is an environment map at infinity, seen from the camera".to_string(),
         format!("volumes: extinction and phase function at {PHASE_WAVELENGTH_NM} nm for every channel (droplet extinction varies < 2 % over the visible), albedo per channel; phase function tabulated at {PHASE_SAMPLES} values uniform in cos θ (the diffraction peak is averaged over the first ~0.9°)"),
@@ -305,7 +401,16 @@ pub fn export(
     // 6. Droplets' optics (the stratus layer's size distribution; the
     // cumulus shader has none of its own, so the same droplets).
     let droplet_settings = scene.stratus.clone().unwrap_or_default();
-    let optics = droplet_optics(&droplet_settings);
+    let optics = droplet_optics(&droplet_settings, phase_truncation_deg);
+    let truncation = optics.truncation;
+    approximations.push(if truncation.angle_deg > 0.0 {
+        format!(
+            "droplets (every cumulus and stratus medium): forward diffraction peak truncated by δ-M (Wiscombe 1977) at {:.2}°: the phase function is flat at its {:.2}° value inside it, the removed fraction f = {:.4} goes to the unscattered beam (extinction × (1 − ω f) = {:.5}, albedo ω (1 − f) / (1 − ω f)); `--phase-truncation-deg 0` keeps the full peak",
+            truncation.angle_deg, truncation.angle_deg, truncation.fraction, truncation.extinction_scale
+        )
+    } else {
+        "droplets (every cumulus and stratus medium): full phase function, forward peak not truncated (f = 0)".to_string()
+    });
     let values: Vec<String> = optics
         .phase_values
         .iter()
@@ -436,7 +541,13 @@ pub fn export(
             ceiling_m,
             camera.position_m.z + half,
         );
-        if hi.y > lo.y && extinction > 0.0 {
+        // Where it rains: nimbus's own map of rain factors (the areas with
+        // their soft edges, under the clouds where `under_clouds` puts it),
+        // the one its mist multiplies its extinction by (passes/rain/zones.wgsl).
+        let footprints = headless.renderer.cumulus().footprints_m();
+        let zones = nimbus_render::passes::rain::rain_zones(scene, rain, time_s, &footprints);
+        let everywhere = zones.size <= 1;
+        if hi.y > lo.y && extinction > 0.0 && everywhere {
             let centre = 0.5 * (lo + hi);
             let box_m = DMat4::from_translation(centre) * DMat4::from_scale(0.5 * (hi - lo));
             let _ = write!(
@@ -453,9 +564,42 @@ pub fn export(
                 camera_medium = Some("mist".into());
             }
             approximations.push(format!(
-                "rain: streaks and splashes are not exported; the mist is a homogeneous medium (σ_t = {extinction:.2e} m⁻¹ from all drops of {MIST_MIN_DIAMETER_MM}–{} mm, albedo 1, Henyey–Greenstein g = {MIST_PHASE_G}, as nimbus's mist) from below the terrain to the rain's ceiling at {ceiling_m:.0} m, {:.0} km square around the camera, everywhere (rain zones not followed)",
+                "rain: streaks and splashes are not exported; the mist is a homogeneous medium (σ_t = {extinction:.2e} m⁻¹ from all drops of {MIST_MIN_DIAMETER_MM}–{} mm, albedo 1, Henyey–Greenstein g = {MIST_PHASE_G}, as nimbus's mist) from below the terrain to the rain's ceiling at {ceiling_m:.0} m, {:.0} km square around the camera (the scene rains everywhere)",
                 rain.max_diameter_mm,
                 MIST_SIDE_M / 1000.0
+            ));
+        } else if hi.y > lo.y && extinction > 0.0 {
+            let (grid, box_m) = mist_grid(&zones, lo.y, hi.y, extinction);
+            files.write_bytes(&dir.join("mist.vol"), "--mitsuba", &grid.to_mitsuba_vol())?;
+            let _ = write!(
+                media,
+                r#"    <medium type="heterogeneous" id="mist">
+        <phase type="hg"><float name="g" value="{MIST_PHASE_G}"/></phase>
+        <volume type="gridvolume" name="sigma_t">
+            <string name="filename" value="mist.vol"/>
+            <transform name="to_world"><matrix value="{grid_m}"/></transform>
+        </volume>
+        <rgb name="albedo" value="1.0"/>
+        <float name="scale" value="1"/>
+    </medium>
+"#,
+                grid_m = matrix(&box_m),
+            );
+            let world_from_cube = box_m
+                * DMat4::from_translation(DVec3::splat(0.5))
+                * DMat4::from_scale(DVec3::splat(0.5));
+            cube_shape(&mut xml, "mist", &world_from_cube);
+            if inside_cube(&world_from_cube, camera.position_m) {
+                camera_medium = Some("mist".into());
+            }
+            approximations.push(format!(
+                "rain: streaks and splashes are not exported; the mist (σ_t = {extinction:.2e} m⁻¹ where it rains fully, from all drops of {MIST_MIN_DIAMETER_MM}–{} mm, albedo 1, Henyey–Greenstein g = {MIST_PHASE_G}, as nimbus's mist) follows nimbus's map of where it rains ({}×{} texels of {:.0} m: the rain areas with their soft edges{}), from below the terrain to the rain's ceiling at {ceiling_m:.0} m; outside the map's {:.0} km square, no mist (nimbus clamps the map's edge); nimbus's mist ends 30 km from the camera and varies its density with noise near the rain box, the export's does not",
+                rain.max_diameter_mm,
+                zones.size,
+                zones.size,
+                zones.texel_m,
+                if rain.under_clouds { " and under the clouds" } else { "" },
+                zones.size as f32 * zones.texel_m / 1000.0,
             ));
         }
     } else if scene.rain.is_some() {
@@ -486,6 +630,51 @@ pub fn export(
         stratus,
         approximations,
     })
+}
+
+/// The rain's mist as a grid: nimbus's map of rain factors (`zones`, texel
+/// centres at (i + ½)·texel, bilinear between them, as Mitsuba's grid
+/// volumes sample their cells) times the extinction where it rains fully,
+/// two identical cells high from `floor_m` to `ceiling_m`. Returns the grid
+/// and the world transform of its unit cube.
+fn mist_grid(
+    zones: &nimbus_physics::rain::zones::RainZones,
+    floor_m: f64,
+    ceiling_m: f64,
+    extinction_per_m: f64,
+) -> (ExtinctionGrid, DMat4) {
+    let n = zones.size as usize;
+    let texel_m = f64::from(zones.texel_m);
+    let origin = DVec3::new(
+        f64::from(zones.origin_m[0]),
+        floor_m,
+        f64::from(zones.origin_m[1]),
+    );
+    let mut values = vec![0.0f32; n * 2 * n];
+    for k in 0..n {
+        for j in 0..2 {
+            for i in 0..n {
+                values[(k * 2 + j) * n + i] =
+                    (extinction_per_m * f64::from(zones.factors[k * n + i])) as f32;
+            }
+        }
+    }
+    let box_m = DMat4::from_translation(origin)
+        * DMat4::from_scale(DVec3::new(
+            n as f64 * texel_m,
+            ceiling_m - floor_m,
+            n as f64 * texel_m,
+        ));
+    (
+        ExtinctionGrid {
+            origin_m: origin,
+            cell_m: texel_m,
+            dims: [n, 2, n],
+            values_per_m: values,
+            coarsened: false,
+        },
+        box_m,
+    )
 }
 
 /// The variant's origin in the field's frame (the renderer puts it under
@@ -699,5 +888,87 @@ fn remove_sun_disc(pixels: &mut [[f32; 3]], width: u32, height: u32, to_sun: DVe
         if direction(i).dot(to_sun) >= inner {
             *p = ring;
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Henyey–Greenstein, per steradian.
+    fn hg(g: f64, mu: f64) -> f64 {
+        (1.0 - g * g) / (4.0 * std::f64::consts::PI * (1.0 + g * g - 2.0 * g * mu).powf(1.5))
+    }
+
+    fn hg_table(g: f64, n: usize) -> Vec<f64> {
+        (0..n)
+            .map(|i| hg(g, -1.0 + 2.0 * i as f64 / (n - 1) as f64))
+            .collect()
+    }
+
+    /// The removed fraction of a Henyey–Greenstein phase function flattened
+    /// inside θ_t, against its closed form: the probability of scattering
+    /// within θ_t, (1 − g²)/(2g) [1/(1 − g) − (1 + g² − 2g μ_t)^(−1/2)]
+    /// (the HG cumulative distribution), less the flat part 2π p(μ_t)(1 − μ_t).
+    #[test]
+    fn the_removed_fraction_of_henyey_greenstein_matches_its_closed_form() {
+        for (g, angle_deg) in [(0.9, 5.0), (0.85, 10.0), (0.5, 20.0)] {
+            let mut values = hg_table(g, 200_001);
+            let f = truncate_forward_peak(&mut values, angle_deg);
+            let mu_t = f64::to_radians(angle_deg).cos();
+            let inside = (1.0 - g * g) / (2.0 * g)
+                * (1.0 / (1.0 - g) - 1.0 / (1.0 + g * g - 2.0 * g * mu_t).sqrt());
+            let expected = inside - 2.0 * std::f64::consts::PI * hg(g, mu_t) * (1.0 - mu_t);
+            assert!(
+                (f - expected).abs() < 1e-4,
+                "g {g}, {angle_deg}°: f {f} vs {expected}"
+            );
+            // Flat inside the angle, untouched outside.
+            let n = values.len();
+            assert!((values[n - 1] - hg(g, mu_t)).abs() < 1e-3 * hg(g, mu_t));
+            assert_eq!(values[0], hg(g, -1.0));
+        }
+    }
+
+    /// The mist's grid is nimbus's map of where it rains: a rain area's
+    /// texels carry the full extinction at its centre, none outside its
+    /// radius, the soft edge between, on both vertical cells; the grid's
+    /// box spans the map's square from the floor to the ceiling.
+    #[test]
+    fn the_mist_grid_follows_the_rain_areas() {
+        use nimbus_physics::rain::zones::{RainArea, RainZones};
+        let area = RainArea {
+            center_m: [1000.0, -500.0],
+            radius_m: 1500.0,
+            edge_m: 700.0,
+        };
+        let zones = RainZones::from_fn([0.0, 0.0], 8000.0, 64, |x, z| area.factor_at(x, z));
+        let (grid, box_m) = mist_grid(&zones, -100.0, 900.0, 2e-3);
+        assert_eq!(grid.dims, [64, 2, 64]);
+        let texel = 8000.0 / 64.0;
+        let value = |x: f64, z: f64, j: usize| {
+            let i = ((x + 4000.0) / texel) as usize;
+            let k = ((z + 4000.0) / texel) as usize;
+            grid.values_per_m[(k * 2 + j) * 64 + i]
+        };
+        for j in 0..2 {
+            assert!((value(1000.0, -500.0, j) - 2e-3).abs() < 1e-9);
+            assert_eq!(value(-3000.0, 3000.0, j), 0.0);
+            let edge = value(1000.0 + 1200.0, -500.0, j);
+            assert!(edge > 0.0 && edge < 2e-3, "{edge}");
+        }
+        let lo = box_m.transform_point3(DVec3::ZERO);
+        let hi = box_m.transform_point3(DVec3::ONE);
+        assert!((lo - DVec3::new(-4000.0, -100.0, -4000.0)).length() < 1e-6);
+        assert!((hi - DVec3::new(4000.0, 900.0, 4000.0)).length() < 1e-6);
+    }
+
+    /// An angle of 0 keeps the phase function as it is.
+    #[test]
+    fn no_truncation_at_zero_degrees() {
+        let mut values = hg_table(0.9, 1001);
+        let before = values.clone();
+        assert_eq!(truncate_forward_peak(&mut values, 0.0), 0.0);
+        assert_eq!(values, before);
     }
 }

@@ -23,7 +23,12 @@
 //!   the extinction of its droplet size distribution;
 //! - the droplets' phase function (Mie, integrated over the layer's size
 //!   distribution at 550 nm) as a tabulated phase function, and their
-//!   single-scattering albedo.
+//!   single-scattering albedo; the forward diffraction peak truncated by the
+//!   δ-M method at `--phase-truncation-deg` (default 5°; 0 keeps it);
+//! - the rain's mist (drops' extinction, Henyey–Greenstein 0.85) where
+//!   nimbus's map of rain factors puts it: inside the rain areas with their
+//!   soft edges and under the clouds with `rain.under_clouds` (a grid), or
+//!   everywhere below the rain's ceiling when the scene rains everywhere.
 
 mod gltf;
 mod mitsuba;
@@ -51,6 +56,13 @@ pub struct ExportArgs {
     /// Animation time, s (as `render --time-s`).
     #[arg(long, default_value_t = 0.0, value_name = "S")]
     time_s: f64,
+    /// With --mitsuba: truncate the droplets' forward diffraction peak
+    /// inside this scattering angle by the δ-M method (Wiscombe 1977), in
+    /// degrees, 0 to 30; 0 keeps the full phase function. The truncation
+    /// cuts the path tracer's variance many times; it biases the light
+    /// seen within about this angle of the sun's direction.
+    #[arg(long, default_value_t = 5.0, value_name = "DEG")]
+    phase_truncation_deg: f64,
 }
 
 /// Runs the subcommand.
@@ -59,6 +71,13 @@ pub fn run(args: &ExportArgs) -> anyhow::Result<()> {
         args.time_s.is_finite() && (0.0..=1.0e7).contains(&args.time_s),
         "--time-s {}: must be a number in [0, 10000000]",
         args.time_s
+    );
+    anyhow::ensure!(
+        args.phase_truncation_deg.is_finite()
+            && (0.0..=mitsuba::MAX_PHASE_TRUNCATION_DEG).contains(&args.phase_truncation_deg),
+        "--phase-truncation-deg {}: must be a number of degrees in [0, {}] (0: the full phase function)",
+        args.phase_truncation_deg,
+        mitsuba::MAX_PHASE_TRUNCATION_DEG
     );
     if let Some(path) = &args.gltf {
         gltf::check_output(path)?;
@@ -113,7 +132,10 @@ pub fn run(args: &ExportArgs) -> anyhow::Result<()> {
         &scene,
         width,
         height,
-        args.time_s,
+        mitsuba::Options {
+            time_s: args.time_s,
+            phase_truncation_deg: args.phase_truncation_deg,
+        },
         mitsuba_dir,
         &mut files,
     )?;
