@@ -6,19 +6,19 @@
 //! B), with luminances r, a, b and s = (a + b)/2, h = (a − b)/2:
 //!
 //! - (r − a)(r − b) = (r − s)² − h² is an unbiased estimate of (r − μ)², μ
-//!   the noise-free reference: E[(r − a)(r − b)] = (r − μ)² when A and B
+//!   the noise-free reference: E\[(r − a)(r − b)\] = (r − μ)² when A and B
 //!   are independent with mean μ (the cross term vanishes). Its mean over
 //!   the pixels, m, is the unbiased mean squared error; √max(m, 0) over the
 //!   reference's mean luminance is the relative RMSE reported (the raw m,
 //!   which noise can make negative, is reported too). The naive RMSE,
 //!   mean (r − s)², exceeds it by the reference's noise variance mean h².
-//! - The reference's noise: E[h²] is the variance of s, so √(mean h²) over
+//! - The reference's noise: E\[h²\] is the variance of s, so √(mean h²) over
 //!   the mean luminance is the reference's own relative RMSE.
 //! - Standard errors, over the reference's noise (R is deterministic, the
 //!   pixels' noise independent): with s = μ + e, h independent of e (equal
-//!   variances of the halves; Gaussian), Var[(r − s)² − h²] =
+//!   variances of the halves; Gaussian), Var\[(r − s)² − h²\] =
 //!   4 (r − μ)² σ² + 4 σ⁴, of which 4 h² (r − s)² is an unbiased estimate
-//!   (E[h² (r − s)²] = σ² ((r − μ)² + σ²)). So SE(m) = √(Σ 4 h² (r − s)²) / n.
+//!   (E\[h² (r − s)²\] = σ² ((r − μ)² + σ²)). So SE(m) = √(Σ 4 h² (r − s)²) / n.
 //!   The relative RMSE's standard error is half the spread of √ over m ± SE(m)
 //!   (well defined at m ≈ 0, where the delta method is not).
 //! - Mean luminance ratio L̄_R / L̄_S and red/blue of the means: the
