@@ -13,7 +13,6 @@ use nimbus_render::{
     RendererDescriptor, Scene, TargetLoad, View,
 };
 
-
 use crate::support::{self, DepthRect};
 
 const WIDTH: u32 = 64;

@@ -12,10 +12,9 @@ use nimbus_render::rain::{
 
 use nimbus_render::scene::Scene;
 
-
+use crate::support::{self, DepthRect};
 use glam::{DMat4, DVec3};
 use nimbus_render::{DepthConvention, OccluderDepth, Projection, View};
-use crate::support::{self, DepthRect};
 
 fn headless() -> HeadlessRenderer {
     HeadlessRenderer::new(AdapterPreference::Auto).unwrap_or_else(|e| {
