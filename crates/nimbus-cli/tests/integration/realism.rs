@@ -2,9 +2,9 @@
 //! crate, the equirectangular panorama's seam, `nimbus compare`, and the
 //! Mitsuba export's files.
 
+use crate::support::*;
 use std::path::{Path, PathBuf};
 use std::process::Output;
-use crate::support::*;
 
 fn scenes_dir() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenes")
@@ -175,6 +175,135 @@ fn compare_reports_zero_for_identical_images_and_writes_the_report() {
         stderr.contains("bad.exr") && stderr.contains("OpenEXR"),
         "{stderr}"
     );
+}
+
+/// Writes an RGB EXR of `pixels` (width × height).
+fn write_rgb(path: &Path, width: usize, height: usize, pixels: &[[f32; 3]]) {
+    exr::prelude::write_rgb_file(path, width, height, |x, y| {
+        let [r, g, b] = pixels[y * width + x];
+        (r, g, b)
+    })
+    .expect("EXR written");
+}
+
+/// Acceptance of the unbiased error (docs/REALISM.md): `nimbus compare` of
+/// an image against two halves that are the image plus independent noise
+/// (±30 % per pixel, uniform, a different draw per half) reports an
+/// unbiased error of 0 within its standard error, per pixel and per block,
+/// while the naive error is the noise, many standard errors above 0.
+#[test]
+fn compare_against_noisy_halves_of_the_image_itself_finds_no_error() {
+    let dir = temp_dir("realism", "halves");
+    let scene = scenes_dir().join("cumulus-front-lit.toml");
+    assert_success(&nimbus(
+        &[
+            "render",
+            scene.to_str().expect("path"),
+            "-o",
+            "a.exr",
+            "--width",
+            "96",
+            "--height",
+            "54",
+        ],
+        &dir,
+    ));
+    let (w, h, c) = channels(&dir.join("a.exr"));
+    let image: Vec<[f32; 3]> = (0..w * h)
+        .map(|i| [c["R"][i], c["G"][i], c["B"][i]])
+        .collect();
+    // A xorshift generator: reproducible, independent draws for the halves.
+    let mut state = 0x2545_F491_4F6C_DD1Du64;
+    let mut noisy = || -> Vec<[f32; 3]> {
+        image
+            .iter()
+            .map(|p| {
+                state ^= state << 13;
+                state ^= state >> 7;
+                state ^= state << 17;
+                let u = (state >> 11) as f64 / (1u64 << 53) as f64;
+                let k = (1.0 + 0.6 * (u - 0.5)) as f32;
+                p.map(|v| v * k)
+            })
+            .collect()
+    };
+    write_rgb(&dir.join("half_a.exr"), w, h, &noisy());
+    write_rgb(&dir.join("half_b.exr"), w, h, &noisy());
+    let out = nimbus(
+        &[
+            "compare",
+            "a.exr",
+            "--halves",
+            "half_a.exr",
+            "half_b.exr",
+            "--mask",
+            "all",
+            "--block",
+            "4",
+            "--json",
+        ],
+        &dir,
+    );
+    assert_success(&out);
+    let json: serde_json::Value = serde_json::from_slice(&out.stdout).expect("one JSON document");
+    let halves = &json["halves"];
+    for scale in ["pixels", "blocks"] {
+        let s = &halves[scale];
+        let number = |key: &str| s[key].as_f64().expect(key);
+        let (mse, se) = (
+            number("luminance_relative_mse_unbiased_raw"),
+            number("luminance_relative_mse_unbiased_se"),
+        );
+        assert!(mse.abs() < 3.0 * se, "{scale}: unbiased MSE {mse} ± {se}");
+        let naive = number("luminance_relative_rmse_naive");
+        assert!(
+            naive * naive > 5.0 * se,
+            "{scale}: the naive squared error {} is within 5 SE {se} of 0",
+            naive * naive
+        );
+        assert!(number("reference_noise_relative_rmse") > 0.0);
+    }
+    let ratio = halves["mean_luminance_ratio"].as_f64().expect("ratio");
+    let ratio_se = halves["mean_luminance_ratio_se"]
+        .as_f64()
+        .expect("ratio SE");
+    assert!((ratio - 1.0).abs() < 3.0 * ratio_se, "{ratio} ± {ratio_se}");
+    // The reference and --halves together, or a bad block size: one line.
+    for args in [
+        &[
+            "compare",
+            "a.exr",
+            "a.exr",
+            "--halves",
+            "half_a.exr",
+            "half_b.exr",
+        ][..],
+        &[
+            "compare",
+            "a.exr",
+            "--halves",
+            "half_a.exr",
+            "half_b.exr",
+            "--block",
+            "0",
+        ][..],
+    ] {
+        let out = nimbus(args, &dir);
+        assert!(!out.status.success(), "{args:?} succeeded");
+    }
+    let out = nimbus(
+        &[
+            "compare",
+            "a.exr",
+            "--halves",
+            "half_a.exr",
+            "half_b.exr",
+            "--block",
+            "0",
+        ],
+        &dir,
+    );
+    assert!(String::from_utf8_lossy(&out.stderr).contains("--block 0"));
 }
 
 /// The realism suite (docs/REALISM.md): every scene of scenes/realism/ is
