@@ -1,9 +1,9 @@
 //! Integration tests of the `nimbus` binary: exit codes, one-line errors,
 //! outputs, and no partial files on failure.
 
+use crate::support::*;
 use std::path::Path;
 use std::process::{Command, Output};
-use crate::support::*;
 
 #[test]
 fn help_is_available_for_every_subcommand() {

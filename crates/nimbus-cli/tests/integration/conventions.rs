@@ -4,8 +4,8 @@
 //! JSON document), and progress drawn on standard error only when it is a
 //! terminal. None of these needs a GPU.
 
-use std::process::{Command, Output, Stdio};
 use crate::support::*;
+use std::process::{Command, Output, Stdio};
 
 fn text(bytes: &[u8]) -> String {
     String::from_utf8_lossy(bytes).into_owned()

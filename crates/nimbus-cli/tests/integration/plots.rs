@@ -3,9 +3,9 @@
 //! symbols (drawn with the embedded font in PNGs, kept as text in SVGs),
 //! other extensions refused in one line before any work, nothing left behind.
 
+use crate::support::*;
 use std::path::Path;
 use std::process::Output;
-use crate::support::*;
 
 /// A quick `nimbus optics dsd` writing its plot to `plot`.
 fn phase_plot(dir: &Path, plot: &str) -> Output {
