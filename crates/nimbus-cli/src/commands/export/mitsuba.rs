@@ -208,27 +208,37 @@ fn matrix(m: &DMat4) -> String {
         .join(" ")
 }
 
-/// A heterogeneous droplet medium inside a box: the unit cube of the grid
-/// mapped to the world by `world_from_grid`. Returns the box's transform
-/// (Mitsuba's [−1, 1]³ cube to the world).
+/// What fills a medium's box besides its grid of extinction.
+struct MediumMaterial {
+    /// The phase function's XML element: a `<ref>` to one declared once,
+    /// or the element itself.
+    phase_xml: String,
+    /// Single-scattering albedo per channel.
+    albedo_rgb: [f64; 3],
+    /// Mitsuba's `scale` of the grid's extinction.
+    extinction_scale: f64,
+}
+
+/// A heterogeneous medium inside a box: the unit cube of the grid mapped to
+/// the world by `world_from_grid`. Returns the box's transform (Mitsuba's
+/// [−1, 1]³ cube to the world).
 fn medium_shape(
     xml: &mut String,
     media: &mut String,
     id: &str,
     volume_file: &str,
     world_from_grid: &DMat4,
-    optics: &DropletOptics,
-    phase_id: &str,
+    material: &MediumMaterial,
 ) -> DMat4 {
     // Mitsuba's `cube` spans [−1, 1]³; the grid volume [0, 1]³.
     let world_from_cube = *world_from_grid
         * DMat4::from_translation(DVec3::splat(0.5))
         * DMat4::from_scale(DVec3::splat(0.5));
-    let [r, g, b] = optics.albedo_rgb;
+    let [r, g, b] = material.albedo_rgb;
     let _ = write!(
         media,
         r#"    <medium type="heterogeneous" id="{id}">
-        <ref id="{phase_id}"/>
+        {phase}
         <volume type="gridvolume" name="sigma_t">
             <string name="filename" value="{volume_file}"/>
             <transform name="to_world"><matrix value="{grid}"/></transform>
@@ -237,8 +247,9 @@ fn medium_shape(
         <float name="scale" value="{scale:.9}"/>
     </medium>
 "#,
+        phase = material.phase_xml,
         grid = matrix(world_from_grid),
-        scale = optics.truncation.extinction_scale,
+        scale = material.extinction_scale,
     );
     cube_shape(xml, id, &world_from_cube);
     world_from_cube
@@ -402,6 +413,12 @@ pub fn export(
     // cumulus shader has none of its own, so the same droplets).
     let droplet_settings = scene.stratus.clone().unwrap_or_default();
     let optics = droplet_optics(&droplet_settings, phase_truncation_deg);
+    // Every cumulus and the stratus: the phase function declared once below.
+    let droplets = MediumMaterial {
+        phase_xml: r#"<ref id="droplets"/>"#.to_string(),
+        albedo_rgb: optics.albedo_rgb,
+        extinction_scale: optics.truncation.extinction_scale,
+    };
     let truncation = optics.truncation;
     approximations.push(if truncation.angle_deg > 0.0 {
         format!(
@@ -468,8 +485,7 @@ pub fn export(
                 &id,
                 &file,
                 &world_from_grid,
-                &optics,
-                "droplets",
+                &droplets,
             );
             if inside_cube(&world_from_cube, camera.position_m) {
                 camera_medium = Some(id);
@@ -504,8 +520,7 @@ pub fn export(
             "stratus",
             "stratus.vol",
             &box_m,
-            &optics,
-            "droplets",
+            &droplets,
         );
         if inside_cube(&world_from_cube, camera.position_m) {
             camera_medium = Some("stratus".into());
@@ -571,24 +586,20 @@ pub fn export(
         } else if hi.y > lo.y && extinction > 0.0 {
             let (grid, box_m) = mist_grid(&zones, lo.y, hi.y, extinction);
             files.write_bytes(&dir.join("mist.vol"), "--mitsuba", &grid.to_mitsuba_vol())?;
-            let _ = write!(
-                media,
-                r#"    <medium type="heterogeneous" id="mist">
-        <phase type="hg"><float name="g" value="{MIST_PHASE_G}"/></phase>
-        <volume type="gridvolume" name="sigma_t">
-            <string name="filename" value="mist.vol"/>
-            <transform name="to_world"><matrix value="{grid_m}"/></transform>
-        </volume>
-        <rgb name="albedo" value="1.0"/>
-        <float name="scale" value="1"/>
-    </medium>
-"#,
-                grid_m = matrix(&box_m),
+            let world_from_cube = medium_shape(
+                &mut xml,
+                &mut media,
+                "mist",
+                "mist.vol",
+                &box_m,
+                &MediumMaterial {
+                    phase_xml: format!(
+                        r#"<phase type="hg"><float name="g" value="{MIST_PHASE_G}"/></phase>"#
+                    ),
+                    albedo_rgb: [1.0; 3],
+                    extinction_scale: 1.0,
+                },
             );
-            let world_from_cube = box_m
-                * DMat4::from_translation(DVec3::splat(0.5))
-                * DMat4::from_scale(DVec3::splat(0.5));
-            cube_shape(&mut xml, "mist", &world_from_cube);
             if inside_cube(&world_from_cube, camera.position_m) {
                 camera_medium = Some("mist".into());
             }
