@@ -31,7 +31,7 @@
 //! Asia 2011, sec. 4 (the product of two independent buffers' errors as an
 //! unbiased squared-error estimate).
 
-use super::metrics::RgbImage;
+use super::metrics::{LUMINANCE_RGB, RgbImage, luminance_f64};
 
 /// Default side of the blocks, pixels.
 pub const DEFAULT_BLOCK_PX: u32 = 4;
@@ -94,16 +94,12 @@ fn rgb(p: [f32; 3]) -> [f64; 3] {
     p.map(f64::from)
 }
 
-fn lum(c: [f64; 3]) -> f64 {
-    0.2126 * c[0] + 0.7152 * c[1] + 0.0722 * c[2]
-}
-
 /// The statistics of one scale over its samples, relative to `mean`.
 fn scale_metrics(samples: &[Sample], mean: f64) -> ScaleMetrics {
     let n = samples.len().max(1) as f64;
     let (mut m, mut var_m, mut naive, mut noise) = (0.0, 0.0, 0.0, 0.0);
     for [t, a, b] in samples {
-        let (r, a, b) = (lum(*t), lum(*a), lum(*b));
+        let (r, a, b) = (luminance_f64(*t), luminance_f64(*a), luminance_f64(*b));
         let (s, h) = (0.5 * (a + b), 0.5 * (a - b));
         m += (r - a) * (r - b);
         var_m += 4.0 * h * h * (r - s) * (r - s);
@@ -195,10 +191,13 @@ pub fn halves_metrics(
         }
     }
     let cov = cov.map(|row| row.map(|v| v / (n * n)));
-    const Y: [f64; 3] = [0.2126, 0.7152, 0.0722];
-    let (lt, ls) = (lum(mean_t), lum(mean_s).max(1e-30));
+    let (lt, ls) = (luminance_f64(mean_t), luminance_f64(mean_s).max(1e-30));
     let var_ls: f64 = (0..3)
-        .map(|c| (0..3).map(|d| Y[c] * Y[d] * cov[c][d]).sum::<f64>())
+        .map(|c| {
+            (0..3)
+                .map(|d| LUMINANCE_RGB[c] * LUMINANCE_RGB[d] * cov[c][d])
+                .sum::<f64>()
+        })
         .sum();
     let ratio = lt / ls;
     // ρ = R̄/B̄: Var ρ ≈ (Var R̄ − 2ρ Cov(R̄, B̄) + ρ² Var B̄) / B̄².

@@ -22,9 +22,18 @@
 
 use nimbus_physics::photometry::srgb_encode;
 
+/// Weights of linear R, G and B in the Rec. 709 luminance.
+pub const LUMINANCE_RGB: [f64; 3] = [0.2126, 0.7152, 0.0722];
+
 /// Rec. 709 luminance of linear RGB.
 pub fn luminance(rgb: [f32; 3]) -> f64 {
-    0.2126 * f64::from(rgb[0]) + 0.7152 * f64::from(rgb[1]) + 0.0722 * f64::from(rgb[2])
+    luminance_f64(rgb.map(f64::from))
+}
+
+/// [`luminance`] of linear RGB in double precision.
+pub fn luminance_f64(rgb: [f64; 3]) -> f64 {
+    let [wr, wg, wb] = LUMINANCE_RGB;
+    wr * rgb[0] + wg * rgb[1] + wb * rgb[2]
 }
 
 /// A linear HDR RGB image, rows top to bottom.
