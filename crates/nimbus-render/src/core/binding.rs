@@ -236,10 +236,7 @@ pub fn read_mapped(device: &wgpu::Device, buffer: &wgpu::Buffer) -> Result<Vec<u
         .recv()
         .map_err(|e| e.to_string())?
         .map_err(|e| e.to_string())?;
-    let bytes = buffer
-        .get_mapped_range(..)
-        .map_err(|e| e.to_string())?
-        .to_vec();
+    let bytes = buffer.get_mapped_range(..).to_vec();
     buffer.unmap();
     Ok(bytes)
 }
