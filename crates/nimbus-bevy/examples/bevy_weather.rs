@@ -75,7 +75,11 @@ fn fly_camera(
             step += direction;
         }
     }
-    let speed = if keys.pressed(KeyCode::ShiftLeft) { 60.0 } else { 8.0 };
+    let speed = if keys.pressed(KeyCode::ShiftLeft) {
+        60.0
+    } else {
+        8.0
+    };
     transform.translation += step.normalize_or_zero() * speed * time.delta_secs();
     transform.translation.y = transform.translation.y.max(0.3);
 }

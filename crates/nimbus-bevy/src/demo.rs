@@ -8,8 +8,8 @@ use bevy::camera::{Camera3d, Exposure};
 use bevy::color::Color;
 use bevy::core_pipeline::tonemapping::Tonemapping;
 use bevy::ecs::prelude::*;
-use bevy::math::primitives::{Cuboid, Plane3d};
 use bevy::math::Vec3;
+use bevy::math::primitives::{Cuboid, Plane3d};
 use bevy::mesh::{Mesh, Mesh3d, Meshable};
 use bevy::pbr::{MeshMaterial3d, StandardMaterial};
 use bevy::transform::components::Transform;
@@ -128,29 +128,62 @@ pub fn spawn_world(
         MeshMaterial3d(grass),
         Transform::IDENTITY,
     ));
-    let mut block = |commands: &mut Commands,
-                     min: Vec3,
-                     size: Vec3,
-                     material: Handle<StandardMaterial>| {
-        commands.spawn((
-            Mesh3d(meshes.add(Cuboid::from_size(size))),
-            MeshMaterial3d(material),
-            Transform::from_translation(min + size / 2.0),
-        ));
-    };
+    let mut block =
+        |commands: &mut Commands, min: Vec3, size: Vec3, material: Handle<StandardMaterial>| {
+            commands.spawn((
+                Mesh3d(meshes.add(Cuboid::from_size(size))),
+                MeshMaterial3d(material),
+                Transform::from_translation(min + size / 2.0),
+            ));
+        };
     // Buildings.
-    block(commands, Vec3::new(-8.0, 0.0, -14.0), Vec3::new(4.0, 6.0, 4.0), stone);
-    block(commands, Vec3::new(6.0, 0.0, -24.0), Vec3::new(5.0, 10.0, 5.0), brick);
-    block(commands, Vec3::new(20.0, 0.0, -50.0), Vec3::new(8.0, 24.0, 8.0), concrete);
+    block(
+        commands,
+        Vec3::new(-8.0, 0.0, -14.0),
+        Vec3::new(4.0, 6.0, 4.0),
+        stone,
+    );
+    block(
+        commands,
+        Vec3::new(6.0, 0.0, -24.0),
+        Vec3::new(5.0, 10.0, 5.0),
+        brick,
+    );
+    block(
+        commands,
+        Vec3::new(20.0, 0.0, -50.0),
+        Vec3::new(8.0, 24.0, 8.0),
+        concrete,
+    );
     // The shelter: a roof on four posts.
     block(commands, ROOF_MIN, ROOF_MAX - ROOF_MIN, wood.clone());
     for (x, z) in [(-12.0, 10.0), (-6.3, 10.0), (-12.0, 13.7), (-6.3, 13.7)] {
-        block(commands, Vec3::new(x, 0.0, z), Vec3::new(0.3, 3.0, 0.3), wood.clone());
+        block(
+            commands,
+            Vec3::new(x, 0.0, z),
+            Vec3::new(0.3, 3.0, 0.3),
+            wood.clone(),
+        );
     }
     // A tree of boxes.
-    block(commands, Vec3::new(10.0, 0.0, -4.0), Vec3::new(0.6, 4.0, 0.6), bark);
-    block(commands, Vec3::new(8.3, 3.5, -5.7), Vec3::new(4.0, 2.5, 4.0), leaves.clone());
-    block(commands, Vec3::new(9.0, 5.8, -5.0), Vec3::new(2.6, 1.6, 2.6), leaves);
+    block(
+        commands,
+        Vec3::new(10.0, 0.0, -4.0),
+        Vec3::new(0.6, 4.0, 0.6),
+        bark,
+    );
+    block(
+        commands,
+        Vec3::new(8.3, 3.5, -5.7),
+        Vec3::new(4.0, 2.5, 4.0),
+        leaves.clone(),
+    );
+    block(
+        commands,
+        Vec3::new(9.0, 5.8, -5.0),
+        Vec3::new(2.6, 1.6, 2.6),
+        leaves,
+    );
 
     commands.spawn(NimbusSun::default());
     commands.spawn(camera());

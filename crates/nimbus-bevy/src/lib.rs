@@ -242,7 +242,9 @@ fn configure_cameras(
     for (entity, mut camera, msaa) in &mut cameras {
         camera.depth_texture_usages.0 |= TextureUsages::TEXTURE_BINDING.bits();
         if msaa != Some(&Msaa::Off) {
-            info!("nimbus: camera {entity}: MSAA turned off (nimbus composites by a single-sample depth)");
+            info!(
+                "nimbus: camera {entity}: MSAA turned off (nimbus composites by a single-sample depth)"
+            );
             commands.entity(entity).insert(Msaa::Off);
         }
     }
@@ -284,11 +286,19 @@ mod tests {
         let demo = demo::weather();
         assert!(!demo.scene.ground.terrain);
         assert_eq!(demo.scene.keyframes.len(), 4);
-        let plain = NimbusWeather::from_toml("[sun]\nazimuth_deg = 90.0\nelevation_deg = 10.0\n", "t.toml").unwrap();
+        let plain = NimbusWeather::from_toml(
+            "[sun]\nazimuth_deg = 90.0\nelevation_deg = 10.0\n",
+            "t.toml",
+        )
+        .unwrap();
         assert!(!plain.scene.ground.terrain);
         let with = NimbusWeather::from_toml("[ground]\nterrain = true\n", "t.toml").unwrap();
         assert!(with.scene.ground.terrain);
-        let bad = NimbusWeather::from_toml("[sun]\nazimuth_deg = 90.0\nelevation_deg = 100.0\n", "bad.toml").unwrap_err();
+        let bad = NimbusWeather::from_toml(
+            "[sun]\nazimuth_deg = 90.0\nelevation_deg = 100.0\n",
+            "bad.toml",
+        )
+        .unwrap_err();
         assert!(bad.to_string().contains("bad.toml"), "{bad}");
     }
 }

@@ -36,12 +36,8 @@ pub struct NimbusOccluders {
 /// it the rest are left out, with a warning.
 pub const MAX_OCCLUDER_TRIANGLES: usize = 4_000_000;
 
-type MeshQuery<'w, 's> = Query<
-    'w,
-    's,
-    (Entity, &'static Mesh3d, &'static GlobalTransform),
-    Without<NoRainOcclusion>,
->;
+type MeshQuery<'w, 's> =
+    Query<'w, 's, (Entity, &'static Mesh3d, &'static GlobalTransform), Without<NoRainOcclusion>>;
 
 /// Gathers the meshes' triangles when something changed.
 #[allow(clippy::too_many_arguments)]

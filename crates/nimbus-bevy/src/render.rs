@@ -76,7 +76,9 @@ impl NimbusRenderer {
     /// The renderer (e.g. for its frame resources, pending work or pass times).
     pub fn lock(&self) -> MutexGuard<'_, Renderer> {
         // A panic while it was held leaves a renderer that still works.
-        self.0.lock().unwrap_or_else(|poisoned| poisoned.into_inner())
+        self.0
+            .lock()
+            .unwrap_or_else(|poisoned| poisoned.into_inner())
     }
 }
 
@@ -366,8 +368,8 @@ pub(crate) fn nimbus_composite(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use bevy::camera::PerspectiveProjection;
     use bevy::camera::CameraProjection;
+    use bevy::camera::PerspectiveProjection;
     use bevy::math::Vec3;
     use bevy::transform::components::Transform;
 
@@ -383,7 +385,8 @@ mod tests {
             ..Default::default()
         };
         let clip_from_view = projection.get_clip_from_view();
-        let pose = Transform::from_xyz(3.0, 2.0, 10.0).looking_at(Vec3::new(0.0, 5.0, -20.0), Vec3::Y);
+        let pose =
+            Transform::from_xyz(3.0, 2.0, 10.0).looking_at(Vec3::new(0.0, 5.0, -20.0), Vec3::Y);
         let view = nimbus_view(pose.to_matrix(), clip_from_view).expect("Bevy's perspective");
         let Projection::Perspective {
             fov_y_rad,
@@ -403,11 +406,19 @@ mod tests {
         let point = Vec3::new(1.0, 4.0, -15.0);
         let bevy_clip = clip_from_view * pose.to_matrix().inverse() * point.extend(1.0);
         let nimbus_clip = view.nimbus_clip_from_world()
-            * glam::DVec4::new(f64::from(point.x), f64::from(point.y), f64::from(point.z), 1.0);
+            * glam::DVec4::new(
+                f64::from(point.x),
+                f64::from(point.y),
+                f64::from(point.z),
+                1.0,
+            );
         let bevy_ndc = bevy_clip.truncate() / bevy_clip.w;
         let nimbus_ndc = nimbus_clip.truncate() / nimbus_clip.w;
         for (b, n) in bevy_ndc.to_array().iter().zip(nimbus_ndc.to_array()) {
-            assert!((f64::from(*b) - n).abs() < 1e-4, "{bevy_ndc} vs {nimbus_ndc}");
+            assert!(
+                (f64::from(*b) - n).abs() < 1e-4,
+                "{bevy_ndc} vs {nimbus_ndc}"
+            );
         }
     }
 

@@ -30,8 +30,8 @@ use bevy::math::Vec3;
 use bevy::tasks::{AsyncComputeTaskPool, Task, block_on, futures_lite::future};
 use bevy::transform::components::Transform;
 use nimbus_physics::photometry::MAX_LUMINOUS_EFFICACY_LM_PER_W;
-use nimbus_render::atmosphere::{SkyLighting, sky_lighting};
 use nimbus_render::Scene;
+use nimbus_render::atmosphere::{SkyLighting, sky_lighting};
 
 /// Marks the directional light that nimbus's sun drives: its rotation,
 /// illuminance and colour are set from the weather every time the sun
@@ -81,7 +81,11 @@ impl SunLight {
         let forward = -self.to_sun;
         // Any up that is not along the light: the sun at the zenith looks
         // straight down.
-        let up = if forward.y.abs() > 0.999 { Vec3::Z } else { Vec3::Y };
+        let up = if forward.y.abs() > 0.999 {
+            Vec3::Z
+        } else {
+            Vec3::Y
+        };
         Transform::IDENTITY.looking_to(forward, up)
     }
 }
@@ -108,8 +112,8 @@ pub fn sun_light(lighting: &SkyLighting) -> SunLight {
         to_sun,
         illuminance_lux: (MAX_LUMINOUS_EFFICACY_LM_PER_W * sun_peak) as f32,
         color,
-        ambient_brightness_cd_m2: (MAX_LUMINOUS_EFFICACY_LM_PER_W * sky_peak
-            / std::f64::consts::PI) as f32,
+        ambient_brightness_cd_m2: (MAX_LUMINOUS_EFFICACY_LM_PER_W * sky_peak / std::f64::consts::PI)
+            as f32,
         ambient_color,
     }
 }
@@ -162,7 +166,8 @@ pub(crate) fn drive_sun(
         let mut scene = scene.clone();
         // Only what sky_lighting reads matters; a cheap copy for the task.
         scene.keyframes.clear();
-        let task = AsyncComputeTaskPool::get().spawn(async move { sun_light(&sky_lighting(&scene)) });
+        let task =
+            AsyncComputeTaskPool::get().spawn(async move { sun_light(&sky_lighting(&scene)) });
         state.pending = Some((key.clone(), task));
     }
     if let Some((pending_key, mut task)) = state.pending.take() {
@@ -230,15 +235,24 @@ mod tests {
             // Direction: nimbus's sun, and the transform's forward is away from it.
             let d = scene.sun.direction();
             let to_sun = Vec3::new(d[0] as f32, d[1] as f32, d[2] as f32);
-            assert!(light.to_sun.distance(to_sun) < 1e-5, "{azimuth}/{elevation}");
+            assert!(
+                light.to_sun.distance(to_sun) < 1e-5,
+                "{azimuth}/{elevation}"
+            );
             let forward = light.transform().forward();
-            assert!(forward.distance(-to_sun) < 1e-4, "forward {forward:?} for {to_sun}");
+            assert!(
+                forward.distance(-to_sun) < 1e-4,
+                "forward {forward:?} for {to_sun}"
+            );
             // Radiance of a grey Lambertian surface tilted 40° from the sun.
             let albedo = 0.4f64;
             let cos_theta = 40f64.to_radians().cos();
-            let bevy = light.illuminance_rgb_lux().map(|e| albedo / std::f64::consts::PI * f64::from(e) * cos_theta);
+            let bevy = light
+                .illuminance_rgb_lux()
+                .map(|e| albedo / std::f64::consts::PI * f64::from(e) * cos_theta);
             for c in 0..3 {
-                let nimbus = 683.0 * albedo / std::f64::consts::PI * lighting.sun_irradiance[c] * cos_theta;
+                let nimbus =
+                    683.0 * albedo / std::f64::consts::PI * lighting.sun_irradiance[c] * cos_theta;
                 assert!(
                     (bevy[c] - nimbus).abs() <= 1e-5 * nimbus.max(1e-3),
                     "channel {c} at {elevation}°: Bevy {} cd/m², nimbus {nimbus}",
@@ -246,11 +260,18 @@ mod tests {
                 );
             }
             // Ambient: a white upward surface under the clear sky.
-            let ambient = [light.ambient_color.red, light.ambient_color.green, light.ambient_color.blue];
+            let ambient = [
+                light.ambient_color.red,
+                light.ambient_color.green,
+                light.ambient_color.blue,
+            ];
             for c in 0..3 {
                 let bevy = f64::from(ambient[c] * light.ambient_brightness_cd_m2);
                 let nimbus = 683.0 * lighting.sky_irradiance_up[c] / std::f64::consts::PI;
-                assert!((bevy - nimbus).abs() <= 1e-5 * nimbus.max(1e-3), "ambient {c}: {bevy} vs {nimbus}");
+                assert!(
+                    (bevy - nimbus).abs() <= 1e-5 * nimbus.max(1e-3),
+                    "ambient {c}: {bevy} vs {nimbus}"
+                );
             }
         }
     }
@@ -269,8 +290,17 @@ mod tests {
         let low = sun_light(&lighting_of(270.0, 3.0).1);
         assert!(low.illuminance_lux < 0.5 * high.illuminance_lux);
         let redness = |l: &SunLight| l.color.red / l.color.blue.max(1e-6);
-        assert!(redness(&low) > 1.5 * redness(&high), "low sun {:?}, high sun {:?}", low.color, high.color);
+        assert!(
+            redness(&low) > 1.5 * redness(&high),
+            "low sun {:?}, high sun {:?}",
+            low.color,
+            high.color
+        );
         let night = sun_light(&lighting_of(0.0, -10.0).1);
-        assert!(night.illuminance_lux < 1.0, "night sun {} lx", night.illuminance_lux);
+        assert!(
+            night.illuminance_lux < 1.0,
+            "night sun {} lx",
+            night.illuminance_lux
+        );
     }
 }

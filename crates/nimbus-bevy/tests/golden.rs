@@ -272,15 +272,27 @@ fn assert_matches_golden(pixels: &[u8]) {
         return;
     }
     let golden = image::open(&golden_path)
-        .unwrap_or_else(|e| panic!("{}: {e} (run with NIMBUS_BLESS=1 to create it)", golden_path.display()))
+        .unwrap_or_else(|e| {
+            panic!(
+                "{}: {e} (run with NIMBUS_BLESS=1 to create it)",
+                golden_path.display()
+            )
+        })
         .to_rgba8();
     assert_eq!((golden.width(), golden.height()), (WIDTH, HEIGHT));
     let lab = |p: &[u8]| {
-        let lin = [0, 1, 2].map(|k| nimbus_physics::photometry::srgb_decode(f64::from(p[k]) / 255.0));
+        let lin =
+            [0, 1, 2].map(|k| nimbus_physics::photometry::srgb_decode(f64::from(p[k]) / 255.0));
         let x = 0.4124 * lin[0] + 0.3576 * lin[1] + 0.1805 * lin[2];
         let y = 0.2126 * lin[0] + 0.7152 * lin[1] + 0.0722 * lin[2];
         let z = 0.0193 * lin[0] + 0.1192 * lin[1] + 0.9505 * lin[2];
-        let f = |t: f64| if t > 216.0 / 24389.0 { t.cbrt() } else { (24389.0 / 27.0 * t + 16.0) / 116.0 };
+        let f = |t: f64| {
+            if t > 216.0 / 24389.0 {
+                t.cbrt()
+            } else {
+                (24389.0 / 27.0 * t + 16.0) / 116.0
+            }
+        };
         let (fx, fy, fz) = (f(x / 0.95047), f(y), f(z / 1.08883));
         [116.0 * fy - 16.0, 500.0 * (fx - fy), 200.0 * (fy - fz)]
     };
@@ -330,8 +342,14 @@ fn golden_bevy_weather_world() {
         Vec3::new(lo.x + 0.8, 0.3, hi.z + 2.0),
         Vec3::new(hi.x - 0.8, lo.y - 0.3, hi.z + 2.0 + (hi.z - lo.z) - 1.6),
     );
-    assert_eq!(under, 0, "{under} drops under the shelter's roof ({beside} beside it)");
-    assert!(beside > 20, "{beside} drops beside the shelter: is it raining?");
+    assert_eq!(
+        under, 0,
+        "{under} drops under the shelter's roof ({beside} beside it)"
+    );
+    assert!(
+        beside > 20,
+        "{beside} drops beside the shelter: is it raining?"
+    );
 
     // Without rain, with and without clouds: Bevy's tower hides the clouds.
     let mut scene = app.world().resource::<NimbusWeather>().scene.clone();
@@ -349,7 +367,10 @@ fn golden_bevy_weather_world() {
     save_png(&out.join("cloudy.png"), &cloudy);
     save_png(&out.join("clear.png"), &clear);
     let (min, max) = building_rect();
-    assert!(min.x < max.x && min.y < max.y && max.x < WIDTH && max.y < HEIGHT, "tower at {min}..{max}");
+    assert!(
+        min.x < max.x && min.y < max.y && max.x < WIDTH && max.y < HEIGHT,
+        "tower at {min}..{max}"
+    );
     let on_tower = mean_difference(&cloudy, &clear, min, max);
     // The sky above the tower, up to the top of the image.
     let sky_max = UVec2::new(max.x, min.y.saturating_sub(6));
