@@ -290,15 +290,16 @@ mod tests {
             "[sun]\nazimuth_deg = 90.0\nelevation_deg = 10.0\n",
             "t.toml",
         )
-        .unwrap();
+        .expect("angles given");
         assert!(!plain.scene.ground.terrain);
-        let with = NimbusWeather::from_toml("[ground]\nterrain = true\n", "t.toml").unwrap();
+        let with =
+            NimbusWeather::from_toml("[ground]\nterrain = true\n", "t.toml").expect("terrain on");
         assert!(with.scene.ground.terrain);
         let bad = NimbusWeather::from_toml(
             "[sun]\nazimuth_deg = 90.0\nelevation_deg = 100.0\n",
             "bad.toml",
         )
-        .unwrap_err();
+        .expect_err("elevation 100°");
         assert!(bad.to_string().contains("bad.toml"), "{bad}");
     }
 }

@@ -39,21 +39,26 @@ pub const MAX_OCCLUDER_TRIANGLES: usize = 4_000_000;
 type MeshQuery<'w, 's> =
     Query<'w, 's, (Entity, &'static Mesh3d, &'static GlobalTransform), Without<NoRainOcclusion>>;
 
+/// Mesh entities moved, re-meshed or newly left out.
+type ChangedQuery<'w, 's> = Query<
+    'w,
+    's,
+    (),
+    (
+        With<Mesh3d>,
+        Or<(
+            Changed<GlobalTransform>,
+            Changed<Mesh3d>,
+            Added<NoRainOcclusion>,
+        )>,
+    ),
+>;
+
 /// Gathers the meshes' triangles when something changed.
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn gather_occluders(
     meshes: MeshQuery,
-    changed: Query<
-        (),
-        (
-            With<Mesh3d>,
-            Or<(
-                Changed<GlobalTransform>,
-                Changed<Mesh3d>,
-                Added<NoRainOcclusion>,
-            )>,
-        ),
-    >,
+    changed: ChangedQuery,
     mut removed_meshes: RemovedComponents<Mesh3d>,
     mut removed_opt_out: RemovedComponents<NoRainOcclusion>,
     mut asset_events: MessageReader<AssetEvent<Mesh>>,

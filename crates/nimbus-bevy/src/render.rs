@@ -170,11 +170,19 @@ fn create_renderer(
     }
 }
 
+/// The main world's nimbus cameras.
+type CameraQuery<'w, 's> = Query<
+    'w,
+    's,
+    (Entity, RenderEntity, &'static Camera, Option<&'static Msaa>),
+    With<NimbusCamera>,
+>;
+
 /// Copies the weather, picks the camera, hands over new occluders.
 fn extract(
     frame: Extract<Res<NimbusFrame>>,
     occluders: Extract<Res<NimbusOccluders>>,
-    cameras: Extract<Query<(Entity, RenderEntity, &Camera, Option<&Msaa>), With<NimbusCamera>>>,
+    cameras: Extract<CameraQuery>,
     mut extracted: ResMut<Extracted>,
     mut said: ResMut<Said>,
 ) {
@@ -426,7 +434,7 @@ mod tests {
     #[test]
     fn orthographic_is_refused() {
         let ortho = Mat4::orthographic_rh(-1.0, 1.0, -1.0, 1.0, 0.1, 100.0);
-        let e = nimbus_view(Mat4::IDENTITY, ortho).unwrap_err();
+        let e = nimbus_view(Mat4::IDENTITY, ortho).expect_err("orthographic");
         assert!(e.contains("orthographic"), "{e}");
     }
 }

@@ -211,6 +211,7 @@ pub(crate) fn drive_sun(
 }
 
 #[cfg(test)]
+#[allow(clippy::needless_range_loop)] // channels of three arrays side by side
 mod tests {
     use super::*;
 
