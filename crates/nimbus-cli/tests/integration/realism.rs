@@ -307,11 +307,13 @@ fn compare_against_noisy_halves_of_the_image_itself_finds_no_error() {
 }
 
 /// The realism suite (docs/REALISM.md): every scene of scenes/realism/ is
-/// rendered as nimbus draws it now and compared with its stored path-traced
-/// reference (scenes/realism/references/, made by tools/reference/suite.sh);
-/// the HDR-FLIP error over the cloud pixels may not grow beyond its recorded
-/// value plus the reference's own noise (its two halves compared): realism
-/// can only improve.
+/// rendered as nimbus draws it now (without air in front of the clouds, as
+/// the references) and compared with its stored path-traced reference, two
+/// independent halves (scenes/realism/references/NAME_a.exr, NAME_b.exr,
+/// made by tools/reference/suite.sh). Neither the unbiased relative RMSE of
+/// luminance over 4×4 blocks nor the mean luminance ratio's distance from 1
+/// may grow beyond its recorded value by more than three of its standard
+/// errors: realism can only improve.
 #[test]
 fn the_realism_suite_does_not_move_away_from_its_references() {
     let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
@@ -350,31 +352,45 @@ fn the_realism_suite_does_not_move_away_from_its_references() {
             ],
             &dir,
         ));
-        let reference = references.join(format!("{name}.exr"));
+        let half = |tag: &str| references.join(format!("{name}_{tag}.exr"));
         let out = nimbus(
             &[
                 "compare",
                 realtime.to_str().expect("path"),
-                reference.to_str().expect("path"),
+                "--halves",
+                half("a").to_str().expect("path"),
+                half("b").to_str().expect("path"),
+                "--block",
+                "4",
                 "--json",
             ],
             &dir,
         );
         assert_success(&out);
         let now: serde_json::Value = serde_json::from_slice(&out.stdout).expect("JSON");
-        let measured = now["hdr_flip_mean"].as_f64().expect("flip");
-        let recorded = record["error"]["hdr_flip_mean"]
-            .as_f64()
-            .expect("recorded flip");
-        let noise = record["reference_noise_hdr_flip_mean"]
-            .as_f64()
-            .expect("noise");
+        let number = |v: &serde_json::Value, key: &str| {
+            v.as_f64()
+                .unwrap_or_else(|| panic!("{name}: {key} is not a number"))
+        };
+        let (now, recorded) = (&now["halves"], &record["error"]["halves"]);
+        let key = "luminance_relative_rmse_unbiased";
+        let error = number(&now["blocks"][key], key);
+        let error_se = number(&now["blocks"][&format!("{key}_se")], "SE");
+        let error_recorded = number(&recorded["blocks"][key], "recorded block error");
+        let ratio = number(&now["mean_luminance_ratio"], "ratio");
+        let ratio_se = number(&now["mean_luminance_ratio_se"], "ratio SE");
+        let ratio_recorded = number(&recorded["mean_luminance_ratio"], "recorded ratio");
         eprintln!(
-            "{name}: HDR-FLIP {measured:.4} (recorded {recorded:.4}, reference noise {noise:.4})"
+            "{name}: block error {error:.4} ± {error_se:.4} (recorded {error_recorded:.4}), luminance ratio {ratio:.4} ± {ratio_se:.4} (recorded {ratio_recorded:.4})"
         );
-        if measured > recorded + noise {
+        if error > error_recorded + 3.0 * error_se {
             failures.push(format!(
-                "{name}: HDR-FLIP {measured:.4} > recorded {recorded:.4} + reference noise {noise:.4}"
+                "{name}: unbiased block error {error:.4} > recorded {error_recorded:.4} + 3 × {error_se:.4}"
+            ));
+        }
+        if (ratio - 1.0).abs() > (ratio_recorded - 1.0).abs() + 3.0 * ratio_se {
+            failures.push(format!(
+                "{name}: mean luminance ratio {ratio:.4} further from 1 than recorded {ratio_recorded:.4} + 3 × {ratio_se:.4}"
             ));
         }
     }
