@@ -99,7 +99,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     });
     device.poll(wgpu::PollType::wait_indefinitely())?;
     let pixels: Vec<u8> = readback
-        .get_mapped_range(..)?
+        .get_mapped_range(..)
         .chunks(padded_row as usize)
         .flat_map(|row| row[..(width * 4) as usize].to_vec())
         .collect();

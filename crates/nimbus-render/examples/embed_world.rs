@@ -302,11 +302,11 @@ impl Program {
                 module: &module,
                 entry_point: Some("world_vertex"),
                 compilation_options: Default::default(),
-                buffers: &[Some(wgpu::VertexBufferLayout {
+                buffers: &[wgpu::VertexBufferLayout {
                     array_stride: std::mem::size_of::<WorldVertex>() as u64,
                     step_mode: wgpu::VertexStepMode::Vertex,
                     attributes: &wgpu::vertex_attr_array![0 => Float32x3, 1 => Float32x3, 2 => Float32x3],
-                })],
+                }],
             },
             primitive: Default::default(),
             depth_stencil: Some(wgpu::DepthStencilState {
@@ -653,7 +653,7 @@ fn read_back(
     buffer.map_async(wgpu::MapMode::Read, .., |_| {});
     device.poll(wgpu::PollType::wait_indefinitely())?;
     let pixels = buffer
-        .get_mapped_range(..)?
+        .get_mapped_range(..)
         .chunks(padded_row as usize)
         .flat_map(|r| r[..row as usize].to_vec())
         .collect();

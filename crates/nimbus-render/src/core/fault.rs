@@ -182,7 +182,7 @@ impl FaultScope {
     }
 }
 
-/// Waits for the work submitted to `device`. wgpu 30's `Device::poll`
+/// Waits for the work submitted to `device`. wgpu's `Device::poll` (29)
 /// panics when the driver reports the device lost (or out of memory) while
 /// waiting: its backend treats that as fatal, after its core has marked the
 /// device lost and called the lost callback. That panic is caught here and

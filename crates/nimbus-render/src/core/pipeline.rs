@@ -52,7 +52,7 @@ pub struct DrawPipeline<'a> {
     /// The fragment entry point (`None`: a depth-only pipeline).
     pub fragment_entry: Option<&'a str>,
     /// The vertex buffers read.
-    pub vertex_buffers: &'a [Option<wgpu::VertexBufferLayout<'a>>],
+    pub vertex_buffers: &'a [wgpu::VertexBufferLayout<'a>],
     /// Faces culled.
     pub cull_mode: Option<wgpu::Face>,
     /// The depth test, if any.

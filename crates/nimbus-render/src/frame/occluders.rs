@@ -50,6 +50,10 @@ impl<'a> OccluderGeometry<'a> {
     /// Records an indexed draw of the triangles into `pass` (whose pipeline
     /// uses [`Self::vertex_buffer_layout`] at vertex buffer slot 0).
     pub fn draw(&self, pass: &mut wgpu::RenderPass<'_>) {
+        // Nothing to draw; and wgpu 29 cannot slice an empty buffer (it panics).
+        if self.index_count == 0 {
+            return;
+        }
         pass.set_vertex_buffer(0, self.vertices.slice(..));
         pass.set_index_buffer(self.indices.slice(..), wgpu::IndexFormat::Uint32);
         pass.draw_indexed(0..self.index_count, 0, 0..1);

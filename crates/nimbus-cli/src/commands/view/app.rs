@@ -202,7 +202,6 @@ impl Viewer {
                 .copied()
                 .unwrap_or(wgpu::CompositeAlphaMode::Auto),
             view_formats: vec![],
-            color_space: wgpu::SurfaceColorSpace::Auto,
         };
         surface.configure(&gpu.device, &config);
         let device_errors = Arc::new(Mutex::new(None));
@@ -547,12 +546,9 @@ impl Viewer {
         let paint_jobs = self
             .egui_ctx
             .tessellate(full_output.shapes, pixels_per_point);
-        // The deltas are drained: epaint checks that each one was applied.
-        for (id, deltas) in full_output.textures_delta.set.drain() {
-            for delta in deltas {
-                self.egui_renderer
-                    .update_texture(&self.gpu.device, &self.gpu.queue, id, &delta);
-            }
+        for (id, delta) in &full_output.textures_delta.set {
+            self.egui_renderer
+                .update_texture(&self.gpu.device, &self.gpu.queue, *id, delta);
         }
         let screen = egui_wgpu::ScreenDescriptor {
             size_in_pixels: [width, height],
@@ -576,8 +572,8 @@ impl Viewer {
         } else {
             self.gpu.queue.submit([encoder.finish()]);
         }
-        for id in full_output.textures_delta.free.drain() {
-            self.egui_renderer.free_texture(&id);
+        for id in &full_output.textures_delta.free {
+            self.egui_renderer.free_texture(id);
         }
         if let Some(path) = screenshot {
             let result = self.write_screenshot(&surface_texture.texture, &path);
@@ -588,7 +584,7 @@ impl Viewer {
             }
         }
         self.window.pre_present_notify();
-        self.gpu.queue.present(surface_texture);
+        surface_texture.present();
         if self.render_error.is_none()
             && let (Some(times), Some(frame)) =
                 (&mut self.times, self.renderer.read_pass_times_ms())
@@ -675,7 +671,7 @@ impl Viewer {
         if let Some((message, since)) = &self.status
             && since.elapsed() < STATUS_DURATION
         {
-            egui::Area::new(egui::Id::unique("nimbus status"))
+            egui::Area::new(egui::Id::new("nimbus status"))
                 .anchor(egui::Align2::RIGHT_BOTTOM, egui::vec2(-8.0, -8.0))
                 .show(&ctx, |ui| {
                     egui::Frame::popup(ui.style()).show(ui, |ui| ui.label(message));

@@ -146,7 +146,7 @@ impl PassTimes {
 
 /// The overlay of per-pass GPU times (top right).
 pub fn timing_overlay(ctx: &egui::Context, times: Option<&PassTimes>, adapter: &str) {
-    egui::Area::new(egui::Id::unique("nimbus gpu times"))
+    egui::Area::new(egui::Id::new("nimbus gpu times"))
         .anchor(egui::Align2::RIGHT_TOP, egui::vec2(-8.0, 8.0))
         .interactable(false)
         .show(ctx, |ui| {

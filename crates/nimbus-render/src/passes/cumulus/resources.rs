@@ -74,7 +74,7 @@ impl CumulusPass {
             ],
             immediate_size: 0,
         });
-        let buffers = vertex_layouts().map(Some);
+        let buffers = vertex_layouts();
         let shadow_pipeline = |label: &str, compare| {
             DrawPipeline {
                 label,

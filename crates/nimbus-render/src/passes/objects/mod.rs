@@ -90,11 +90,11 @@ impl ObjectsPass {
             module: &module,
             vertex_entry: "objects_vertex",
             fragment_entry: Some("objects_fragment"),
-            vertex_buffers: &[Some(wgpu::VertexBufferLayout {
+            vertex_buffers: &[wgpu::VertexBufferLayout {
                 array_stride: std::mem::size_of::<ObjectVertex>() as u64,
                 step_mode: wgpu::VertexStepMode::Vertex,
                 attributes: &VERTEX_ATTRIBUTES,
-            })],
+            }],
             // No culling: glTF meshes need not be closed (a roof may be one
             // sheet); the fragment shader lights back faces as the side seen.
             cull_mode: None,

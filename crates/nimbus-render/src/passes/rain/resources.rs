@@ -289,11 +289,11 @@ impl RainPass {
             module: &self.occluders_module,
             vertex_entry: "occluder_vertex",
             fragment_entry: None,
-            vertex_buffers: &[Some(wgpu::VertexBufferLayout {
+            vertex_buffers: &[wgpu::VertexBufferLayout {
                 array_stride: stride,
                 step_mode: wgpu::VertexStepMode::Vertex,
                 attributes: &crate::frame::occluders::POSITION_ATTRIBUTES,
-            })],
+            }],
             cull_mode: None,
             depth: Some(depth_state(true, wgpu::CompareFunction::Less)),
             targets: &[],

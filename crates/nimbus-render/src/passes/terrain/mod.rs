@@ -217,11 +217,11 @@ impl TerrainPass {
             module: &module,
             vertex_entry: "terrain_vertex",
             fragment_entry: Some("terrain_fragment"),
-            vertex_buffers: &[Some(wgpu::VertexBufferLayout {
+            vertex_buffers: &[wgpu::VertexBufferLayout {
                 array_stride: std::mem::size_of::<TerrainVertex>() as u64,
                 step_mode: wgpu::VertexStepMode::Vertex,
                 attributes: &VERTEX_ATTRIBUTES,
-            })],
+            }],
             cull_mode: Some(wgpu::Face::Back),
             depth: Some(opaque_depth()),
             targets: &hdr_target(None),
