@@ -73,6 +73,37 @@ settings() {
 
 cargo build -p nimbus-sky --quiet
 nimbus=target/debug/nimbus
+
+# Exports SCENE into DIR with the δ-M truncation TRUNCATION unless DIR holds
+# an export of the same scene file and truncation.
+export_if_changed() {
+    local scene=$1 dir=$2 truncation=$3
+    local key="$truncation $(md5sum < "$scene" | cut -d' ' -f1)"
+    if [ ! -f "$dir/scene.xml" ] || [ "$(cat "$dir/export.args" 2> /dev/null)" != "$key" ]; then
+        mkdir -p "$dir"
+        "$nimbus" export "$scene" --mitsuba "$dir" --phase-truncation-deg "$truncation" 2> "$dir/export.log"
+        echo "$key" > "$dir/export.args"
+    fi
+}
+
+# Renders DIR/scene.xml as two halves at SPP samples with SEED into
+# DIR/reference.exr unless DIR holds a render of the same inputs (scene.xml
+# and its assets) and samples.
+render_if_changed() {
+    local dir=$1 spp=$2 seed=$3
+    local inputs
+    inputs=$(cd "$dir" && cat scene.xml ./*.vol sky.exr terrain.ply terrain_albedo.png 2> /dev/null | md5sum | cut -d' ' -f1)
+    if [ -f "$dir/reference.json" ] && [ -f "$dir/reference_b.exr" ] \
+        && [ "$(cat "$dir/rendered.md5" 2> /dev/null)" = "$inputs $spp $max_depth" ]; then
+        echo "suite: $dir: reusing the render of the same inputs" >&2
+    else
+        rm -f "$dir/rendered.md5"
+        nice -n 19 python3 tools/reference/render.py "$dir/scene.xml" --spp "$spp" --halves --seed "$seed" \
+            -D "max_depth=$max_depth" -o "$dir/reference.exr"
+        echo "$inputs $spp $max_depth" > "$dir/rendered.md5"
+    fi
+}
+
 mkdir -p scenes/realism/references docs/images/realism
 
 for scene in "${scenes[@]}"; do
@@ -85,23 +116,8 @@ for scene in "${scenes[@]}"; do
     echo "suite: $name: $spp spp, δ-M truncation $truncation°" >&2
     export_cmd="nimbus export $scene --mitsuba $work --phase-truncation-deg $truncation"
     render_cmd="python3 tools/reference/render.py $work/scene.xml --spp $spp --halves --seed 1 -D max_depth=$max_depth -o $work/reference.exr"
-    # An export of the same scene file and truncation is reused (delete
-    # target/realism/NAME after changing what nimbus exports).
-    export_key="$truncation $(md5sum < "$scene" | cut -d' ' -f1)"
-    if [ ! -f "$work/scene.xml" ] || [ "$(cat "$work/export.args" 2> /dev/null)" != "$export_key" ]; then
-        "$nimbus" export "$scene" --mitsuba "$work" --phase-truncation-deg "$truncation" 2> "$work/export.log"
-        echo "$export_key" > "$work/export.args"
-    fi
-    inputs=$(cd "$work" && cat scene.xml ./*.vol sky.exr terrain.ply terrain_albedo.png 2> /dev/null | md5sum | cut -d' ' -f1)
-    if [ -f "$work/reference.json" ] && [ -f "$work/reference_b.exr" ] \
-        && [ "$(cat "$work/rendered.md5" 2> /dev/null)" = "$inputs $spp $max_depth" ]; then
-        echo "suite: $name: reusing the render of the same inputs" >&2
-    else
-        rm -f "$work/rendered.md5"
-        nice -n 19 python3 tools/reference/render.py "$work/scene.xml" --spp "$spp" --halves --seed 1 \
-            -D "max_depth=$max_depth" -o "$work/reference.exr"
-        echo "$inputs $spp $max_depth" > "$work/rendered.md5"
-    fi
+    export_if_changed "$scene" "$work" "$truncation"
+    render_if_changed "$work" "$spp" 1
     "$nimbus" render "$scene" -o "$work/realtime.exr" 2> /dev/null
     sed 's/^aerial_perspective = false/aerial_perspective = true/' "$scene" > "$work/with-air.toml"
     "$nimbus" render "$work/with-air.toml" -o "$work/realtime_air.exr" 2> /dev/null
@@ -111,19 +127,8 @@ for scene in "${scenes[@]}"; do
         # the body of a cloud in front of it), a δ-M render; the rest from
         # the full one (composite_near_sun.py).
         body=$work/truncated
-        mkdir -p "$body"
-        body_key="5 $(md5sum < "$scene" | cut -d' ' -f1)"
-        if [ ! -f "$body/scene.xml" ] || [ "$(cat "$body/export.args" 2> /dev/null)" != "$body_key" ]; then
-            "$nimbus" export "$scene" --mitsuba "$body" --phase-truncation-deg 5 2> "$body/export.log"
-            echo "$body_key" > "$body/export.args"
-        fi
-        body_inputs=$(cd "$body" && cat scene.xml ./*.vol sky.exr terrain.ply terrain_albedo.png 2> /dev/null | md5sum | cut -d' ' -f1)
-        if [ "$(cat "$body/rendered.md5" 2> /dev/null)" != "$body_inputs $body_spp $max_depth" ]; then
-            rm -f "$body/rendered.md5"
-            nice -n 19 python3 tools/reference/render.py "$body/scene.xml" --spp "$body_spp" --halves --seed 7 \
-                -D "max_depth=$max_depth" -o "$body/reference.exr"
-            echo "$body_inputs $body_spp $max_depth" > "$body/rendered.md5"
-        fi
+        export_if_changed "$scene" "$body" 5
+        render_if_changed "$body" "$body_spp" 7
         python3 tools/reference/composite_near_sun.py "$work/reference.exr" "$body/reference.exr" \
             "$work/realtime.exr" "$body_rule" -o "$work/composite.exr"
         reference=$work/composite
