@@ -18,6 +18,26 @@ fn assert_success(out: &Output) {
     );
 }
 
+/// Renders scenes/realism/cumulus-front-lit.toml at `width` × `height` into
+/// `dir/name` (the small EXR these tests read back).
+fn render_front_lit(dir: &Path, name: &str, width: u32, height: u32) {
+    let scene = scenes_dir().join("cumulus-front-lit.toml");
+    let (width, height) = (width.to_string(), height.to_string());
+    assert_success(&nimbus(
+        &[
+            "render",
+            scene.to_str().expect("path"),
+            "-o",
+            name,
+            "--width",
+            &width,
+            "--height",
+            &height,
+        ],
+        dir,
+    ));
+}
+
 /// Channels by name of an EXR's first layer.
 fn channels(path: &Path) -> (usize, usize, std::collections::BTreeMap<String, Vec<f32>>) {
     let image = exr::prelude::read_all_flat_layers_from_file(path).expect("readable EXR");
@@ -34,21 +54,7 @@ fn channels(path: &Path) -> (usize, usize, std::collections::BTreeMap<String, Ve
 #[test]
 fn exr_layers_are_read_back_with_their_names() {
     let dir = temp_dir("realism", "layers");
-    let scene = scenes_dir().join("cumulus-front-lit.toml");
-    let out = nimbus(
-        &[
-            "render",
-            scene.to_str().expect("path"),
-            "-o",
-            "c.exr",
-            "--width",
-            "64",
-            "--height",
-            "36",
-        ],
-        &dir,
-    );
-    assert_success(&out);
+    render_front_lit(&dir, "c.exr", 64, 36);
     let (w, h, c) = channels(&dir.join("c.exr"));
     assert_eq!((w, h), (64, 36));
     let names: Vec<&str> = c.keys().map(String::as_str).collect();
@@ -141,20 +147,7 @@ fn the_equirectangular_panorama_has_no_seam() {
 #[test]
 fn compare_reports_zero_for_identical_images_and_writes_the_report() {
     let dir = temp_dir("realism", "compare");
-    let scene = scenes_dir().join("cumulus-front-lit.toml");
-    assert_success(&nimbus(
-        &[
-            "render",
-            scene.to_str().expect("path"),
-            "-o",
-            "a.exr",
-            "--width",
-            "48",
-            "--height",
-            "27",
-        ],
-        &dir,
-    ));
+    render_front_lit(&dir, "a.exr", 48, 27);
     let out = nimbus(
         &["compare", "a.exr", "a.exr", "--json", "--out", "r.png"],
         &dir,
@@ -194,20 +187,7 @@ fn write_rgb(path: &Path, width: usize, height: usize, pixels: &[[f32; 3]]) {
 #[test]
 fn compare_against_noisy_halves_of_the_image_itself_finds_no_error() {
     let dir = temp_dir("realism", "halves");
-    let scene = scenes_dir().join("cumulus-front-lit.toml");
-    assert_success(&nimbus(
-        &[
-            "render",
-            scene.to_str().expect("path"),
-            "-o",
-            "a.exr",
-            "--width",
-            "96",
-            "--height",
-            "54",
-        ],
-        &dir,
-    ));
+    render_front_lit(&dir, "a.exr", 96, 54);
     let (w, h, c) = channels(&dir.join("a.exr"));
     let image: Vec<[f32; 3]> = (0..w * h)
         .map(|i| [c["R"][i], c["G"][i], c["B"][i]])
@@ -290,28 +270,20 @@ fn compare_against_noisy_halves_of_the_image_itself_finds_no_error() {
     ] {
         let out = nimbus(args, &dir);
         assert!(!out.status.success(), "{args:?} succeeded");
+        if args.contains(&"--block") {
+            assert!(String::from_utf8_lossy(&out.stderr).contains("--block 0"));
+        }
     }
-    let out = nimbus(
-        &[
-            "compare",
-            "a.exr",
-            "--halves",
-            "half_a.exr",
-            "half_b.exr",
-            "--block",
-            "0",
-        ],
-        &dir,
-    );
-    assert!(String::from_utf8_lossy(&out.stderr).contains("--block 0"));
 }
 
 /// The realism suite (docs/REALISM.md): every scene of scenes/realism/ is
-/// rendered as nimbus draws it now and compared with its stored path-traced
-/// reference (scenes/realism/references/, made by tools/reference/suite.sh);
-/// the HDR-FLIP error over the cloud pixels may not grow beyond its recorded
-/// value plus the reference's own noise (its two halves compared): realism
-/// can only improve.
+/// rendered as nimbus draws it now (without air in front of the clouds, as
+/// the references) and compared with its stored path-traced reference, two
+/// independent halves (scenes/realism/references/NAME_a.exr, NAME_b.exr,
+/// made by tools/reference/suite.sh). Neither the unbiased relative RMSE of
+/// luminance over 4×4 blocks nor the mean luminance ratio's distance from 1
+/// may grow beyond its recorded value by more than three of its standard
+/// errors: realism can only improve.
 #[test]
 fn the_realism_suite_does_not_move_away_from_its_references() {
     let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
@@ -350,31 +322,45 @@ fn the_realism_suite_does_not_move_away_from_its_references() {
             ],
             &dir,
         ));
-        let reference = references.join(format!("{name}.exr"));
+        let half = |tag: &str| references.join(format!("{name}_{tag}.exr"));
         let out = nimbus(
             &[
                 "compare",
                 realtime.to_str().expect("path"),
-                reference.to_str().expect("path"),
+                "--halves",
+                half("a").to_str().expect("path"),
+                half("b").to_str().expect("path"),
+                "--block",
+                "4",
                 "--json",
             ],
             &dir,
         );
         assert_success(&out);
         let now: serde_json::Value = serde_json::from_slice(&out.stdout).expect("JSON");
-        let measured = now["hdr_flip_mean"].as_f64().expect("flip");
-        let recorded = record["error"]["hdr_flip_mean"]
-            .as_f64()
-            .expect("recorded flip");
-        let noise = record["reference_noise_hdr_flip_mean"]
-            .as_f64()
-            .expect("noise");
+        let number = |v: &serde_json::Value, key: &str| {
+            v.as_f64()
+                .unwrap_or_else(|| panic!("{name}: {key} is not a number"))
+        };
+        let (now, recorded) = (&now["halves"], &record["error"]["halves"]);
+        let key = "luminance_relative_rmse_unbiased";
+        let error = number(&now["blocks"][key], key);
+        let error_se = number(&now["blocks"][&format!("{key}_se")], "SE");
+        let error_recorded = number(&recorded["blocks"][key], "recorded block error");
+        let ratio = number(&now["mean_luminance_ratio"], "ratio");
+        let ratio_se = number(&now["mean_luminance_ratio_se"], "ratio SE");
+        let ratio_recorded = number(&recorded["mean_luminance_ratio"], "recorded ratio");
         eprintln!(
-            "{name}: HDR-FLIP {measured:.4} (recorded {recorded:.4}, reference noise {noise:.4})"
+            "{name}: block error {error:.4} ± {error_se:.4} (recorded {error_recorded:.4}), luminance ratio {ratio:.4} ± {ratio_se:.4} (recorded {ratio_recorded:.4})"
         );
-        if measured > recorded + noise {
+        if error > error_recorded + 3.0 * error_se {
             failures.push(format!(
-                "{name}: HDR-FLIP {measured:.4} > recorded {recorded:.4} + reference noise {noise:.4}"
+                "{name}: unbiased block error {error:.4} > recorded {error_recorded:.4} + 3 × {error_se:.4}"
+            ));
+        }
+        if (ratio - 1.0).abs() > (ratio_recorded - 1.0).abs() + 3.0 * ratio_se {
+            failures.push(format!(
+                "{name}: mean luminance ratio {ratio:.4} further from 1 than recorded {ratio_recorded:.4} + 3 × {ratio_se:.4}"
             ));
         }
     }

@@ -334,8 +334,9 @@ mod tests {
     }
 
     /// Checked against NVIDIA's own implementation (`flip-evaluator` 1.7,
-    /// the FLIP authors' package) on pairs of the stored references
-    /// (tools/reference/flip_check.py wrote tests/data/flip_nvidia.json):
+    /// the FLIP authors' package) on pairs of former realism references
+    /// (tests/data/flip/; tools/reference/flip_check.py wrote
+    /// tests/data/flip_nvidia.json):
     /// the exposures are NVIDIA's, the mean equals NVIDIA's pipeline with
     /// each exposure quantised to 8-bit sRGB (what the `nv-flip` crate
     /// takes), and it differs from NVIDIA's float HDR-FLIP by no more than
@@ -349,9 +350,9 @@ mod tests {
         )
         .expect("valid JSON");
         let load = |name: &str| {
-            let path = root.join(format!("../../scenes/realism/references/{name}.exr"));
+            let path = root.join(format!("tests/data/flip/{name}.exr"));
             super::super::read_exr(&path)
-                .expect("a stored reference")
+                .expect("a stored image of tests/data/flip/")
                 .image
         };
         let pairs = data["pairs"].as_array().expect("an array field");
