@@ -9,12 +9,77 @@
 //! faster); 1 clear, 2 cumulus, 3 overcast and rain, 4 the scripted
 //! weather again; T and G move the sun (time of day) forwards and back;
 //! P prints nimbus's per-pass GPU times.
+//!
+//! Measuring and pictures (docs/bevy.md): `--frames N` runs N frames of the
+//! scripted weather from 45 s in and exits, printing the mean per-pass GPU
+//! times and frame time of the last half; `--screenshot PATH` saves the
+//! window's last frame as a PNG.
 
 use bevy::input::mouse::AccumulatedMouseMotion;
 use bevy::prelude::*;
+use bevy::render::view::screenshot::{Screenshot, ScreenshotCaptured};
 use nimbus_bevy::{NimbusCamera, NimbusFrame, NimbusPassTimes, NimbusPlugin, NimbusWeather, demo};
+use std::collections::BTreeMap;
+use std::time::Instant;
 
-fn main() {
+/// `--frames N` and `--screenshot PATH`.
+#[derive(Resource, Clone, Debug, Default)]
+struct Measure {
+    frames: Option<u32>,
+    screenshot: Option<String>,
+}
+
+impl Measure {
+    fn from_args() -> Result<Self, String> {
+        let mut measure = Self::default();
+        let mut args = std::env::args().skip(1);
+        while let Some(arg) = args.next() {
+            match arg.as_str() {
+                "--frames" => {
+                    let value = args.next().ok_or("--frames: give a number of frames")?;
+                    let frames = value
+                        .parse::<u32>()
+                        .ok()
+                        .filter(|n| (2..=100_000).contains(n))
+                        .ok_or(format!(
+                            "--frames {value}: must be a whole number from 2 to 100000"
+                        ))?;
+                    measure.frames = Some(frames);
+                }
+                "--screenshot" => {
+                    let path = args.next().ok_or("--screenshot: give a PNG path")?;
+                    if !path.to_lowercase().ends_with(".png") {
+                        return Err(format!("--screenshot {path}: must end in .png"));
+                    }
+                    measure.screenshot = Some(path);
+                }
+                other => {
+                    return Err(format!(
+                        "{other}: unknown argument (--frames N, --screenshot PATH)"
+                    ));
+                }
+            }
+        }
+        if measure.screenshot.is_some() && measure.frames.is_none() {
+            measure.frames = Some(30);
+        }
+        Ok(measure)
+    }
+}
+
+fn main() -> AppExit {
+    let measure = match Measure::from_args() {
+        Ok(m) => m,
+        Err(e) => {
+            eprintln!("bevy_weather: {e}");
+            return AppExit::from_code(2);
+        }
+    };
+    let mut weather = demo::weather();
+    if measure.frames.is_some() {
+        // The scripted weather 45 s in, at 30 frames a second.
+        weather.time_s = Some(45.0);
+    }
     App::new()
         .add_plugins((
             DefaultPlugins.set(WindowPlugin {
@@ -30,10 +95,94 @@ fn main() {
                 ..default()
             },
         ))
-        .insert_resource(demo::weather())
+        .insert_resource(weather)
+        .insert_resource(measure)
         .add_systems(Startup, setup)
-        .add_systems(Update, (fly_camera, weather_keys))
-        .run();
+        .add_systems(Update, (fly_camera, weather_keys, measure_frames))
+        .run()
+}
+
+/// With `--frames`: advances the weather's clock, sums the pass times of
+/// the last half of the frames, takes the screenshot and exits.
+#[allow(clippy::too_many_arguments)]
+fn measure_frames(
+    mut commands: Commands,
+    measure: Res<Measure>,
+    times: Res<NimbusPassTimes>,
+    mut weather: ResMut<NimbusWeather>,
+    mut frame: Local<u32>,
+    mut sums: Local<BTreeMap<&'static str, (f64, u32)>>,
+    mut started: Local<Option<Instant>>,
+    mut exit: MessageWriter<AppExit>,
+) {
+    let Some(frames) = measure.frames else {
+        return;
+    };
+    *frame += 1;
+    weather.time_s = Some(45.0 + f64::from(*frame) / 30.0);
+    if *frame == frames / 2 {
+        *started = Some(Instant::now());
+    }
+    if *frame > frames / 2 {
+        for (pass, ms) in times.latest() {
+            let entry = sums.entry(pass).or_default();
+            entry.0 += ms;
+            entry.1 += 1;
+        }
+    }
+    if *frame == frames
+        && let Some(path) = measure.screenshot.clone()
+    {
+        commands
+            .spawn(Screenshot::primary_window())
+            .observe(move |captured: On<ScreenshotCaptured>| save_png(&captured.image, &path));
+    }
+    if *frame == frames + 3 {
+        let measured = frames - frames / 2;
+        if let Some(start) = *started {
+            let ms = start.elapsed().as_secs_f64() * 1000.0 / f64::from(measured);
+            println!("frame (wall clock, whole app): {ms:.1} ms over {measured} frames");
+        }
+        let mut total = 0.0;
+        for (pass, (sum, n)) in sums.iter() {
+            let mean = sum / f64::from(*n);
+            total += mean;
+            println!("nimbus pass {pass}: {mean:.3} ms");
+        }
+        if sums.is_empty() {
+            println!("no pass times (the device has no timestamp queries)");
+        } else {
+            println!("nimbus passes in all: {total:.3} ms");
+        }
+        exit.write(AppExit::Success);
+    }
+}
+
+/// Writes a captured window image (8-bit, BGRA or RGBA) as a PNG.
+fn save_png(image: &Image, path: &str) {
+    use bevy::render::render_resource::TextureFormat;
+    let (Some(data), size) = (&image.data, image.size()) else {
+        error!("screenshot: no pixels");
+        return;
+    };
+    let rgba: Vec<u8> = match image.texture_descriptor.format {
+        TextureFormat::Bgra8Unorm | TextureFormat::Bgra8UnormSrgb => data
+            .chunks(4)
+            .flat_map(|p| [p[2], p[1], p[0], 255])
+            .collect(),
+        TextureFormat::Rgba8Unorm | TextureFormat::Rgba8UnormSrgb => data
+            .chunks(4)
+            .flat_map(|p| [p[0], p[1], p[2], 255])
+            .collect(),
+        other => {
+            error!("screenshot: format {other:?} not written");
+            return;
+        }
+    };
+    match image::save_buffer(path, &rgba, size.x, size.y, image::ExtendedColorType::Rgba8) {
+        Ok(()) => println!("wrote {path} ({}×{})", size.x, size.y),
+        Err(e) => error!("screenshot {path}: {e}"),
+    }
 }
 
 fn setup(

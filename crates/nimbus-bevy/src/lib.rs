@@ -25,6 +25,9 @@
 //!   and colour) drives the [`NimbusSun`]'s `DirectionalLight` and Bevy's
 //!   `GlobalAmbientLight` (the clear sky's irradiance), so Bevy's PBR
 //!   meshes are lit as nimbus lights its sky ([`sun`]);
+//! - nimbus's clouds shadow the Bevy meshes: their transmittance of the
+//!   sun, baked each frame through nimbus's lighting include into the
+//!   [`NimbusSun`]'s light texture ([`cloud_shadows`]);
 //! - the Bevy meshes stop nimbus's rain (their triangles become nimbus's
 //!   occluders; [`NoRainOcclusion`] leaves a mesh out) ([`occluders`]);
 //! - in the camera's `Core3d` schedule, nimbus's lighting step (atmosphere
@@ -41,10 +44,11 @@
 //! added; turned back on, nimbus stops drawing with an error), more than one
 //! [`NimbusCamera`] (only the one of lowest `order` gets the weather, a
 //! warning names the others), a camera without `Hdr` (required by
-//! [`NimbusCamera`]), orthographic projections, and cloud shadows on Bevy's
-//! meshes (nimbus's WGSL include gives them to wgpu pipelines;
-//! Bevy's materials do not use it yet). See docs/bevy.md.
+//! [`NimbusCamera`]), orthographic projections, and cloud shadows on a
+//! device without binding arrays (Bevy's light textures need them; see
+//! [`cloud_shadows`]). See docs/bevy.md.
 
+pub mod cloud_shadows;
 pub mod demo;
 pub mod occluders;
 pub mod render;
@@ -60,6 +64,7 @@ use bevy::time::Time;
 use bevy::transform::TransformSystems;
 use nimbus_render::{Precompute, Scene, SceneError};
 
+pub use cloud_shadows::{NimbusCloudShadowTexture, NimbusCloudShadows};
 pub use nimbus_render;
 pub use occluders::{NimbusOccluders, NoRainOcclusion};
 pub use sun::{NimbusSun, SunLight};
@@ -96,7 +101,8 @@ pub enum NimbusSystems {
     /// The weather at this frame's time ([`NimbusFrame`]); before transform
     /// propagation.
     Weather,
-    /// The sun's directional light and the ambient light; before transform
+    /// The sun's directional light, the ambient light, and the tile of
+    /// the sun's cloud shadow texture around the camera; before transform
     /// propagation.
     Sun,
     /// The meshes' triangles for the rain; after transform propagation.
@@ -109,6 +115,7 @@ impl Plugin for NimbusPlugin {
             .init_resource::<NimbusFrame>()
             .init_resource::<NimbusOccluders>()
             .init_resource::<sun::SunState>()
+            .init_resource::<NimbusCloudShadows>()
             .configure_sets(
                 PostUpdate,
                 (NimbusSystems::Weather, NimbusSystems::Sun)
@@ -125,7 +132,9 @@ impl Plugin for NimbusPlugin {
                     (configure_cameras, update_frame)
                         .chain()
                         .in_set(NimbusSystems::Weather),
-                    sun::drive_sun.in_set(NimbusSystems::Sun),
+                    (sun::drive_sun, cloud_shadows::place_cloud_shadows)
+                        .chain()
+                        .in_set(NimbusSystems::Sun),
                     occluders::gather_occluders.in_set(NimbusSystems::Occluders),
                 ),
             );
@@ -133,6 +142,15 @@ impl Plugin for NimbusPlugin {
     }
 
     fn finish(&self, app: &mut App) {
+        // The light texture is an image asset (Bevy's ImagePlugin is in by now).
+        if app
+            .world()
+            .contains_resource::<bevy::asset::Assets<bevy::image::Image>>()
+        {
+            app.init_resource::<NimbusCloudShadowTexture>();
+        } else {
+            app.world_mut().resource_mut::<NimbusCloudShadows>().enabled = false;
+        }
         render::finish(app, self);
     }
 }

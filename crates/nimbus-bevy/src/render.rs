@@ -19,6 +19,10 @@
 //!   before `main_transparent_pass_3d` (Bevy's transparent meshes are
 //!   drawn over the weather, as with Bevy's own atmosphere).
 
+use crate::cloud_shadows::{
+    self, BakeRequest, CloudShadowBaker, ExtractSunQuery, NimbusAmbientProbe,
+    NimbusCloudShadowTexture, NimbusCloudShadows,
+};
 use crate::occluders::NimbusOccluders;
 use crate::{NimbusCamera, NimbusFrame, NimbusPlugin};
 use bevy::app::App;
@@ -27,14 +31,18 @@ use bevy::core_pipeline::core_3d::{main_opaque_pass_3d, main_transparent_pass_3d
 use bevy::core_pipeline::{Core3d, Core3dSystems};
 use bevy::ecs::prelude::*;
 use bevy::log::{error, warn};
-use bevy::math::Mat4;
+use bevy::math::{Mat4, Vec3};
+use bevy::pbr::decal::clustered::clustered_decals_are_usable;
 use bevy::platform::collections::HashSet;
 use bevy::render::camera::ExtractedCamera;
+use bevy::render::render_asset::RenderAssets;
 use bevy::render::render_resource::TextureFormat;
-use bevy::render::renderer::{RenderContext, RenderDevice, RenderQueue, ViewQuery};
+use bevy::render::renderer::{RenderAdapter, RenderContext, RenderDevice, RenderQueue, ViewQuery};
 use bevy::render::sync_world::RenderEntity;
+use bevy::render::texture::GpuImage;
 use bevy::render::view::{ExtractedView, Msaa, ViewDepthTexture, ViewTarget};
 use bevy::render::{Extract, ExtractSchedule, Render, RenderApp, RenderStartup, RenderSystems};
+use bevy::transform::components::GlobalTransform;
 use nimbus_physics::photometry::MAX_LUMINOUS_EFFICACY_LM_PER_W;
 use nimbus_render::{
     DepthConvention, FrameTargets, PASS_NAMES, Precompute, Projection, Renderer,
@@ -84,7 +92,7 @@ impl NimbusRenderer {
 
 /// What the main world gave this frame.
 #[derive(Resource, Default)]
-struct Extracted {
+pub(crate) struct Extracted {
     scene: Option<Scene>,
     time_s: f64,
     /// The render entity of the nimbus camera, if one can be drawn.
@@ -93,12 +101,25 @@ struct Extracted {
     occluder_generation: u64,
     /// New occluders for the renderer.
     occluders: Option<(Vec<[f32; 3]>, Vec<u32>)>,
+    /// The cloud shadows to bake for Bevy's meshes this frame.
+    cloud_shadows: Option<BakeRequest>,
 }
 
 /// The view the renderer was prepared for this frame.
 #[derive(Resource, Default)]
 pub(crate) struct Prepared {
     view: Option<Entity>,
+    /// The cloud shadow bake is ready to record (its uniform written).
+    bake: bool,
+}
+
+/// The cloud shadow bake's pipeline (made with the renderer's layouts on
+/// first use) and whether Bevy can draw light textures on this device.
+#[derive(Resource, Default)]
+pub(crate) struct CloudShadowBake {
+    baker: Option<CloudShadowBaker>,
+    /// Bevy's clustered decals (light textures) are usable on this device.
+    supported: bool,
 }
 
 /// Messages already logged (each unsupported setup is said once, until it changes).
@@ -119,11 +140,13 @@ impl Said {
 }
 
 pub(crate) fn build(app: &mut App, _plugin: &NimbusPlugin) {
-    app.init_resource::<NimbusPassTimes>();
+    app.init_resource::<NimbusPassTimes>()
+        .init_resource::<NimbusAmbientProbe>();
 }
 
 pub(crate) fn finish(app: &mut App, plugin: &NimbusPlugin) {
     let times = app.world().resource::<NimbusPassTimes>().clone();
+    let probe = app.world().resource::<NimbusAmbientProbe>().clone();
     let Some(render_app) = app.get_sub_app_mut(RenderApp) else {
         warn!("nimbus: no render app (RenderPlugin missing): NimbusPlugin draws nothing");
         return;
@@ -134,12 +157,15 @@ pub(crate) fn finish(app: &mut App, plugin: &NimbusPlugin) {
             timestamps: plugin.timestamps,
         })
         .insert_resource(times)
+        .insert_resource(probe)
         .init_resource::<Extracted>()
         .init_resource::<Prepared>()
         .init_resource::<Said>()
+        .init_resource::<CloudShadowBake>()
         .add_systems(RenderStartup, create_renderer)
         .add_systems(ExtractSchedule, extract)
         .add_systems(Render, prepare.in_set(RenderSystems::Prepare))
+        .add_systems(Render, map_ambient_probe.in_set(RenderSystems::Cleanup))
         .add_systems(
             Core3d,
             (
@@ -158,6 +184,7 @@ fn create_renderer(
     mut commands: Commands,
     device: Res<RenderDevice>,
     queue: Res<RenderQueue>,
+    adapter: Res<RenderAdapter>,
     config: Res<NimbusConfig>,
 ) {
     let descriptor = RendererDescriptor::linear_hdr(TextureFormat::Rgba16Float)
@@ -168,24 +195,51 @@ fn create_renderer(
         Ok(renderer) => commands.insert_resource(NimbusRenderer(Mutex::new(renderer))),
         Err(e) => error!("nimbus: cannot create the renderer on Bevy's device: {e}"),
     }
+    // A new device (first start or after a loss): a new bake pipeline.
+    commands.insert_resource(CloudShadowBake {
+        baker: None,
+        supported: clustered_decals_are_usable(&device, &adapter),
+    });
 }
 
 /// The main world's nimbus cameras.
 type CameraQuery<'w, 's> = Query<
     'w,
     's,
-    (Entity, RenderEntity, &'static Camera, Option<&'static Msaa>),
+    (
+        Entity,
+        RenderEntity,
+        &'static Camera,
+        Option<&'static Msaa>,
+        &'static GlobalTransform,
+    ),
     With<NimbusCamera>,
 >;
 
-/// Copies the weather, picks the camera, hands over new occluders.
+/// Copies the weather, picks the camera, hands over new occluders and
+/// the cloud shadows' light texture.
+#[allow(clippy::too_many_arguments)]
 fn extract(
     frame: Extract<Res<NimbusFrame>>,
     occluders: Extract<Res<NimbusOccluders>>,
     cameras: Extract<CameraQuery>,
+    shadow_settings: Extract<Option<Res<NimbusCloudShadows>>>,
+    shadow_texture: Extract<Option<Res<NimbusCloudShadowTexture>>>,
+    suns: Extract<ExtractSunQuery>,
     mut extracted: ResMut<Extracted>,
     mut said: ResMut<Said>,
 ) {
+    let mut active: Vec<_> = cameras.iter().filter(|(_, _, c, ..)| c.is_active).collect();
+    active.sort_by_key(|(entity, _, camera, ..)| (camera.order, *entity));
+    let camera_m = active
+        .first()
+        .map_or(Vec3::ZERO, |(.., transform)| transform.translation());
+    extracted.cloud_shadows = match (&*shadow_settings, &*shadow_texture) {
+        (Some(settings), Some(texture)) => {
+            cloud_shadows::bake_request(settings, texture, &suns, camera_m)
+        }
+        _ => None,
+    };
     if frame.is_changed() || extracted.scene.is_none() {
         extracted.scene.clone_from(&frame.scene);
     }
@@ -194,10 +248,8 @@ fn extract(
         extracted.occluder_generation = occluders.generation;
         extracted.occluders = Some((occluders.positions_m.clone(), occluders.indices.clone()));
     }
-    let mut active: Vec<_> = cameras.iter().filter(|(_, _, c, _)| c.is_active).collect();
-    active.sort_by_key(|(entity, _, camera, _)| (camera.order, *entity));
     extracted.camera = None;
-    let Some(&(entity, render_entity, _, msaa)) = active.first() else {
+    let Some(&(entity, render_entity, _, msaa, _)) = active.first() else {
         return;
     };
     if active.len() > 1 {
@@ -257,6 +309,7 @@ pub fn nimbus_view(world_from_view: Mat4, clip_from_view: Mat4) -> Result<View, 
 }
 
 /// Prepares the renderer for the nimbus camera's view.
+#[allow(clippy::too_many_arguments)]
 fn prepare(
     renderer: Option<Res<NimbusRenderer>>,
     mut extracted: ResMut<Extracted>,
@@ -265,8 +318,18 @@ fn prepare(
     mut said: ResMut<Said>,
     config: Res<NimbusConfig>,
     times: Res<NimbusPassTimes>,
+    (device, queue, mut bake, probe): (
+        Res<RenderDevice>,
+        Res<RenderQueue>,
+        ResMut<CloudShadowBake>,
+        Res<NimbusAmbientProbe>,
+    ),
 ) {
+    if let Some(baker) = &bake.baker {
+        baker.read_probe(device.wgpu_device(), &probe);
+    }
     prepared.view = None;
+    prepared.bake = false;
     let Some(renderer) = renderer else {
         return;
     };
@@ -329,16 +392,47 @@ fn prepare(
     renderer.set_pre_exposure((MAX_LUMINOUS_EFFICACY_LM_PER_W as f32) * camera.exposure);
     match renderer.prepare_view(scene, &nimbus, size.x, size.y, extracted.time_s as f32) {
         Ok(()) => prepared.view = Some(entity),
-        Err(e) => said.error(format!("weather: {e}")),
+        Err(e) => {
+            said.error(format!("weather: {e}"));
+            return;
+        }
+    }
+    if let Some(request) = &extracted.cloud_shadows {
+        if !bake.supported {
+            said.warn(
+                "no cloud shadows on Bevy's meshes: Bevy's light textures (clustered decals) \
+                 need binding arrays, which this device lacks"
+                    .to_owned(),
+            );
+            return;
+        }
+        let baker = bake.baker.get_or_insert_with(|| {
+            CloudShadowBaker::new(device.wgpu_device(), renderer.frame_resources())
+        });
+        let queue: &wgpu::Queue = &queue;
+        baker.write(queue, request);
+        prepared.bake = true;
+    }
+}
+
+/// Maps the ambient probe's copy once this frame has been submitted.
+fn map_ambient_probe(bake: Res<CloudShadowBake>) {
+    if let Some(baker) = &bake.baker {
+        baker.map_probe();
     }
 }
 
 /// nimbus's lighting step: atmosphere lookups, stratus field, cumulus
-/// shadow map, rain simulation (before Bevy's main pass).
+/// shadow map, rain simulation; then the cloud shadows baked into the sun's
+/// light texture (before Bevy's main pass, which reads it).
+#[allow(clippy::too_many_arguments)]
 pub(crate) fn nimbus_lighting(
     view: ViewQuery<&ExtractedView>,
     renderer: Option<Res<NimbusRenderer>>,
     prepared: Res<Prepared>,
+    extracted: Res<Extracted>,
+    bake: Res<CloudShadowBake>,
+    images: Res<RenderAssets<GpuImage>>,
     mut ctx: RenderContext,
 ) {
     if prepared.view != Some(view.entity()) {
@@ -347,7 +441,18 @@ pub(crate) fn nimbus_lighting(
     let Some(renderer) = renderer else {
         return;
     };
-    renderer.lock().encode_lighting(ctx.command_encoder());
+    let renderer = renderer.lock();
+    renderer.encode_lighting(ctx.command_encoder());
+    if prepared.bake
+        && let (Some(baker), Some(request)) = (&bake.baker, &extracted.cloud_shadows)
+        && let Some(image) = images.get(request.image)
+    {
+        baker.encode(
+            ctx.command_encoder(),
+            renderer.frame_resources(),
+            &image.texture_view,
+        );
+    }
 }
 
 /// Sky, clouds, rain, mist and air into the camera's HDR main texture by

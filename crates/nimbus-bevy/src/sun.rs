@@ -23,6 +23,7 @@
 //! one is waited for, so that the first frame is lit.
 
 use crate::NimbusFrame;
+use crate::cloud_shadows::NimbusAmbientProbe;
 use bevy::color::{Color, LinearRgba};
 use bevy::ecs::prelude::*;
 use bevy::light::{DirectionalLight, GlobalAmbientLight};
@@ -155,6 +156,7 @@ pub(crate) fn drive_sun(
     mut state: ResMut<SunState>,
     mut suns: Query<(&NimbusSun, &mut DirectionalLight, &mut Transform)>,
     ambient: Option<ResMut<GlobalAmbientLight>>,
+    probe: Option<Res<NimbusAmbientProbe>>,
 ) {
     let Some(scene) = &frame.scene else {
         return;
@@ -202,9 +204,28 @@ pub(crate) fn drive_sun(
         drive_ambient |= sun.drive_ambient;
     }
     if drive_ambient && let Some(mut ambient) = ambient {
-        let color = Color::LinearRgba(light.ambient_color);
-        if ambient.brightness != light.ambient_brightness_cd_m2 || ambient.color != color {
-            ambient.brightness = light.ambient_brightness_cd_m2;
+        // Under the stratus layer the light is the deck's (nimbus's
+        // radiosity, read back from the GPU): the clear sky's would leave
+        // Bevy's meshes dark once the layer's shadow takes the sun.
+        let under_layer = scene
+            .stratus
+            .is_some()
+            .then(|| probe.as_ref().and_then(|p| p.latest()))
+            .flatten()
+            .filter(|reading| reading.under_layer);
+        let (ambient_color, brightness) = match under_layer {
+            Some(reading) => {
+                let (color, peak) = normalised(reading.irradiance_up.map(f64::from));
+                (
+                    color,
+                    (MAX_LUMINOUS_EFFICACY_LM_PER_W * peak / std::f64::consts::PI) as f32,
+                )
+            }
+            None => (light.ambient_color, light.ambient_brightness_cd_m2),
+        };
+        let color = Color::LinearRgba(ambient_color);
+        if ambient.brightness != brightness || ambient.color != color {
+            ambient.brightness = brightness;
             ambient.color = color;
         }
     }

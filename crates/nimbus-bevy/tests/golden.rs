@@ -7,7 +7,10 @@
 //! Asserted: the golden image; that Bevy's meshes hide the clouds behind
 //! them (the tall building's pixels are the same with and without clouds
 //! while the sky above it is not); that no rain falls under the shelter's
-//! roof, a Bevy mesh (nimbus's drops read back), while it rains beside it.
+//! roof, a Bevy mesh (nimbus's drops read back), while it rains beside it;
+//! that nimbus's clouds shadow Bevy's meshes (the sun's light texture,
+//! read back, holds the cumulus' shadows; under an overcast the sunlit
+//! ground and tower darken, and they come back when the shadows are off).
 
 use bevy::app::PluginsState;
 use bevy::asset::RenderAssetUsages;
@@ -23,8 +26,11 @@ use bevy::render::texture::GpuImage;
 use bevy::render::{RenderApp, RenderPlugin};
 use bevy::window::ExitCondition;
 use bevy::winit::WinitPlugin;
+use nimbus_bevy::cloud_shadows::CLOUD_SHADOW_TEXELS;
 use nimbus_bevy::render::NimbusRenderer;
-use nimbus_bevy::{NimbusCamera, NimbusPlugin, NimbusWeather, demo};
+use nimbus_bevy::{
+    NimbusCamera, NimbusCloudShadowTexture, NimbusCloudShadows, NimbusPlugin, NimbusWeather, demo,
+};
 use nimbus_render::Precompute;
 use nimbus_render::rain::DropGpu;
 use std::path::PathBuf;
@@ -166,6 +172,97 @@ fn read_image(app: &mut App, handle: &Handle<Image>) -> Vec<u8> {
         .chunks(row as usize)
         .flat_map(|r| r[..(WIDTH * 4) as usize].to_vec())
         .collect()
+}
+
+/// The cloud shadow light texture's values (the sun's visibility), read
+/// back from the render world.
+fn read_cloud_shadows(app: &mut App) -> Vec<f32> {
+    let handle = app.world().resource::<NimbusCloudShadowTexture>().0.clone();
+    let world = app.sub_app(RenderApp).world();
+    let images = world.resource::<RenderAssets<GpuImage>>();
+    let gpu_image = images
+        .get(&handle)
+        .expect("the cloud shadow texture on the GPU");
+    let device = world.resource::<RenderDevice>().wgpu_device().clone();
+    let queue: &wgpu::Queue = world.resource::<RenderQueue>();
+    let n = CLOUD_SHADOW_TEXELS;
+    // Rgba16Float: 8 bytes a texel.
+    let row = n * 8;
+    let staging = device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("cloud shadow readback"),
+        size: u64::from(row * n),
+        usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+        mapped_at_creation: false,
+    });
+    let mut encoder = device.create_command_encoder(&Default::default());
+    encoder.copy_texture_to_buffer(
+        gpu_image.texture.as_image_copy(),
+        wgpu::TexelCopyBufferInfo {
+            buffer: &staging,
+            layout: wgpu::TexelCopyBufferLayout {
+                offset: 0,
+                bytes_per_row: Some(row),
+                rows_per_image: Some(n),
+            },
+        },
+        wgpu::Extent3d {
+            width: n,
+            height: n,
+            depth_or_array_layers: 1,
+        },
+    );
+    queue.submit([encoder.finish()]);
+    let bytes = nimbus_render::binding::read_mapped(&device, &staging).expect("readback");
+    // The red channel, the one Bevy's light texture reads.
+    bytes
+        .chunks(8)
+        .map(|h| half::f16::from_le_bytes([h[0], h[1]]).to_f32())
+        .collect()
+}
+
+/// The cloud shadow texture as a grey PNG (for looking at).
+fn save_visibility_png(path: &PathBuf, visibility: &[f32]) {
+    let n = CLOUD_SHADOW_TEXELS;
+    let grey: Vec<u8> = visibility
+        .iter()
+        .map(|v| (v.clamp(0.0, 1.0) * 255.0).round() as u8)
+        .collect();
+    if let Some(dir) = path.parent() {
+        std::fs::create_dir_all(dir).expect("directory");
+    }
+    image::save_buffer(path, &grey, n, n, image::ExtendedColorType::L8).expect("write png");
+}
+
+/// Mean linear RGB of an sRGB image over a rectangle.
+fn mean_rgb(pixels: &[u8], min: UVec2, max: UVec2) -> [f64; 3] {
+    let mut sum = [0.0; 3];
+    let mut n = 0.0;
+    for y in min.y..=max.y {
+        for x in min.x..=max.x {
+            let i = ((y * WIDTH + x) * 4) as usize;
+            for (k, s) in sum.iter_mut().enumerate() {
+                *s += nimbus_physics::photometry::srgb_decode(f64::from(pixels[i + k]) / 255.0);
+            }
+            n += 1.0;
+        }
+    }
+    sum.map(|s| s / n)
+}
+
+/// Mean linear luminance of an sRGB image over a rectangle.
+fn mean_luminance(pixels: &[u8], min: UVec2, max: UVec2) -> f64 {
+    let mut sum = 0.0;
+    let mut n = 0.0;
+    for y in min.y..=max.y {
+        for x in min.x..=max.x {
+            let i = ((y * WIDTH + x) * 4) as usize;
+            let lin = [0, 1, 2]
+                .map(|k| nimbus_physics::photometry::srgb_decode(f64::from(pixels[i + k]) / 255.0));
+            sum += 0.2126 * lin[0] + 0.7152 * lin[1] + 0.0722 * lin[2];
+            n += 1.0;
+        }
+    }
+    sum / n
 }
 
 /// nimbus's rain drops alive inside the box `lo`..`hi` (world metres).
@@ -351,17 +448,42 @@ fn golden_bevy_weather_world() {
         "{beside} drops beside the shelter: is it raining?"
     );
 
-    // Without rain, with and without clouds: Bevy's tower hides the clouds.
+    // Without rain, with and without clouds: Bevy's tower hides the clouds
+    // (its lighting kept the same: no cloud shadows for this comparison).
     let mut scene = app.world().resource::<NimbusWeather>().scene.clone();
     scene.rain = None;
     scene.keyframes.clear();
     scene.stratus.as_mut().expect("stratus").coverage = 0.6;
+    // Cumulus alone: their shadows are in the sun's light texture, shadowed
+    // texels and sunlit ones.
+    let mut cumulus_only = scene.clone();
+    cumulus_only.stratus = None;
+    app.world_mut().resource_mut::<NimbusWeather>().scene = cumulus_only;
+    run(&mut app, 45.0, 4);
+    let visibility = read_cloud_shadows(&mut app);
+    save_visibility_png(&out.join("cloud-shadows.png"), &visibility);
+    let shadowed = visibility.iter().filter(|v| **v < 0.5).count() as f64;
+    let sunlit = visibility.iter().filter(|v| **v > 0.95).count() as f64;
+    let texels = visibility.len() as f64;
+    assert!(
+        visibility.iter().all(|v| (0.0..=1.0001).contains(v))
+            && shadowed > 0.01 * texels
+            && sunlit > 0.05 * texels,
+        "cumulus shadow texture: {:.1} % of texels under 0.5, {:.1} % over 0.95 (from {} to {})",
+        100.0 * shadowed / texels,
+        100.0 * sunlit / texels,
+        visibility.iter().fold(f32::MAX, |a, v| a.min(*v)),
+        visibility.iter().fold(f32::MIN, |a, v| a.max(*v))
+    );
+
+    app.world_mut().resource_mut::<NimbusCloudShadows>().enabled = false;
     app.world_mut().resource_mut::<NimbusWeather>().scene = scene.clone();
     run(&mut app, 45.0, 4);
     let cloudy = read_image(&mut app, &image);
-    scene.stratus = None;
-    scene.cumulus = None;
-    app.world_mut().resource_mut::<NimbusWeather>().scene = scene;
+    let mut clear_scene = scene.clone();
+    clear_scene.stratus = None;
+    clear_scene.cumulus = None;
+    app.world_mut().resource_mut::<NimbusWeather>().scene = clear_scene;
     run(&mut app, 45.0, 4);
     let clear = read_image(&mut app, &image);
     save_png(&out.join("cloudy.png"), &cloudy);
@@ -379,6 +501,49 @@ fn golden_bevy_weather_world() {
     assert!(
         on_tower < 2.0 && in_sky > 8.0,
         "clouds over Bevy's tower: it differs by {on_tower:.2} with and without clouds, the sky above it by {in_sky:.2}"
+    );
+
+    // Under an overcast the sun is hidden: with cloud shadows, Bevy's sunlit
+    // tower and ground darken; without, they are lit as under a clear sky.
+    let stratus = scene.stratus.as_mut().expect("stratus");
+    stratus.coverage = 1.0;
+    stratus.thickness_m = 500.0;
+    scene.cumulus = None;
+    app.world_mut().resource_mut::<NimbusWeather>().scene = scene;
+    run(&mut app, 45.0, 4);
+    let unshadowed = read_image(&mut app, &image);
+    app.world_mut().resource_mut::<NimbusCloudShadows>().enabled = true;
+    run(&mut app, 45.0, 4);
+    let overcast = read_image(&mut app, &image);
+    save_png(&out.join("overcast.png"), &overcast);
+    save_png(&out.join("overcast-unshadowed.png"), &unshadowed);
+    let overcast_visibility = read_cloud_shadows(&mut app);
+    let mean_visibility = overcast_visibility
+        .iter()
+        .map(|v| f64::from(*v))
+        .sum::<f64>()
+        / texels;
+    let ground = (
+        UVec2::new(0, HEIGHT - HEIGHT / 6),
+        UVec2::new(WIDTH - 1, HEIGHT - 1),
+    );
+    // Darker: the direct sun is gone, Bevy's ambient light remains (the
+    // clear sky's, blue: docs/bevy.md). Not tinted red as a decal of the
+    // light texture would (see `cloud_shadows::CLOUD_SHADOW_FORMAT`).
+    for (what, (lo, hi)) in [("tower", (min, max)), ("ground", ground)] {
+        let ratio = mean_luminance(&overcast, lo, hi) / mean_luminance(&unshadowed, lo, hi);
+        let [shadowed_rgb, lit_rgb] = [&overcast, &unshadowed].map(|p| mean_rgb(p, lo, hi));
+        let redness = |rgb: [f64; 3]| rgb[0] / rgb[1].max(1e-6);
+        assert!(
+            (0.01..0.75).contains(&ratio) && redness(shadowed_rgb) <= redness(lit_rgb) + 0.05,
+            "the overcast's shadow on Bevy's {what}: luminance {ratio:.3} of the unshadowed, \
+             linear RGB {shadowed_rgb:?} against {lit_rgb:?} (sun visibility {mean_visibility:.3} \
+             on average)"
+        );
+    }
+    assert!(
+        mean_visibility < 0.3,
+        "overcast sun visibility {mean_visibility:.3}"
     );
 
     assert_matches_golden(&full);
