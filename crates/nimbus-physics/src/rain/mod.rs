@@ -4,7 +4,8 @@
 //! the wind field the drops are carried by ([`wind`]), the "rain box" of
 //! drops around the camera and its recycling ([`rain_box`]), the rain zones
 //! under the clouds ([`zones`]), what a drop refracts and reflects
-//! ([`drop_optics`]), and the CPU reference of the drop dynamics
+//! ([`drop_optics`]), the overcast's light scattered by the rain mist
+//! ([`mist_light`]), and the CPU reference of the drop dynamics
 //! that the GPU simulation runs step for step ([`simulation`]).
 //!
 //! Units: metres, seconds, m/s; drop diameters in millimetres where a name
@@ -13,6 +14,7 @@
 pub mod drag;
 pub mod drop_optics;
 pub mod dsd;
+pub mod mist_light;
 pub mod rain_box;
 pub mod random;
 pub mod simulation;

@@ -431,7 +431,10 @@ pub enum StratusShadingModel {
     /// Bouthors et al. (2006) with the paths the slab misses marched
     /// through the thickness field: the view ray's (the cells' sides, §8 of
     /// the paper) and the sun ray's (cells shading each other under a low
-    /// sun). docs/stratus.md and docs/REALISM.md give the gain.
+    /// sun); the diffuse light (orders 3+, sky and ground) leaving by the
+    /// escape function rather than isotropically
+    /// (`nimbus_physics::transport::stratus::DiffuseExit`). docs/stratus.md
+    /// and docs/REALISM.md give the gain.
     #[default]
     Marched,
     /// Bouthors et al. (2006) as published: every point of the surface a

@@ -864,3 +864,58 @@ fn a_steps_splashes_fill_the_ring_in_the_order_of_the_drops() {
     assert!(written > 20, "{written} splashes");
     assert!(h.renderer.rain().drops_buffers().len() >= 3);
 }
+
+/// A test kernel around `mist_hemisphere_moments`: one (g, d_y) in, (M₀, M₁) out.
+const MIST_MOMENTS_KERNEL: &str = r"
+@group(0) @binding(1) var<storage, read> mist_cases: array<vec2<f32>>;
+@group(0) @binding(2) var<storage, read_write> mist_moments: array<f32>;
+
+@compute @workgroup_size(64)
+fn mist_moments_kernel(@builtin(global_invocation_id) id: vec3<u32>) {
+    if (id.x >= arrayLength(&mist_cases)) {
+        return;
+    }
+    let m = mist_hemisphere_moments(mist_cases[id.x].x, mist_cases[id.x].y);
+    mist_moments[2u * id.x] = m.x;
+    mist_moments[2u * id.x + 1u] = m.y;
+}
+";
+
+/// The mist shader's hemisphere moments of its phase function equal the
+/// CPU twin's (`nimbus_physics::rain::mist_light::hg_hemisphere_moments`,
+/// itself tested against brute-force integration) at every elevation.
+#[test]
+fn gpu_mist_moments_match_the_cpu_twin() {
+    use nimbus_physics::rain::mist_light::{MIST_MOMENT_SAMPLES, hg_hemisphere_moments};
+    let h = headless();
+    let cases: Vec<[f32; 2]> = [0.85f32, 0.5, 0.0]
+        .iter()
+        .flat_map(|&g| (0..=40).map(move |k| [g, -1.0 + k as f32 / 20.0]))
+        .collect();
+    let source = nimbus_render::rain::MIST_LIGHT_WGSL.source.to_owned() + MIST_MOMENTS_KERNEL;
+    let gpu: Vec<f32> = crate::common::run_kernel(
+        &h,
+        &crate::common::Kernel {
+            label: "mist moments test",
+            source: &source,
+            entry: "mist_moments_kernel",
+            input: bytemuck::cast_slice(&cases),
+            input_stride: 8,
+            count: cases.len(),
+            outputs_per_item: 2,
+            extra: &[],
+        },
+    );
+    for (case, m) in cases.iter().zip(gpu.chunks(2)) {
+        let (m0, m1) =
+            hg_hemisphere_moments(f64::from(case[0]), f64::from(case[1]), MIST_MOMENT_SAMPLES);
+        assert!(
+            (f64::from(m[0]) - m0).abs() < 2e-4 && (f64::from(m[1]) - m1).abs() < 2e-4,
+            "g {}, d_y {}: GPU ({}, {}), CPU ({m0}, {m1})",
+            case[0],
+            case[1],
+            m[0],
+            m[1]
+        );
+    }
+}

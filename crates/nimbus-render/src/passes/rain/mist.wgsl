@@ -1,6 +1,7 @@
 // import shader/cloud_layer_lookup.wgsl
 // import passes/rain/rain_types.wgsl
 // import passes/rain/zones.wgsl
+// import passes/rain/mist_light.wgsl
 // Rain mist (Blanchard 2023, §4.3, after Weber et al. 2015): beyond the
 // rain box, drops are no longer drawn one by one; the rain there is a
 // participating medium with the extinction of the same drops,
@@ -12,17 +13,22 @@
 // are mist everywhere, the box included. No rain above the ceiling (the
 // clouds' base) or outside the rain zones.
 //
-// The light scattered in is the environment's mean radiance (for a
-// conservative medium lit by a diffuse field the source function equals
-// the field's mean radiance) plus the sun's single scattering with a
+// The light scattered in is the diffuse field's, seen through the mist's
 // forward-peaked phase function (raindrops diffract: Henyey–Greenstein
 // g = 0.85 stands in for their geometric-optics phase function; van de
-// Hulst 1957, §12–13), shadowed by the stratus layer at each point of the
-// ray (so only the air under the layer's gaps glows in the sun). Under a
-// layer the diffuse field is the overcast's, not the clear sky's: from
-// above R_G (the radiosity's irradiance on the ground: sky through the
-// gaps, the deck's diffuse light, the inter-reflections), from below the
-// ground's exitance ρ_G·(R_G + the sun through the layer). Drawn over
+// Hulst 1957, §12–13), plus the sun's single scattering with it, shadowed
+// by the stratus layer at each point of the ray (so only the air under the
+// layer's gaps glows in the sun). The diffuse field is two hemispheres:
+// from above the clear sky (uniform) or, under a layer, R_G (the
+// radiosity's irradiance on the ground: sky through the gaps, the deck's
+// diffuse light, the inter-reflections) leaving the deck by the escape
+// function (3/7)(1 + 2μ), darker towards the horizon; from below the
+// ground's exitance ρ_G·(R_G + the sun through the layer), Lambertian. The
+// mist looking along d sees mostly the light arriving from around d
+// (nimbus_physics::rain::mist_light): towards the horizon the dim edge of
+// the deck and the dark ground, not the field's mean radiance, which
+// stratus.model = "bnl2006" keeps (the source function of a conservative
+// medium in an isotropic field). Drawn over
 // everything with blending dst·T + src.
 
 @group(1) @binding(2) var scene_depth: texture_depth_2d;
@@ -60,20 +66,28 @@ fn mist_hash(p: vec3<i32>) -> f32 {
     return f32(h & 0xffffu) / 65535.0;
 }
 
-// Mean radiance of the diffuse light field at `position_m`, W·sr⁻¹·m⁻²:
-// (E↓ + E↑)/(2π) for uniform upper and lower hemispheres of irradiance E↓
-// (on an upward surface) and E↑ (on a downward one).
-fn mist_ambient_radiance(position_m: vec3<f32>) -> vec3<f32> {
+// The diffuse light field at `position_m` scattered towards an eye looking
+// along `direction`, W·sr⁻¹·m⁻²: (E↓/π)(a₀M₀ + a₁M₁) + (E↑/π)(1 − M₀) for
+// irradiance E↓ from above (on an upward surface) of angular shape
+// a₀ + a₁μ and E↑ from below (on a downward one), M the phase function's
+// hemisphere moments around the direction (see the file's notes).
+fn mist_ambient_radiance(position_m: vec3<f32>, direction: vec3<f32>) -> vec3<f32> {
     let up = vec3<f32>(0.0, 1.0, 0.0);
+    let m = mist_hemisphere_moments(MIST_PHASE_G, direction.y);
     if (!stratus_enabled() || position_m.y >= stratus.window.x) {
         // The clear sky above, the sunlit ground below (the environment's SH).
-        return (sh_irradiance(lighting, up) + sh_irradiance(lighting, -up)) / (2.0 * PI);
+        return (sh_irradiance(lighting, up) * m.x + sh_irradiance(lighting, -up) * (1.0 - m.x)) / PI;
     }
     let from_above = stratus_radiosity_sample(true, position_m.xz);
     let sun_on_ground = sun_irradiance_at(position_m) * max(frame.sun_direction.y, 0.0)
         * mist_sun_shadow(position_m);
     let from_below = atmosphere.ground_albedo * (from_above + sun_on_ground);
-    return (from_above + from_below) / (2.0 * PI);
+    if (stratus.model.x == 0u) {
+        // stratus.model = "bnl2006": the field's mean radiance.
+        return (from_above + from_below) / (2.0 * PI);
+    }
+    // The escape function's shape, (3/7)(1 + 2μ).
+    return (from_above * (3.0 / 7.0 * m.x + 6.0 / 7.0 * m.y) + from_below * (1.0 - m.x)) / PI;
 }
 
 // The layer's shadow on the mist at `position_m`: its directional
@@ -182,7 +196,7 @@ fn mist_fragment(in: MistVarying) -> @location(0) vec4<f32> {
     let g = MIST_PHASE_G;
     let mu = dot(direction, frame.sun_direction);
     let phase = (1.0 - g * g) / (4.0 * PI * pow(1.0 + g * g - 2.0 * g * mu, 1.5));
-    let radiance = mist_ambient_radiance(origin) * (1.0 - transmittance)
+    let radiance = mist_ambient_radiance(origin, direction) * (1.0 - transmittance)
         + lighting.sun_irradiance.xyz * phase * sunlit;
     let inscattered = min(radiance * pre_exposure(), vec3<f32>(frame.max_pre_exposed));
     // Premultiplied over: the frame behind is seen through the transmittance

@@ -168,6 +168,13 @@ fn level_fragment(in: FullscreenOutput) -> LevelOutput {
 // The layer's radiance and opacity at `position_m` on the face `face` (+1
 // the top, −1 the base) where its thickness is `h`, seen by a camera level
 // with the layer when `level`, pre-exposed, alpha premultiplied.
+// The escape function u(μ) = (3/7)(1 + 2μ): the angular distribution of
+// light leaving a thick scattering slab after many events, of unit flux
+// (nimbus_physics::transport::stratus::escape_function).
+fn escape_function(mu: f32) -> f32 {
+    return 3.0 / 7.0 * (1.0 + 2.0 * clamp(mu, 0.0, 1.0));
+}
+
 fn shade_layer(position_m: vec3<f32>, face: f32, h: f32, level: bool) -> vec4<f32> {
     let xz = position_m.xz;
     // The local slab normal, from the thickness gradient: both faces are
@@ -271,6 +278,19 @@ fn shade_layer(position_m: vec3<f32>, face: f32, h: f32, level: bool) -> vec4<f3
         }
     }
 
+    // The transmitted orders 3+ and diffuse light leave the slab darkened
+    // towards its plane, by the escape function u(μ) = (3/7)(1 + 2μ) of the
+    // vertical cosine (nimbus_physics::transport::stratus::DiffuseExit,
+    // tested against the Monte-Carlo slab), not isotropically as the
+    // paper's I₃₊ = T₃₊/π; the reflected ones stay Lambertian (the Monte
+    // Carlo holds them within 10 % up to 70°). Not on a level view (the
+    // camera within the layer's height range looking along it), which sees
+    // the cells' sides rather than a slab's face; nor with
+    // stratus.model = "bnl2006".
+    var exit_weight = 1.0;
+    if (marched && !level) {
+        exit_weight = escape_function(abs(v.y));
+    }
     var local_orders: vec3<f32>;
     var global_orders: vec3<f32>;
     if (viewer_above == sun_above) {
@@ -288,7 +308,7 @@ fn shade_layer(position_m: vec3<f32>, face: f32, h: f32, level: bool) -> vec4<f3
         let single = p_s * exp_difference_quotient(a, mu_v, mu_l);
         let double = 0.5 * p2 * poisson2_difference_quotient(a, mu_v, mu_l);
         local_orders = peak + single + double;
-        global_orders = fluxes.t3plus / PI;
+        global_orders = exit_weight * fluxes.t3plus / PI;
     }
     let sun_light = sun_direct * local_orders * mu_l + sun_diffuse * global_orders * select(0.0, mu_l_vertical, l.y != 0.0);
 
@@ -303,9 +323,9 @@ fn shade_layer(position_m: vec3<f32>, face: f32, h: f32, level: bool) -> vec4<f3
     let transmitted = max(vec3<f32>(fluxes.transmittance) - unscattered, vec3<f32>(0.0));
     var diffuse: vec3<f32>;
     if (viewer_above) {
-        diffuse = fluxes.reflectance * sky_above + transmitted * ground_below;
+        diffuse = fluxes.reflectance * sky_above + exit_weight * transmitted * ground_below;
     } else {
-        diffuse = transmitted * sky_above + fluxes.reflectance * ground_below;
+        diffuse = exit_weight * transmitted * sky_above + fluxes.reflectance * ground_below;
     }
     let radiance = sun_light + diffuse / PI;
 

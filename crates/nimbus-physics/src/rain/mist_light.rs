@@ -1,0 +1,196 @@
+//! The diffuse light that rain mist scatters towards the eye.
+//!
+//! Rain mist scatters with a forward-peaked phase function (Henyey–Greenstein
+//! g = 0.85 in nimbus, standing in for the drops' diffraction peak; van de
+//! Hulst 1957, §12–13): what it sends towards an eye looking along `d` is
+//! mostly the light arriving from around `d`, not the mean of the field.
+//! Under a cloud layer that field is far from uniform: the deck overhead is
+//! bright, its light towards the horizon darkened by the escape function
+//! u(μ) = (3/7)(1 + 2μ) ([`crate::transport::stratus::DiffuseExit`]), the
+//! ground below dark. The source of the mist's single scattering of that
+//! field, for an eye looking along a direction of vertical component `d_y`:
+//!
+//! S(d) = ∫ L(ω) p(ω·d) dω
+//!      = (E↓/π) Σ_k a_k M_k(d_y) + (E↑/π) (1 − M₀(d_y)),
+//!
+//! with L(ω) = (E↓/π) Σ_k a_k ω_yᵏ from above (a = (1, 0) for a uniform sky,
+//! (3/7, 6/7) for the escape function) and E↑/π from below (a Lambertian
+//! ground), and the hemisphere moments of the phase function
+//! M_k(d_y) = ∫_{ω_y > 0} ω_yᵏ p(ω·d) dω, k = 0, 1 (sr⁻¹ · sr: dimensionless).
+//!
+//! The moments reduce to one integral over the scattering angle Θ: around
+//! `d`, the directions at angle Θ make a circle on which
+//! ω_y = a + b cos φ, a = cos Θ d_y, b = sin Θ √(1 − d_y²); the part with
+//! ω_y > 0 is |φ| < φ₀, cos φ₀ = −a/b, so the circle contributes φ₀/π to M₀
+//! and (a φ₀ + b sin φ₀)/π to M₁. The remaining integral over Θ is taken at
+//! stratified quantiles of the HG distribution of cos Θ (its inverse CDF),
+//! so that the peak is sampled where the phase function puts its weight:
+//! [`hg_hemisphere_moments`], which the mist shader evaluates per pixel with
+//! the same quantiles (`passes/rain/mist.wgsl`).
+
+/// Number of quantiles of cos Θ the shader uses (and the CPU twin by default).
+pub const MIST_MOMENT_SAMPLES: usize = 24;
+
+/// cos Θ of the Henyey–Greenstein distribution at cumulative probability
+/// `xi` in [0, 1] (the inverse CDF; isotropic for |g| < 1e-3).
+pub fn hg_inverse_cdf_cos(g: f64, xi: f64) -> f64 {
+    if g.abs() < 1e-3 {
+        return 1.0 - 2.0 * xi;
+    }
+    let s = (1.0 - g * g) / (1.0 - g + 2.0 * g * xi);
+    ((1.0 + g * g - s * s) / (2.0 * g)).clamp(-1.0, 1.0)
+}
+
+/// The circle at scattering angle Θ (cosine `cos_theta`) around a direction
+/// of vertical component `d_y`: its fraction above the horizon and the mean
+/// of max(ω_y, 0) over it.
+pub fn circle_above_horizon(cos_theta: f64, d_y: f64) -> (f64, f64) {
+    let a = cos_theta * d_y;
+    let b = (1.0 - cos_theta * cos_theta).max(0.0).sqrt() * (1.0 - d_y * d_y).max(0.0).sqrt();
+    if b <= 1e-12 {
+        return if a > 0.0 { (1.0, a) } else { (0.0, 0.0) };
+    }
+    let phi0 = (-a / b).clamp(-1.0, 1.0).acos();
+    (
+        phi0 / std::f64::consts::PI,
+        (a * phi0 + b * phi0.sin()) / std::f64::consts::PI,
+    )
+}
+
+/// The hemisphere moments (M₀, M₁) of the Henyey–Greenstein phase function
+/// of asymmetry `g` around a direction of vertical component `d_y`: the
+/// fraction of the scattered light that comes from above the horizon, and
+/// that fraction weighted by the vertical cosine of its arrival
+/// (see the module notes), with `samples` stratified quantiles.
+pub fn hg_hemisphere_moments(g: f64, d_y: f64, samples: usize) -> (f64, f64) {
+    let n = samples.max(1);
+    let d_y = d_y.clamp(-1.0, 1.0);
+    let (mut m0, mut m1) = (0.0, 0.0);
+    for i in 0..n {
+        let xi = (i as f64 + 0.5) / n as f64;
+        let (f0, f1) = circle_above_horizon(hg_inverse_cdf_cos(g, xi), d_y);
+        m0 += f0;
+        m1 += f1;
+    }
+    (m0 / n as f64, m1 / n as f64)
+}
+
+/// The source S(d) of single scattering of a two-hemisphere diffuse field
+/// (see the module notes), W·sr⁻¹·m⁻² per channel: irradiance `down_w_m2`
+/// from above with angular shape coefficients `shape_above` (radiance
+/// (E↓/π)(a₀ + a₁ ω_y)), `up_w_m2` from a Lambertian ground below.
+pub fn diffuse_source(
+    g: f64,
+    d_y: f64,
+    down_w_m2: f64,
+    shape_above: [f64; 2],
+    up_w_m2: f64,
+    samples: usize,
+) -> f64 {
+    let (m0, m1) = hg_hemisphere_moments(g, d_y, samples);
+    down_w_m2 / std::f64::consts::PI * (shape_above[0] * m0 + shape_above[1] * m1)
+        + up_w_m2 / std::f64::consts::PI * (1.0 - m0)
+}
+
+/// The angular shape (a₀, a₁) of a uniform sky.
+pub const UNIFORM_SKY: [f64; 2] = [1.0, 0.0];
+/// The angular shape (a₀, a₁) of light leaving a cloud deck's base by the
+/// escape function (3/7)(1 + 2μ).
+pub const ESCAPE_FUNCTION: [f64; 2] = [3.0 / 7.0, 6.0 / 7.0];
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Henyey–Greenstein, normalised to 1 over the sphere.
+    fn hg(g: f64, cos_theta: f64) -> f64 {
+        (1.0 - g * g) / (4.0 * std::f64::consts::PI * (1.0 + g * g - 2.0 * g * cos_theta).powf(1.5))
+    }
+
+    /// The moments by brute force: a fine grid over the sphere of arrival
+    /// directions (1200 × 2400 cells, uniform in ω_y and azimuth).
+    fn brute_force(g: f64, d_y: f64) -> (f64, f64) {
+        let d = [(1.0 - d_y * d_y).max(0.0).sqrt(), d_y, 0.0];
+        let (nu, nphi) = (1200, 2400);
+        let cell = (1.0 / nu as f64) * (2.0 * std::f64::consts::PI / nphi as f64);
+        let (mut m0, mut m1) = (0.0, 0.0);
+        for i in 0..nu {
+            let wy = (i as f64 + 0.5) / nu as f64;
+            let r = (1.0 - wy * wy).sqrt();
+            for j in 0..nphi {
+                let phi = (j as f64 + 0.5) * 2.0 * std::f64::consts::PI / nphi as f64;
+                let w = [r * phi.cos(), wy, r * phi.sin()];
+                let p = hg(g, w[0] * d[0] + w[1] * d[1] + w[2] * d[2]) * cell;
+                m0 += p;
+                m1 += p * wy;
+            }
+        }
+        (m0, m1)
+    }
+
+    /// The shader's 24 quantiles match brute-force integration over the
+    /// sphere to 1 % of M₀ (and 0.005 absolute) for the mist's g = 0.85,
+    /// a milder g and isotropic scattering, at every elevation.
+    #[test]
+    fn quantile_moments_match_brute_force() {
+        for g in [0.85, 0.5, 0.0] {
+            for d_y in [-0.9, -0.3, -0.05, 0.0, 0.1, 0.4, 0.95] {
+                let (m0, m1) = hg_hemisphere_moments(g, d_y, MIST_MOMENT_SAMPLES);
+                let (b0, b1) = brute_force(g, d_y);
+                assert!(
+                    (m0 - b0).abs() < 0.01 * b0.max(0.5) && (m1 - b1).abs() < 0.005,
+                    "g {g}, d_y {d_y}: quantiles ({m0:.4}, {m1:.4}), brute force ({b0:.4}, {b1:.4})"
+                );
+            }
+        }
+    }
+
+    /// Limits: isotropic scattering sees half the sphere above the horizon
+    /// (M₀ = ½, M₁ = ¼), whatever the direction; g = 0.85 looking straight
+    /// up takes 96 % of its light from above (its tail reaches past 90°:
+    /// M₀ = (1 − g²)/(2g)·(1/(1 − g) − 1/√(1 + g²)) = 0.964, the HG
+    /// distribution's mass at cos Θ > 0), straight down the rest, 3.6 %; a uniform field of
+    /// radiance L from everywhere gives S = L.
+    #[test]
+    fn moments_have_the_right_limits() {
+        for d_y in [-0.7, 0.0, 0.6] {
+            let (m0, m1) = hg_hemisphere_moments(0.0, d_y, 4000);
+            assert!(
+                (m0 - 0.5).abs() < 1e-3 && (m1 - 0.25).abs() < 1e-3,
+                "{m0} {m1}"
+            );
+        }
+        let g: f64 = 0.85;
+        let above = (1.0 - g * g) / (2.0 * g) * (1.0 / (1.0 - g) - 1.0 / (1.0 + g * g).sqrt());
+        let below = 1.0 - above;
+        let (up0, up1) = hg_hemisphere_moments(g, 1.0, 4000);
+        assert!(
+            (up0 - (1.0 - below)).abs() < 1e-3 && up1 > 0.8,
+            "{up0} {up1}, below {below}"
+        );
+        let (down0, _) = hg_hemisphere_moments(g, -1.0, 4000);
+        assert!((down0 - below).abs() < 1e-3, "{down0}, below {below}");
+        let e = std::f64::consts::PI * 3.0;
+        for d_y in [-0.5, 0.0, 0.5] {
+            let s = diffuse_source(0.85, d_y, e, UNIFORM_SKY, e, 64);
+            assert!((s - 3.0).abs() < 1e-9, "{s}");
+        }
+    }
+
+    /// The escape function's shape carries the same flux as a uniform sky
+    /// (∫ (a₀ + a₁ μ) μ dω = π for both), and towards the horizon the mist
+    /// under a deck is darker than the field's mean radiance: with the
+    /// ground at albedo 0.1, (E↓ + E↑)/(2π) overestimates it by half.
+    #[test]
+    fn under_a_deck_the_horizon_mist_is_darker_than_the_mean() {
+        let flux = |a: [f64; 2]| a[0] * 0.5 + a[1] / 3.0;
+        assert!((flux(ESCAPE_FUNCTION) - flux(UNIFORM_SKY)).abs() < 1e-12);
+        let down = std::f64::consts::PI;
+        let up = 0.1 * down;
+        let mean = (down + up) / (2.0 * std::f64::consts::PI);
+        let horizon = diffuse_source(0.85, 0.0, down, ESCAPE_FUNCTION, up, MIST_MOMENT_SAMPLES);
+        assert!(horizon < 0.75 * mean, "horizon {horizon}, mean {mean}");
+        let zenith = diffuse_source(0.85, 1.0, down, ESCAPE_FUNCTION, up, MIST_MOMENT_SAMPLES);
+        assert!(zenith > 1.1 * mean, "zenith {zenith}, mean {mean}");
+    }
+}
