@@ -497,27 +497,14 @@ impl CloudShadowBaker {
         frame: &FrameResources,
         target: &wgpu::TextureView,
     ) {
-        let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
-            label: Some("nimbus-bevy cloud shadow bake"),
-            color_attachments: &[Some(wgpu::RenderPassColorAttachment {
-                view: target,
-                depth_slice: None,
-                resolve_target: None,
-                ops: wgpu::Operations {
-                    load: wgpu::LoadOp::Clear(wgpu::Color {
-                        r: 1.0,
-                        g: 1.0,
-                        b: 1.0,
-                        a: 0.0,
-                    }),
-                    store: wgpu::StoreOp::Store,
-                },
-            })],
-            depth_stencil_attachment: None,
-            timestamp_writes: None,
-            occlusion_query_set: None,
-            multiview_mask: None,
-        });
+        // Cleared to fully lit, alpha 0 (see CLOUD_SHADOW_FORMAT).
+        let lit = wgpu::Color {
+            r: 1.0,
+            g: 1.0,
+            b: 1.0,
+            a: 0.0,
+        };
+        let mut pass = full_screen_pass(encoder, "nimbus-bevy cloud shadow bake", target, lit);
         pass.set_pipeline(&self.pipeline);
         frame.bindings().set_on(&mut pass, Some(&self.group));
         pass.draw(0..3, 0..1);
@@ -526,22 +513,12 @@ impl CloudShadowBaker {
         if self.probe_state.load(Ordering::Acquire) != PROBE_IDLE {
             return;
         }
-        let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
-            label: Some("nimbus-bevy ambient probe"),
-            color_attachments: &[Some(wgpu::RenderPassColorAttachment {
-                view: &self.probe_view,
-                depth_slice: None,
-                resolve_target: None,
-                ops: wgpu::Operations {
-                    load: wgpu::LoadOp::Clear(wgpu::Color::TRANSPARENT),
-                    store: wgpu::StoreOp::Store,
-                },
-            })],
-            depth_stencil_attachment: None,
-            timestamp_writes: None,
-            occlusion_query_set: None,
-            multiview_mask: None,
-        });
+        let mut pass = full_screen_pass(
+            encoder,
+            "nimbus-bevy ambient probe",
+            &self.probe_view,
+            wgpu::Color::TRANSPARENT,
+        );
         pass.set_pipeline(&self.probe_pipeline);
         frame.bindings().set_on(&mut pass, Some(&self.group));
         pass.draw(0..3, 0..1);
@@ -564,6 +541,31 @@ impl CloudShadowBaker {
         );
         self.probe_state.store(PROBE_COPIED, Ordering::Release);
     }
+}
+
+/// A render pass of one colour target, cleared to `clear`, for a full-screen triangle.
+fn full_screen_pass<'e>(
+    encoder: &'e mut wgpu::CommandEncoder,
+    label: &str,
+    target: &wgpu::TextureView,
+    clear: wgpu::Color,
+) -> wgpu::RenderPass<'e> {
+    encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+        label: Some(label),
+        color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+            view: target,
+            depth_slice: None,
+            resolve_target: None,
+            ops: wgpu::Operations {
+                load: wgpu::LoadOp::Clear(clear),
+                store: wgpu::StoreOp::Store,
+            },
+        })],
+        depth_stencil_attachment: None,
+        timestamp_writes: None,
+        occlusion_query_set: None,
+        multiview_mask: None,
+    })
 }
 
 #[cfg(test)]

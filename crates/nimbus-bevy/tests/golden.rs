@@ -135,17 +135,25 @@ fn run(app: &mut App, start_s: f64, frames: u32) {
     }
 }
 
-/// The image's pixels (sRGB, RGBA8), read back from the render world.
-fn read_image(app: &mut App, handle: &Handle<Image>) -> Vec<u8> {
+/// The texels of an image asset of `width` × `height` and `texel_bytes`
+/// a texel, rows packed, read back from the render world.
+fn read_texels(
+    app: &mut App,
+    handle: &Handle<Image>,
+    width: u32,
+    height: u32,
+    texel_bytes: u32,
+) -> Vec<u8> {
     let world = app.sub_app(RenderApp).world();
     let images = world.resource::<RenderAssets<GpuImage>>();
-    let gpu_image = images.get(handle).expect("the target image on the GPU");
+    let gpu_image = images.get(handle).expect("the image on the GPU");
     let device = world.resource::<RenderDevice>().wgpu_device().clone();
     let queue: &wgpu::Queue = world.resource::<RenderQueue>();
-    let row = (WIDTH * 4).div_ceil(256) * 256;
+    let packed = width * texel_bytes;
+    let row = packed.div_ceil(256) * 256;
     let staging = device.create_buffer(&wgpu::BufferDescriptor {
         label: Some("golden readback"),
-        size: u64::from(row * HEIGHT),
+        size: u64::from(row * height),
         usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
         mapped_at_creation: false,
     });
@@ -157,12 +165,12 @@ fn read_image(app: &mut App, handle: &Handle<Image>) -> Vec<u8> {
             layout: wgpu::TexelCopyBufferLayout {
                 offset: 0,
                 bytes_per_row: Some(row),
-                rows_per_image: Some(HEIGHT),
+                rows_per_image: Some(height),
             },
         },
         wgpu::Extent3d {
-            width: WIDTH,
-            height: HEIGHT,
+            width,
+            height,
             depth_or_array_layers: 1,
         },
     );
@@ -170,50 +178,21 @@ fn read_image(app: &mut App, handle: &Handle<Image>) -> Vec<u8> {
     let bytes = nimbus_render::binding::read_mapped(&device, &staging).expect("readback");
     bytes
         .chunks(row as usize)
-        .flat_map(|r| r[..(WIDTH * 4) as usize].to_vec())
+        .flat_map(|r| r[..packed as usize].to_vec())
         .collect()
 }
 
-/// The cloud shadow light texture's values (the sun's visibility), read
-/// back from the render world.
+/// The image's pixels (sRGB, RGBA8), read back from the render world.
+fn read_image(app: &mut App, handle: &Handle<Image>) -> Vec<u8> {
+    read_texels(app, handle, WIDTH, HEIGHT, 4)
+}
+
+/// The cloud shadow light texture's red channel (the sun's visibility,
+/// what Bevy's light texture reads), read back from the render world.
 fn read_cloud_shadows(app: &mut App) -> Vec<f32> {
     let handle = app.world().resource::<NimbusCloudShadowTexture>().0.clone();
-    let world = app.sub_app(RenderApp).world();
-    let images = world.resource::<RenderAssets<GpuImage>>();
-    let gpu_image = images
-        .get(&handle)
-        .expect("the cloud shadow texture on the GPU");
-    let device = world.resource::<RenderDevice>().wgpu_device().clone();
-    let queue: &wgpu::Queue = world.resource::<RenderQueue>();
-    let n = CLOUD_SHADOW_TEXELS;
     // Rgba16Float: 8 bytes a texel.
-    let row = n * 8;
-    let staging = device.create_buffer(&wgpu::BufferDescriptor {
-        label: Some("cloud shadow readback"),
-        size: u64::from(row * n),
-        usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
-        mapped_at_creation: false,
-    });
-    let mut encoder = device.create_command_encoder(&Default::default());
-    encoder.copy_texture_to_buffer(
-        gpu_image.texture.as_image_copy(),
-        wgpu::TexelCopyBufferInfo {
-            buffer: &staging,
-            layout: wgpu::TexelCopyBufferLayout {
-                offset: 0,
-                bytes_per_row: Some(row),
-                rows_per_image: Some(n),
-            },
-        },
-        wgpu::Extent3d {
-            width: n,
-            height: n,
-            depth_or_array_layers: 1,
-        },
-    );
-    queue.submit([encoder.finish()]);
-    let bytes = nimbus_render::binding::read_mapped(&device, &staging).expect("readback");
-    // The red channel, the one Bevy's light texture reads.
+    let bytes = read_texels(app, &handle, CLOUD_SHADOW_TEXELS, CLOUD_SHADOW_TEXELS, 8);
     bytes
         .chunks(8)
         .map(|h| half::f16::from_le_bytes([h[0], h[1]]).to_f32())
