@@ -4,7 +4,7 @@
 
 use crate::{NimbusCamera, NimbusSun, NimbusWeather};
 use bevy::asset::{Assets, Handle};
-use bevy::camera::{Camera3d, Exposure};
+use bevy::camera::Camera3d;
 use bevy::color::Color;
 use bevy::core_pipeline::tonemapping::Tonemapping;
 use bevy::ecs::prelude::*;
@@ -95,7 +95,7 @@ pub fn camera() -> impl Bundle {
         Camera3d::default(),
         NimbusCamera,
         Tonemapping::AcesFitted,
-        Exposure { ev100: 14.0 },
+        crate::DAYLIGHT_EXPOSURE,
         camera_transform(),
     )
 }

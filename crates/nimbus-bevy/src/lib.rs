@@ -55,7 +55,7 @@ pub mod render;
 pub mod sun;
 
 use bevy::app::{App, Plugin, PostUpdate};
-use bevy::camera::{Camera3d, Hdr};
+use bevy::camera::{Camera3d, Exposure, Hdr};
 use bevy::ecs::prelude::*;
 use bevy::log::info;
 use bevy::render::render_resource::TextureUsages;
@@ -234,8 +234,9 @@ fn text_sets_terrain(text: &str) -> bool {
 }
 
 /// Marks the camera nimbus draws on: sky, clouds, rain and air go into its
-/// HDR target by its depth. Requires `Hdr`; turns the camera's MSAA off and
-/// makes its depth texture readable when added. One per app.
+/// HDR target by its depth. Requires `Hdr`; turns the camera's MSAA off,
+/// makes its depth texture readable and, unless it has an `Exposure` of its
+/// own, gives it [`DAYLIGHT_EXPOSURE`] when added. One per app.
 #[derive(Component, Clone, Copy, Debug, Default)]
 #[require(Camera3d, Hdr)]
 pub struct NimbusCamera;
@@ -251,13 +252,38 @@ pub struct NimbusFrame {
     pub time_s: f64,
 }
 
-/// Turns MSAA off and adds `TEXTURE_BINDING` to the depth texture's usages
-/// of each camera that becomes a [`NimbusCamera`] (nimbus reads Bevy's depth).
-fn configure_cameras(
-    mut commands: Commands,
-    mut cameras: Query<(Entity, &mut Camera3d, Option<&Msaa>), Added<NimbusCamera>>,
-) {
-    for (entity, mut camera, msaa) in &mut cameras {
+/// The exposure a [`NimbusCamera`] gets when it has none of its own (or
+/// Bevy's default, EV100 9.7, made for indoor scenes, which washes a
+/// daylight sky out to white): EV100 14, daylight under some cloud.
+pub const DAYLIGHT_EXPOSURE: Exposure = Exposure { ev100: 14.0 };
+
+/// Cameras that have just become [`NimbusCamera`]s.
+type NewCameraQuery<'w, 's> = Query<
+    'w,
+    's,
+    (
+        Entity,
+        &'static mut Camera3d,
+        Option<&'static Msaa>,
+        Option<&'static Exposure>,
+    ),
+    Added<NimbusCamera>,
+>;
+
+/// Turns MSAA off, adds `TEXTURE_BINDING` to the depth texture's usages
+/// (nimbus reads Bevy's depth) and gives a daylight exposure where the
+/// camera has Bevy's default, for each camera that becomes a [`NimbusCamera`].
+fn configure_cameras(mut commands: Commands, mut cameras: NewCameraQuery) {
+    for (entity, mut camera, msaa, exposure) in &mut cameras {
+        if exposure.is_none_or(|e| e.ev100 == Exposure::default().ev100) {
+            info!(
+                "nimbus: camera {entity}: exposure EV100 {} for daylight (Bevy's default, {}, is \
+                 for indoor scenes; give the camera an Exposure to keep yours)",
+                DAYLIGHT_EXPOSURE.ev100,
+                Exposure::default().ev100
+            );
+            commands.entity(entity).insert(DAYLIGHT_EXPOSURE);
+        }
         camera.depth_texture_usages.0 |= TextureUsages::TEXTURE_BINDING.bits();
         if msaa != Some(&Msaa::Off) {
             info!(
