@@ -327,18 +327,11 @@ impl CloudShadowBaker {
     pub fn new(device: &wgpu::Device, frame: &FrameResources) -> Self {
         let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("nimbus-bevy cloud shadow bake"),
-            entries: &[wgpu::BindGroupLayoutEntry {
-                binding: 0,
-                visibility: wgpu::ShaderStages::FRAGMENT,
-                ty: wgpu::BindingType::Buffer {
-                    ty: wgpu::BufferBindingType::Uniform,
-                    has_dynamic_offset: false,
-                    min_binding_size: wgpu::BufferSize::new(std::mem::size_of::<
-                        CloudShadowBakeUniform,
-                    >() as u64),
-                },
-                count: None,
-            }],
+            entries: &[nimbus_render::binding::uniform_layout_entry(
+                0,
+                wgpu::ShaderStages::FRAGMENT,
+                std::mem::size_of::<CloudShadowBakeUniform>() as u64,
+            )],
         });
         let uniform = device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("nimbus-bevy cloud shadow bake"),

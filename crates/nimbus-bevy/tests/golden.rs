@@ -32,6 +32,7 @@ use nimbus_bevy::{
     NimbusCamera, NimbusCloudShadowTexture, NimbusCloudShadows, NimbusPlugin, NimbusWeather, demo,
 };
 use nimbus_render::Precompute;
+use nimbus_render::headless::GoldenDifference;
 use nimbus_render::rain::DropGpu;
 use std::path::PathBuf;
 
@@ -228,20 +229,10 @@ fn mean_rgb(pixels: &[u8], min: UVec2, max: UVec2) -> [f64; 3] {
     sum.map(|s| s / n)
 }
 
-/// Mean linear luminance of an sRGB image over a rectangle.
+/// Mean linear luminance (Rec. 709) of an sRGB image over a rectangle.
 fn mean_luminance(pixels: &[u8], min: UVec2, max: UVec2) -> f64 {
-    let mut sum = 0.0;
-    let mut n = 0.0;
-    for y in min.y..=max.y {
-        for x in min.x..=max.x {
-            let i = ((y * WIDTH + x) * 4) as usize;
-            let lin = [0, 1, 2]
-                .map(|k| nimbus_physics::photometry::srgb_decode(f64::from(pixels[i + k]) / 255.0));
-            sum += 0.2126 * lin[0] + 0.7152 * lin[1] + 0.0722 * lin[2];
-            n += 1.0;
-        }
-    }
-    sum / n
+    let [r, g, b] = mean_rgb(pixels, min, max);
+    0.2126 * r + 0.7152 * g + 0.0722 * b
 }
 
 /// nimbus's rain drops alive inside the box `lo`..`hi` (world metres).
@@ -338,8 +329,8 @@ fn save_png(path: &PathBuf, pixels: &[u8]) {
         .expect("write png");
 }
 
-/// The golden image (CIE76 ΔE, the render crate's tolerance: mean at most
-/// 1.5, at most 1 % of pixels over 10; `NIMBUS_BLESS=1` rewrites it).
+/// The golden image (the render crate's [`GoldenDifference`]: CIE76 ΔE, mean
+/// at most 1.5, at most 1 % of pixels over 10; `NIMBUS_BLESS=1` rewrites it).
 fn assert_matches_golden(pixels: &[u8]) {
     let dir = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("tests/golden");
     let golden_path = dir.join("bevy-weather.png");
@@ -356,34 +347,9 @@ fn assert_matches_golden(pixels: &[u8]) {
         })
         .to_rgba8();
     assert_eq!((golden.width(), golden.height()), (WIDTH, HEIGHT));
-    let lab = |p: &[u8]| {
-        let lin =
-            [0, 1, 2].map(|k| nimbus_physics::photometry::srgb_decode(f64::from(p[k]) / 255.0));
-        let x = 0.4124 * lin[0] + 0.3576 * lin[1] + 0.1805 * lin[2];
-        let y = 0.2126 * lin[0] + 0.7152 * lin[1] + 0.0722 * lin[2];
-        let z = 0.0193 * lin[0] + 0.1192 * lin[1] + 0.9505 * lin[2];
-        let f = |t: f64| {
-            if t > 216.0 / 24389.0 {
-                t.cbrt()
-            } else {
-                (24389.0 / 27.0 * t + 16.0) / 116.0
-            }
-        };
-        let (fx, fy, fz) = (f(x / 0.95047), f(y), f(z / 1.08883));
-        [116.0 * fy - 16.0, 500.0 * (fx - fy), 200.0 * (fy - fz)]
-    };
-    let deltas: Vec<f64> = golden
-        .as_raw()
-        .chunks(4)
-        .zip(pixels.chunks(4))
-        .map(|(a, b)| {
-            let (a, b) = (lab(a), lab(b));
-            ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2) + (a[2] - b[2]).powi(2)).sqrt()
-        })
-        .collect();
-    let mean = deltas.iter().sum::<f64>() / deltas.len() as f64;
-    let large = deltas.iter().filter(|d| **d > 10.0).count() as f64 / deltas.len() as f64;
-    if mean > 1.5 || large > 0.01 {
+    let difference = GoldenDifference::between(golden.as_raw(), pixels);
+    let (mean, large) = (difference.mean, difference.large_fraction);
+    if !difference.passes() {
         let out = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../target/golden-diff");
         save_png(&out.join("bevy-weather-actual.png"), pixels);
         panic!(

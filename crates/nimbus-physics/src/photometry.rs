@@ -75,9 +75,48 @@ pub fn srgb_decode(encoded: f64) -> f64 {
     }
 }
 
+/// CIE 1976 L*a*b* (D65 white, CIE 15:2004 §8.2.1) of an sRGB-encoded
+/// 8-bit colour: sRGB's linear RGB to XYZ (IEC 61966-2-1), then L* in
+/// [0, 100]. Dimensionless.
+pub fn srgb8_to_cie_lab(rgb: [u8; 3]) -> [f64; 3] {
+    let lin = rgb.map(|c| srgb_decode(f64::from(c) / 255.0));
+    let x = 0.4124 * lin[0] + 0.3576 * lin[1] + 0.1805 * lin[2];
+    let y = 0.2126 * lin[0] + 0.7152 * lin[1] + 0.0722 * lin[2];
+    let z = 0.0193 * lin[0] + 0.1192 * lin[1] + 0.9505 * lin[2];
+    let f = |t: f64| {
+        if t > 216.0 / 24389.0 {
+            t.cbrt()
+        } else {
+            (24389.0 / 27.0 * t + 16.0) / 116.0
+        }
+    };
+    let (fx, fy, fz) = (f(x / 0.95047), f(y), f(z / 1.08883));
+    [116.0 * fy - 16.0, 500.0 * (fx - fy), 200.0 * (fy - fz)]
+}
+
+/// CIE76 colour difference ΔE*ab of two sRGB-encoded 8-bit colours.
+pub fn delta_e76(a: [u8; 3], b: [u8; 3]) -> f64 {
+    let (la, lb) = (srgb8_to_cie_lab(a), srgb8_to_cie_lab(b));
+    ((la[0] - lb[0]).powi(2) + (la[1] - lb[1]).powi(2) + (la[2] - lb[2]).powi(2)).sqrt()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// White is L* 100 and neutral, black L* 0; sRGB red is the published
+    /// L*a*b* (53.24, 80.09, 67.20) to 0.05; ΔE of a colour with itself is 0.
+    #[test]
+    fn cie_lab_of_srgb_references() {
+        let white = srgb8_to_cie_lab([255, 255, 255]);
+        assert!((white[0] - 100.0).abs() < 0.01 && white[1].abs() < 0.05 && white[2].abs() < 0.05);
+        assert!(srgb8_to_cie_lab([0, 0, 0])[0].abs() < 1e-9);
+        let red = srgb8_to_cie_lab([255, 0, 0]);
+        for (v, r) in red.iter().zip([53.24, 80.09, 67.20]) {
+            assert!((v - r).abs() < 0.05, "{red:?}");
+        }
+        assert_eq!(delta_e76([10, 200, 30], [10, 200, 30]), 0.0);
+    }
 
     #[test]
     fn d65_white_point_maps_to_equal_rgb() {

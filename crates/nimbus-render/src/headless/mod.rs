@@ -48,6 +48,55 @@ pub struct Rgba8Image {
     pub pixels: Vec<u8>,
 }
 
+/// How an image differs from its golden image, the test suites' perceptual
+/// comparison: CIE76 ΔE per pixel
+/// ([`nimbus_physics::photometry::delta_e76`]). It passes when the mean ΔE
+/// is at most [`Self::MAX_MEAN`] and at most [`Self::MAX_LARGE_FRACTION`] of
+/// the pixels differ by more than [`Self::LARGE`] (about a just-noticeable
+/// difference on average; isolated edge pixels may move between adapters).
+#[derive(Clone, Debug, PartialEq)]
+pub struct GoldenDifference {
+    /// ΔE of each pixel, rows top to bottom.
+    pub delta_e: Vec<f64>,
+    /// Their mean.
+    pub mean: f64,
+    /// Fraction of pixels with ΔE over [`Self::LARGE`].
+    pub large_fraction: f64,
+}
+
+impl GoldenDifference {
+    /// Largest mean ΔE that passes.
+    pub const MAX_MEAN: f64 = 1.5;
+    /// ΔE above which a pixel counts as visibly different.
+    pub const LARGE: f64 = 10.0;
+    /// Largest fraction of visibly different pixels that passes.
+    pub const MAX_LARGE_FRACTION: f64 = 0.01;
+
+    /// Compares two RGBA8 sRGB pixel buffers of the same size (alpha ignored).
+    pub fn between(golden: &[u8], actual: &[u8]) -> Self {
+        let delta_e: Vec<f64> = golden
+            .chunks(4)
+            .zip(actual.chunks(4))
+            .map(|(a, b)| {
+                nimbus_physics::photometry::delta_e76([a[0], a[1], a[2]], [b[0], b[1], b[2]])
+            })
+            .collect();
+        let n = delta_e.len().max(1) as f64;
+        let mean = delta_e.iter().sum::<f64>() / n;
+        let large_fraction = delta_e.iter().filter(|d| **d > Self::LARGE).count() as f64 / n;
+        Self {
+            delta_e,
+            mean,
+            large_fraction,
+        }
+    }
+
+    /// Whether the difference is within the tolerance.
+    pub fn passes(&self) -> bool {
+        self.mean <= Self::MAX_MEAN && self.large_fraction <= Self::MAX_LARGE_FRACTION
+    }
+}
+
 /// An HDR image: linear radiance per RGB channel, W·sr⁻¹·m⁻², rows top to bottom.
 #[derive(Clone, Debug, PartialEq)]
 pub struct HdrImage {

@@ -10,7 +10,7 @@ use nimbus_physics::photometry::{exposure_scale_from_ev100, srgb_decode, srgb_en
 use nimbus_physics::terrain;
 use nimbus_render::atmosphere::solar_irradiance_top;
 use nimbus_render::frame::Camera;
-use nimbus_render::headless::{HeadlessRenderer, Rgba8Image};
+use nimbus_render::headless::{GoldenDifference, HeadlessRenderer, Rgba8Image};
 use nimbus_render::{AdapterPreference, Scene};
 use std::path::PathBuf;
 
@@ -34,27 +34,8 @@ fn scene_file(name: &str) -> Scene {
 
 // ---------------------------------------------------------------- golden images
 
-/// CIE L*a*b* (D65) of an sRGB-encoded 8-bit colour.
-fn lab(rgb: &[u8]) -> [f64; 3] {
-    let lin = [0, 1, 2].map(|k| srgb_decode(rgb[k] as f64 / 255.0));
-    let x = 0.4124 * lin[0] + 0.3576 * lin[1] + 0.1805 * lin[2];
-    let y = 0.2126 * lin[0] + 0.7152 * lin[1] + 0.0722 * lin[2];
-    let z = 0.0193 * lin[0] + 0.1192 * lin[1] + 0.9505 * lin[2];
-    let f = |t: f64| {
-        if t > 216.0 / 24389.0 {
-            t.cbrt()
-        } else {
-            (24389.0 / 27.0 * t + 16.0) / 116.0
-        }
-    };
-    let (fx, fy, fz) = (f(x / 0.95047), f(y), f(z / 1.08883));
-    [116.0 * fy - 16.0, 500.0 * (fx - fy), 200.0 * (fy - fz)]
-}
-
-/// Perceptual comparison: CIE76 ΔE per pixel. Passes when the mean ΔE is at
-/// most 1.5 and at most 1 % of the pixels differ by more than 10 (about a
-/// just-noticeable difference on average; isolated edge pixels may move
-/// between adapters). On failure, writes the rendered image and a difference
+/// Perceptual comparison ([`GoldenDifference`]: CIE76 ΔE per pixel, mean at
+/// most 1.5, at most 1 % of pixels over 10). On failure, writes the rendered image and a difference
 /// image (ΔE × 10 as grey) under `target/golden-diff/`.
 fn assert_matches_golden(name: &str, image: &Rgba8Image) {
     let golden_path = PathBuf::from(env!("CARGO_MANIFEST_DIR"))
@@ -87,18 +68,13 @@ fn assert_matches_golden(name: &str, image: &Rgba8Image) {
         (image.width, image.height),
         "{name}: size differs from the golden image"
     );
-    let deltas: Vec<f64> = golden
-        .as_raw()
-        .chunks(4)
-        .zip(image.pixels.chunks(4))
-        .map(|(a, b)| {
-            let (la, lb) = (lab(a), lab(b));
-            ((la[0] - lb[0]).powi(2) + (la[1] - lb[1]).powi(2) + (la[2] - lb[2]).powi(2)).sqrt()
-        })
-        .collect();
-    let mean = deltas.iter().sum::<f64>() / deltas.len() as f64;
-    let large = deltas.iter().filter(|d| **d > 10.0).count() as f64 / deltas.len() as f64;
-    if mean > 1.5 || large > 0.01 {
+    let difference = GoldenDifference::between(golden.as_raw(), &image.pixels);
+    let (deltas, mean, large) = (
+        &difference.delta_e,
+        difference.mean,
+        difference.large_fraction,
+    );
+    if !difference.passes() {
         let dir = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../target/golden-diff");
         std::fs::create_dir_all(&dir).expect("diff dir");
         save(&dir.join(format!("{name}-actual.png")), image);
