@@ -556,6 +556,7 @@ pub fn seeds(target: Target) -> Vec<Vec<u8>> {
                 bounds_centre_m: [0.0; 3],
                 bounds_radius_m: 500.0,
                 footprint_radius_m: 400.0,
+                origin_m: [0.0; 3],
             })]
         }
         Target::FitTable => vec![

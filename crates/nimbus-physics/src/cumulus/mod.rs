@@ -13,6 +13,8 @@
 //!   peak, the silver lining's light.
 //! - [`cloud_field`]: placement of many clouds from a coverage.
 //! - [`volume`]: the extinction the shader assumes on a grid, for a path tracer.
+//! - [`transport`]: multiply scattered light precomputed per shape (the
+//!   `transport` shading model).
 
 pub mod cloud_field;
 pub mod dual;
@@ -25,4 +27,5 @@ pub mod mesh;
 pub mod sampler;
 pub mod shading;
 pub mod surface;
+pub mod transport;
 pub mod volume;

@@ -119,6 +119,13 @@ pub enum CumulusShadingModel {
     /// Bouthors (2004) as published: the paper's weights, without the
     /// extensions D and P, to reproduce the paper's images.
     Bouthors2004,
+    /// Light transport precomputed per shape ([`super::transport`]): the
+    /// multiply scattered light of a Monte-Carlo tracer through the cloud's
+    /// volume, single scattering through the droplets' phase function and
+    /// the forward peak P analytic. The phenomenological weights are the
+    /// fitted model's and shade the clouds only until the transfer is
+    /// computed (seconds, on a worker thread).
+    Transport,
 }
 
 /// The shader's parameters. Each model has its own defaults
@@ -196,6 +203,11 @@ impl CumulusShading {
         match model {
             CumulusShadingModel::Fitted => Self::fitted(),
             CumulusShadingModel::Bouthors2004 => Self::bouthors2004(),
+            CumulusShadingModel::Transport => Self {
+                model: CumulusShadingModel::Transport,
+                forward_peak: 1.0,
+                ..Self::fitted()
+            },
         }
     }
 
@@ -254,8 +266,9 @@ impl CumulusShading {
 #[serde(deny_unknown_fields)]
 struct CumulusShadingFile {
     /// The model whose weights the missing keys take: `fitted` (default,
-    /// fitted to the path-traced references) or `bouthors2004` (the paper as
-    /// published).
+    /// fitted to the path-traced references), `bouthors2004` (the paper as
+    /// published) or `transport` (light transport precomputed per shape;
+    /// the fitted weights until it is ready).
     model: Option<CumulusShadingModel>,
     /// α_a, weight of the ambient (environment) light.
     ambient: Option<f64>,

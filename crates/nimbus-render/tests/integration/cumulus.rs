@@ -355,3 +355,317 @@ fn a_kept_shadow_map_shades_as_a_redrawn_one() {
         "the clouds' shadows change the picture by at most {shadowing}"
     );
 }
+
+const TRANSPORT_KERNEL: &str = r#"
+struct TransportCase {
+    low_c_b: vec4<f32>,
+    low_diagonal_xy: vec4<f32>,
+    low_yz_xz: vec4<f32>,
+    high_c_b: vec4<f32>,
+    high_diagonal_xy: vec4<f32>,
+    high_yz_xz: vec4<f32>,
+    // scale, cos yaw, sin yaw, τ.
+    instance: vec4<f32>,
+    normal: vec4<f32>,
+    o: vec4<f32>,
+    l: vec4<f32>,
+}
+@group(0) @binding(1) var<storage, read> cases: array<TransportCase>;
+@group(0) @binding(2) var<storage, read_write> results: array<vec4<f32>>;
+
+fn test_environment() -> Lighting {
+    var l: Lighting;
+    for (var k = 0; k < 9; k += 1) {
+        let x = f32(k);
+        l.sh[k] = vec4<f32>(1.0 / (1.0 + x), 0.5 - 0.1 * x, 0.2 + 0.05 * x, 0.0);
+    }
+    return l;
+}
+
+@compute @workgroup_size(64)
+fn transport_kernel(@builtin(global_invocation_id) id: vec3<u32>) {
+    let i = id.x;
+    if (i >= arrayLength(&cases)) {
+        return;
+    }
+    let c = cases[i];
+    var t: CumulusTransferVertex;
+    t.low_c_b = c.low_c_b;
+    t.low_diagonal_xy = c.low_diagonal_xy;
+    t.low_yz_xz = c.low_yz_xz;
+    t.high_c_b = c.high_c_b;
+    t.high_diagonal_xy = c.high_diagonal_xy;
+    t.high_yz_xz = c.high_yz_xz;
+    var inst: CumulusInstance;
+    inst.offset_scale = vec4<f32>(0.0, 0.0, 0.0, c.instance.x);
+    inst.rotation_noise = vec4<f32>(c.instance.y, c.instance.z, 0.0, 0.0);
+    let f = cumulus_transfer_at(t, inst);
+    let environment = cumulus_transfer_environment(f, test_environment());
+    var terms: CumulusTerms;
+    terms.smoothed_normal = c.normal.xyz;
+    terms.optical_depth = c.instance.w;
+    terms.forward_peak = vec3<f32>(0.25, 0.5, 0.75);
+    let sun = vec3<f32>(1.0, 0.9, 0.8);
+    let radiance = cumulus_transport_radiance(terms, f, c.o.xyz, c.l.xyz, environment, sun,
+        vec3<f32>(0.9), vec3<f32>(0.7), vec3<f32>(0.4), vec3<f32>(0.6));
+    let mu0 = dot(c.normal.xyz, c.l.xyz);
+    let mu = saturate(dot(c.normal.xyz, c.o.xyz));
+    results[3u * i] = vec4<f32>(cumulus_transfer_value(f, c.l.xyz), cumulus_single_scattering(mu0, mu, c.instance.w), 0.0, 0.0);
+    results[3u * i + 1u] = vec4<f32>(environment, 0.0);
+    results[3u * i + 2u] = vec4<f32>(radiance, 0.0);
+}
+"#;
+
+/// The transport model's WGSL (`cumulus_transfer_at`, `_value`,
+/// `_environment`, `cumulus_single_scattering`,
+/// `cumulus_transport_radiance`) against its CPU twin
+/// (`nimbus_physics::cumulus::transport`): the transfer interpolated in
+/// ln(scale) and turned with the cloud, its environment integral, the slab
+/// factor and the radiance, on points lit from the front, from behind and
+/// grazing.
+#[test]
+fn gpu_transport_matches_the_cpu_twin() {
+    use nimbus_physics::cumulus::transport::{
+        SphericalQuadratic, TransportPoint, single_scattering_factor, transport_radiance,
+    };
+    use nimbus_render::cumulus::{PHASE_TEXELS, PHASE_TEXTURE};
+    let h = HeadlessRenderer::new(AdapterPreference::Auto)
+        .unwrap_or_else(|e| panic!("GPU tests need an adapter: {e}"));
+    let device = &h.gpu.device;
+    // A smooth phase-like table per channel, sr⁻¹.
+    let phase_at = |c: usize, theta: f64| 0.05 + 0.3 * (1.0 + theta.cos()).powi(2 + c as i32) / 4.0;
+    let mut phase_rgba = vec![0.0f32; 4 * PHASE_TEXELS];
+    for i in 0..PHASE_TEXELS {
+        let theta = std::f64::consts::PI * i as f64 / (PHASE_TEXELS - 1) as f64;
+        for c in 0..3 {
+            phase_rgba[4 * i + c] = phase_at(c, theta) as f32;
+        }
+    }
+    let phase_cpu = |cos_theta: f64| -> [f64; 3] {
+        let x =
+            cos_theta.clamp(-1.0, 1.0).acos() / std::f64::consts::PI * (PHASE_TEXELS - 1) as f64;
+        let j = (x.floor() as usize).min(PHASE_TEXELS - 2);
+        let t = x - j as f64;
+        std::array::from_fn(|c| {
+            let (a, b) = (
+                phase_rgba[4 * j + c] as f64,
+                phase_rgba[4 * j + 4 + c] as f64,
+            );
+            a + t * (b - a)
+        })
+    };
+    let texture_of = |desc: &wgpu::TextureDescriptor<'_>, data: &[f32]| {
+        device
+            .create_texture_with_data(
+                &h.gpu.queue,
+                desc,
+                wgpu::util::TextureDataOrder::LayerMajor,
+                bytemuck::cast_slice(data),
+            )
+            .create_view(&Default::default())
+    };
+    let peak_view = texture_of(
+        &FORWARD_PEAK_TEXTURE,
+        &ForwardPeakTable::gaussian([0.02; 3], [0.5; 3]).rgba_texels(),
+    );
+    let phase_view = texture_of(&PHASE_TEXTURE, &phase_rgba);
+    let settings = CumulusSettings::default();
+    let mut uniform = CumulusUniform::new(
+        &settings,
+        &nimbus_physics::atmosphere::AtmosphereParams::default(),
+        [0.0, 1.0, 0.0],
+    );
+    let (scale_low, scale_high, truncation) = (0.5f64, 1.25f64, 0.55f64);
+    uniform.transport = [
+        scale_low.ln() as f32,
+        (1.0 / (scale_high / scale_low).ln()) as f32,
+        truncation as f32,
+        PHASE_TEXELS as f32,
+    ];
+    uniform.extension[1] = 1.0;
+    // Cases: random forms, scales inside and beyond the range, yaws, views.
+    let mut k = 7u32;
+    let mut r = || {
+        k = k.wrapping_mul(1_103_515_245).wrapping_add(12_345);
+        ((k >> 8) & 0xffff) as f64 / 32_767.5 - 1.0
+    };
+    let mut cases = Vec::new();
+    for case in 0..120 {
+        let mut form = || SphericalQuadratic {
+            constant: 0.5 + 0.3 * r(),
+            linear: DVec3::new(r(), r(), r()) * 0.4,
+            quadratic: [r(), r(), r(), r(), r(), r()].map(|v| 0.2 * v),
+        };
+        let (low, high) = (form(), form());
+        let scale: f64 = [0.4, 0.5, 0.8, 1.25, 1.6][case % 5];
+        let yaw = std::f64::consts::PI * r();
+        let normal = unit(r(), r() + 0.2, r());
+        let o = match case % 3 {
+            0 => (normal + unit(r(), r(), r()) * 0.5).normalize(),
+            1 => unit(r(), r(), r()),
+            _ => unit(normal.z, 0.05 * r(), -normal.x),
+        };
+        let l = match case % 4 {
+            0 => -o,
+            1 => (normal + unit(r(), r(), r()) * 0.3).normalize(),
+            _ => unit(r(), r().abs() + 0.1, r()),
+        };
+        let tau = [0.05, 0.7, 3.0, 40.0][case % 4] * (1.0 + 0.3 * r());
+        cases.push((low, high, scale, yaw, normal, o, l, tau));
+    }
+    let data: Vec<[[f32; 4]; 10]> = cases
+        .iter()
+        .map(|(low, high, scale, yaw, normal, o, l, tau)| {
+            let [a, b, c] = nimbus_render::cumulus::transfer::pack_form(low);
+            let [d, e, f] = nimbus_render::cumulus::transfer::pack_form(high);
+            [
+                a,
+                b,
+                c,
+                d,
+                e,
+                f,
+                [
+                    *scale as f32,
+                    yaw.cos() as f32,
+                    yaw.sin() as f32,
+                    *tau as f32,
+                ],
+                pack(*normal, 0.0),
+                pack(*o, 0.0),
+                pack(*l, 0.0),
+            ]
+        })
+        .collect();
+    let source = {
+        let mut files = shader::DRAWING_LIBRARIES.to_vec();
+        files.extend([
+            nimbus_render::stratus::FIELD,
+            nimbus_render::cumulus::SHADING,
+            nimbus_render::cumulus::SHADOW_UNIFORM,
+            nimbus_render::cumulus::CUMULUS_WGSL,
+        ]);
+        shader::compose(&files) + TRANSPORT_KERNEL
+    };
+    let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+        label: Some("transport uniform"),
+        entries: &[
+            nimbus_render::binding::uniform_layout_entry(
+                0,
+                wgpu::ShaderStages::COMPUTE,
+                std::mem::size_of::<CumulusUniform>() as u64,
+            ),
+            nimbus_render::binding::texture_entry(
+                1,
+                wgpu::TextureViewDimension::D2,
+                false,
+                wgpu::ShaderStages::COMPUTE,
+            ),
+            nimbus_render::binding::texture_entry(
+                2,
+                wgpu::TextureViewDimension::D2,
+                false,
+                wgpu::ShaderStages::COMPUTE,
+            ),
+        ],
+    });
+    let uniform_buffer = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+        label: Some("transport uniform"),
+        contents: bytemuck::bytes_of(&uniform),
+        usage: wgpu::BufferUsages::UNIFORM,
+    });
+    let group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+        label: Some("transport uniform"),
+        layout: &layout,
+        entries: &[
+            wgpu::BindGroupEntry {
+                binding: 0,
+                resource: uniform_buffer.as_entire_binding(),
+            },
+            wgpu::BindGroupEntry {
+                binding: 1,
+                resource: wgpu::BindingResource::TextureView(&peak_view),
+            },
+            wgpu::BindGroupEntry {
+                binding: 2,
+                resource: wgpu::BindingResource::TextureView(&phase_view),
+            },
+        ],
+    });
+    let gpu: Vec<[f32; 4]> = common::run_kernel(
+        &h,
+        &common::Kernel {
+            label: "cumulus transport test",
+            source: &source,
+            entry: "transport_kernel",
+            input: bytemuck::cast_slice(&data),
+            input_stride: 160,
+            count: cases.len(),
+            outputs_per_item: 3,
+            extra: &[common::ExtraGroup {
+                index: 1,
+                layout: &layout,
+                group: &group,
+            }],
+        },
+    );
+    let environment_sh: [[f64; 3]; 9] = std::array::from_fn(|k| {
+        let x = k as f64;
+        [1.0 / (1.0 + x), 0.5 - 0.1 * x, 0.2 + 0.05 * x]
+    });
+    let mut lit_from_behind = 0;
+    for (i, (low, high, scale, yaw, normal, o, l, tau)) in cases.iter().enumerate() {
+        let w = ((scale.ln() - scale_low.ln()) / (scale_high / scale_low).ln()).clamp(0.0, 1.0);
+        let mix = |a: f64, b: f64| a + w * (b - a);
+        let object = SphericalQuadratic {
+            constant: mix(low.constant, high.constant),
+            linear: low.linear + w * (high.linear - low.linear),
+            quadratic: std::array::from_fn(|k| mix(low.quadratic[k], high.quadratic[k])),
+        };
+        let world = object.yawed(yaw.cos(), yaw.sin());
+        let coefficients = world.to_sh();
+        let environment: [f64; 3] =
+            std::array::from_fn(|c| (0..9).map(|k| coefficients[k] * environment_sh[k][c]).sum());
+        let radiance = transport_radiance(&TransportPoint {
+            normal: *normal,
+            to_observer: *o,
+            to_sun: *l,
+            optical_depth: *tau,
+            truncation,
+            transfer: world,
+            phase: phase_cpu(-o.dot(*l)),
+            sun_radiance: [1.0, 0.9, 0.8],
+            environment_exitance: environment,
+            layer_shadow: [0.9; 3],
+            direct: [0.7; 3],
+            forward_direct: [0.4; 3],
+            forward_peak: std::array::from_fn(|c| [1.0, 0.9, 0.8][c] * 0.6 * [0.25, 0.5, 0.75][c]),
+        });
+        let mu0 = normal.dot(*l);
+        let single = single_scattering_factor(mu0, normal.dot(*o).clamp(0.0, 1.0), *tau);
+        lit_from_behind += usize::from(mu0 < 0.0 && single > 0.05);
+        let [g0, g1, g2] = [gpu[3 * i], gpu[3 * i + 1], gpu[3 * i + 2]];
+        let close = |a: f32, b: f64, tol: f64| (f64::from(a) - b).abs() <= tol * (1.0 + b.abs());
+        let context = format!("case {i}: gpu {g0:?} {g1:?} {g2:?}");
+        assert!(
+            close(g0[0], world.value(*l), 2e-4),
+            "T(l) {}, {context}",
+            world.value(*l)
+        );
+        assert!(close(g0[1], single, 2e-3), "S {single}, {context}");
+        for c in 0..3 {
+            assert!(
+                close(g1[c], environment[c], 2e-4),
+                "environment {environment:?}, {context}"
+            );
+            assert!(
+                close(g2[c], radiance[c], 3e-3),
+                "radiance {radiance:?}, {context}"
+            );
+        }
+    }
+    assert!(
+        lit_from_behind > 5,
+        "{lit_from_behind} cases lit from behind"
+    );
+}

@@ -23,6 +23,18 @@ struct CumulusVertex {
     @location(5) n3: vec4<f32>,
 }
 
+// The transport model's transfer at the vertex (transfer.rs,
+// TransferVertex): CumulusTransfer at the smallest scale, then at the
+// largest, object frame.
+struct CumulusTransferVertex {
+    @location(9) low_c_b: vec4<f32>,
+    @location(10) low_diagonal_xy: vec4<f32>,
+    @location(11) low_yz_xz: vec4<f32>,
+    @location(12) high_c_b: vec4<f32>,
+    @location(13) high_diagonal_xy: vec4<f32>,
+    @location(14) high_yz_xz: vec4<f32>,
+}
+
 struct CumulusInstance {
     // World position of the variant's origin (its base centre), m, and scale.
     @location(6) offset_scale: vec4<f32>,
@@ -47,6 +59,11 @@ struct CumulusVarying {
     @location(7) base_radii_m: vec3<f32>,
     // Bump noise coordinates (object space over the first wavelength).
     @location(8) noise_position: vec3<f32>,
+    // The transport model's transfer at the cloud's scale, world frame
+    // (CumulusTransfer; zero where the vertex stage has none).
+    @location(9) transfer_c_b: vec4<f32>,
+    @location(10) transfer_diagonal_xy: vec4<f32>,
+    @location(11) transfer_yz_xz: vec4<f32>,
 }
 
 fn cumulus_rotate(v: vec3<f32>, c: f32, s: f32) -> vec3<f32> {
@@ -68,6 +85,30 @@ fn cumulus_varying(v: CumulusVertex, i: CumulusInstance) -> CumulusVarying {
     out.n3 = cumulus_rotate(v.n3.xyz, c, s);
     out.base_radii_m = i.radii_wavelength.xyz * scale;
     out.noise_position = v.position_radius.xyz / i.radii_wavelength.w + vec3<f32>(i.rotation_noise.z);
+    out.transfer_c_b = vec4<f32>(0.0);
+    out.transfer_diagonal_xy = vec4<f32>(0.0);
+    out.transfer_yz_xz = vec4<f32>(0.0);
+    return out;
+}
+
+// The transfer at the instance's scale (linear in ln s between the two
+// precomputed scales), turned with the cloud: b → R b, A → R A Rᵀ
+// (SphericalQuadratic::yawed).
+fn cumulus_transfer_at(t: CumulusTransferVertex, i: CumulusInstance) -> CumulusTransfer {
+    let w = saturate((log(i.offset_scale.w) - cumulus.transport.x) * cumulus.transport.y);
+    let c_b = mix(t.low_c_b, t.high_c_b, w);
+    let d = mix(t.low_diagonal_xy, t.high_diagonal_xy, w);
+    let o = mix(t.low_yz_xz, t.high_yz_xz, w);
+    let c = i.rotation_noise.x;
+    let s = i.rotation_noise.y;
+    // R's columns (cumulus_rotate: x' = c x + s z, z' = −s x + c z).
+    let r = mat3x3<f32>(vec3<f32>(c, 0.0, -s), vec3<f32>(0.0, 1.0, 0.0), vec3<f32>(s, 0.0, c));
+    let a = mat3x3<f32>(vec3<f32>(d.x, d.w, o.y), vec3<f32>(d.w, d.y, o.x), vec3<f32>(o.y, o.x, d.z));
+    let turned = r * a * transpose(r);
+    var out: CumulusTransfer;
+    out.c_b = vec4<f32>(c_b.x, r * c_b.yzw);
+    out.diagonal_xy = vec4<f32>(turned[0][0], turned[1][1], turned[2][2], turned[1][0]);
+    out.yz_xz = vec4<f32>(turned[2][1], turned[2][0], 0.0, 0.0);
     return out;
 }
 

@@ -4,10 +4,24 @@
 // and shader/cloud_shadow_lookup.wgsl.
 
 @vertex
-fn cumulus_vertex(v: CumulusVertex, i: CumulusInstance) -> CumulusVarying {
+fn cumulus_vertex(v: CumulusVertex, i: CumulusInstance, t: CumulusTransferVertex) -> CumulusVarying {
     var out = cumulus_varying(v, i);
     out.clip_position = frame.clip_from_world * vec4<f32>(out.world_m, 1.0);
+    if (cumulus_transport_on()) {
+        let transfer = cumulus_transfer_at(t, i);
+        out.transfer_c_b = transfer.c_b;
+        out.transfer_diagonal_xy = transfer.diagonal_xy;
+        out.transfer_yz_xz = transfer.yz_xz;
+    }
     return out;
+}
+
+// The direct beam's transmittance through the cores the shadow map holds,
+// from the two-stream diffuse transmittance T_d = 1/(1 + ¾(1 − g) σ Δ) it
+// gives (cloud_shadow_texel): e^{−σ* Δ}, σ* = (1 − f) σ the δ-M extinction.
+fn cumulus_direct_transmittance(diffuse: f32) -> f32 {
+    let optical_depth = (1.0 / max(diffuse, 1e-6) - 1.0) / (0.75 * (1.0 - cloud_shadow.params.z));
+    return exp(-optical_depth * cumulus.transport.z);
 }
 
 struct CumulusShaded {
@@ -27,19 +41,42 @@ fn cumulus_evaluate(in: CumulusVarying) -> CumulusShaded {
     let o = to_eye_world(in.world_m);
     let l = frame.sun_direction;
     let terms = cumulus_shade_terms(p, o, l);
-    var shadow = stratus_sun_transmittance(in.world_m);
+    let layer_shadow = stratus_sun_transmittance(in.world_m);
+    var shadow = layer_shadow;
     var forward_shadow = shadow;
+    // The single scattering of the transport model needs the direct beam's
+    // transmittance, not the shadow's diffuse one.
+    var direct = layer_shadow;
+    var forward_direct = layer_shadow;
     if (cumulus_term_on(CUMULUS_SHADOW)) {
         // The forward-scattered light crosses the blob's chord behind the
         // point: it is shadowed where it enters, at the chord's far end (on
         // a back-lit rim, the sun-facing side), not at the point.
         let chord_m = 2.0 * p.blob_radius_m * saturate(dot(p.normal, o));
-        shadow *= cloud_shadow_transmittance(in.world_m);
-        forward_shadow *= cloud_shadow_transmittance(in.world_m - o * chord_m);
+        let at_point = cloud_shadow_transmittance(in.world_m);
+        let at_entry = cloud_shadow_transmittance(in.world_m - o * chord_m);
+        shadow *= at_point;
+        forward_shadow *= at_entry;
+        direct *= cumulus_direct_transmittance(at_point);
+        forward_direct *= cumulus_direct_transmittance(at_entry);
     }
     let sun = cumulus_sun_radiance(in.world_m.y);
-    let environment = stratus_ground_irradiance(in.world_m, terms.smoothed_normal, sh_irradiance(lighting, terms.smoothed_normal));
-    let radiance = cumulus_radiance(terms, environment / PI, sun, shadow, forward_shadow);
+    let clear_irradiance = sh_irradiance(lighting, terms.smoothed_normal);
+    let environment = stratus_ground_irradiance(in.world_m, terms.smoothed_normal, clear_irradiance);
+    var radiance: vec3<f32>;
+    if (cumulus_transport_on()) {
+        var transfer: CumulusTransfer;
+        transfer.c_b = in.transfer_c_b;
+        transfer.diagonal_xy = in.transfer_diagonal_xy;
+        transfer.yz_xz = in.transfer_yz_xz;
+        // Under a stratus layer the environment is its radiosity, not the
+        // clear sky of the SH: the sky's transfer scaled by their ratio.
+        let layer = environment / max(clear_irradiance, vec3<f32>(1e-6));
+        let environment_transfer = cumulus_transfer_environment(transfer, lighting) * layer;
+        radiance = cumulus_transport_radiance(terms, transfer, o, l, environment_transfer, sun, layer_shadow, direct, forward_direct, forward_shadow);
+    } else {
+        radiance = cumulus_radiance(terms, environment / PI, sun, shadow, forward_shadow);
+    }
     var out: CumulusShaded;
     out.radiance = to_target(stratus_apply_aerial_perspective(radiance, in.world_m)).rgb;
     out.opacity = cumulus_opacity(terms);

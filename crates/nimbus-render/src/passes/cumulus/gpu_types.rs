@@ -30,6 +30,10 @@ pub struct CumulusUniform {
     pub extension: [f32; 4],
     /// The forward-peak table's grid: θ_max (rad), τ_max, angles, depths.
     pub peak_grid: [f32; 4],
+    /// The transport model: ln of the transfer's smallest scale, 1/ln of its
+    /// largest over its smallest (0: one scale), δ-M's 1 − f (550 nm),
+    /// texels of the phase table.
+    pub transport: [f32; 4],
 }
 
 impl CumulusUniform {
@@ -103,9 +107,14 @@ impl CumulusUniform {
                 forward_peak::ANGLES as f32,
                 forward_peak::DEPTHS as f32,
             ],
+            transport: [0.0, 0.0, 1.0, PHASE_TEXELS as f32],
         }
     }
 }
+
+/// Texels of the transport model's phase table P_S over 0–180° (group 1,
+/// binding 2; [`super::PHASE_TEXTURE`]).
+pub const PHASE_TEXELS: usize = 512;
 
 /// Lacunarity of the bump octaves: the hierarchy's radius ratio is 1/3.
 pub const BUMP_LACUNARITY: f32 = 3.0;
@@ -143,6 +152,25 @@ pub(super) const VERTEX_ATTRIBUTES: [wgpu::VertexAttribute; 6] = wgpu::vertex_at
 ];
 pub(super) const INSTANCE_ATTRIBUTES: [wgpu::VertexAttribute; 3] =
     wgpu::vertex_attr_array![6 => Float32x4, 7 => Float32x4, 8 => Float32x4];
+
+pub(super) const TRANSFER_ATTRIBUTES: [wgpu::VertexAttribute; 6] = wgpu::vertex_attr_array![
+    9 => Float32x4, 10 => Float32x4, 11 => Float32x4, 12 => Float32x4, 13 => Float32x4, 14 => Float32x4
+];
+
+/// The camera's pipelines' buffers: the shadow map's plus the transport
+/// model's transfer (buffer 2, per vertex).
+pub(super) fn draw_vertex_layouts() -> [wgpu::VertexBufferLayout<'static>; 3] {
+    let [vertices, instances] = vertex_layouts();
+    [
+        vertices,
+        instances,
+        wgpu::VertexBufferLayout {
+            array_stride: std::mem::size_of::<super::transfer::TransferVertex>() as u64,
+            step_mode: wgpu::VertexStepMode::Vertex,
+            attributes: &TRANSFER_ATTRIBUTES,
+        },
+    ]
+}
 
 pub(super) fn vertex_layouts() -> [wgpu::VertexBufferLayout<'static>; 2] {
     [

@@ -20,6 +20,7 @@
 //! 5. After the stratus layer (which is depth-tested against the bodies),
 //!    `cumulus_composite` blends the fringes over the frame.
 
+pub mod transfer;
 pub mod variants;
 
 use crate::core::background::Deferred;
@@ -42,7 +43,9 @@ pub const SHADING: WgslFile = WgslFile {
 pub use crate::shader::{
     CLOUD_SHADOW_LOOKUP as SHADOW_LOOKUP, CLOUD_SHADOW_UNIFORM as SHADOW_UNIFORM,
 };
-const CUMULUS_WGSL: WgslFile = WgslFile {
+/// The pass's vertex inputs, varyings and shadow entry points
+/// (`cumulus_transfer_at` among them).
+pub const CUMULUS_WGSL: WgslFile = WgslFile {
     name: "passes/cumulus/cumulus.wgsl",
     source: include_str!("cumulus.wgsl"),
 };
@@ -92,6 +95,23 @@ pub const FORWARD_PEAK_TEXTURE: wgpu::TextureDescriptor<'static> = wgpu::Texture
     view_formats: &[],
 };
 
+/// The transport model's phase table P_S(Θ) (group 1, binding 2): one row
+/// of [`PHASE_TEXELS`] RGBA32 float texels, uniform in Θ over 0–180°.
+pub const PHASE_TEXTURE: wgpu::TextureDescriptor<'static> = wgpu::TextureDescriptor {
+    label: Some("cumulus phase"),
+    size: wgpu::Extent3d {
+        width: PHASE_TEXELS as u32,
+        height: 1,
+        depth_or_array_layers: 1,
+    },
+    mip_level_count: 1,
+    sample_count: 1,
+    dimension: wgpu::TextureDimension::D2,
+    format: wgpu::TextureFormat::Rgba32Float,
+    usage: wgpu::TextureUsages::TEXTURE_BINDING.union(wgpu::TextureUsages::COPY_DST),
+    view_formats: &[],
+};
+
 /// Percentage-closer filter radius of the shadow lookups, texels ((2k + 1)² taps).
 pub const SHADOW_FILTER_TEXELS: u32 = 1;
 /// Largest projected size of a mesh cell, pixels, before a coarser level of
@@ -109,7 +129,9 @@ mod shadow;
 pub use field::{
     CumulusField, cumulus_field_at, level_of_detail, shadow_clip_from_world, sphere_in_frustum,
 };
-pub use gpu_types::{BUMP_LACUNARITY, CloudPlacement, CumulusInstance, CumulusUniform};
+pub use gpu_types::{
+    BUMP_LACUNARITY, CloudPlacement, CumulusInstance, CumulusUniform, PHASE_TEXELS,
+};
 /// Level of detail drawn into the shadow map (clamped to what exists): its
 /// cells (a last-level blob radius) match the map's texels of ~10 m.
 const SHADOW_LOD: usize = 1;
@@ -119,6 +141,8 @@ struct GpuLod {
     vertices: wgpu::Buffer,
     indices: wgpu::Buffer,
     index_count: u32,
+    /// The transport model's transfer per vertex (zero until computed).
+    transfer: wgpu::Buffer,
 }
 
 #[derive(Debug)]
@@ -145,6 +169,25 @@ struct FringeTargets {
 
 /// The shape variants, or why they could not be made.
 type ShapesResult = Result<Vec<Arc<CumulusVariant>>, variants::VariantError>;
+/// The variants' transfers, or why they could not be made.
+type TransfersResult = Result<Vec<Arc<transfer::VariantTransfer>>, variants::VariantError>;
+
+/// What the transfers are computed for: the parameters, and the droplets.
+#[derive(Clone, Debug, PartialEq)]
+struct TransferKey {
+    params: transfer::TransferParams,
+    optics: CloudOpticsParams,
+}
+
+/// The droplets' tables the pass uploads.
+#[derive(Debug)]
+struct DropletTables {
+    forward_peak: ForwardPeakTable,
+    /// P_S(Θ) RGBA per texel ([`PHASE_TEXELS`] over 0–180°), sr⁻¹.
+    phase_rgba: Vec<f32>,
+    /// δ-M's 1 − f at 550 nm.
+    truncation: f32,
+}
 
 /// Why the cumulus cannot be prepared.
 #[derive(Debug, thiserror::Error)]
@@ -196,8 +239,17 @@ pub struct CumulusPass {
     variants: Option<(VariantParams, Vec<GpuVariant>)>,
     /// The shapes generated or loaded (a worker thread's work).
     shapes: Deferred<VariantParams, ShapesResult>,
-    /// The forward-peak table of the droplets (from their Mie tables).
-    forward_peak: Deferred<CloudOpticsParams, Arc<ForwardPeakTable>>,
+    /// The forward-peak table of the droplets and their phase function
+    /// without the peak (from their Mie tables).
+    forward_peak: Deferred<CloudOpticsParams, Arc<DropletTables>>,
+    /// The phase table P_S of the transport model.
+    phase_table: wgpu::Texture,
+    /// The transport model's transfers (a worker thread's work).
+    transfers: Deferred<TransferKey, TransfersResult>,
+    /// The transfer held by the variants' buffers.
+    transfer_uploaded: Option<TransferKey>,
+    /// δ-M's 1 − f of the droplets uploaded (550 nm).
+    transport_truncation: f32,
     field: Option<(FieldKey, Vec<FieldCloud>)>,
     /// The field's clouds where the wind has carried them this frame.
     moved: Vec<FieldCloud>,

@@ -49,6 +49,8 @@ impl CumulusPass {
         for draw in draws {
             let lod = &variants[draw.variant].lods[draw.lod];
             pass.set_vertex_buffer(0, lod.vertices.slice(..));
+            // Read by the camera's pipelines only (the shadow map's have two buffers).
+            pass.set_vertex_buffer(2, lod.transfer.slice(..));
             pass.set_index_buffer(lod.indices.slice(..), wgpu::IndexFormat::Uint32);
             pass.draw_indexed(0..lod.index_count, 0, draw.instances.clone());
         }

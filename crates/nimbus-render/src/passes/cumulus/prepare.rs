@@ -8,8 +8,8 @@ use super::gpu_types::{CloudPlacement, CumulusInstance, CumulusUniform};
 use super::shadow::{ShadowContent, ShadowKey};
 use super::variants::{CumulusVariant, VariantParams};
 use super::{
-    CumulusError, CumulusPass, Draw, FieldCloud, FieldKey, GpuLod, GpuVariant,
-    SHADOW_FILTER_TEXELS, SHADOW_LOD, variants,
+    CumulusError, CumulusPass, Draw, DropletTables, FieldCloud, FieldKey, GpuLod, GpuVariant,
+    PHASE_TEXELS, SHADOW_FILTER_TEXELS, SHADOW_LOD, TransferKey, transfer, variants,
 };
 use crate::core::background::Precompute;
 use crate::frame::FrameUniform;
@@ -18,10 +18,37 @@ use crate::frame::cloud_shadow::{CloudShadowMap, CloudShadowUniform, SHADOW_MAP_
 use crate::scene::{CumulusSettings, Scene, StratusSettings};
 use glam::{DVec3, Vec3};
 use nimbus_physics::cumulus::forward_peak::{self, ForwardPeakTable};
-use nimbus_physics::cumulus::shading::CLOUD_ASYMMETRY;
+use nimbus_physics::cumulus::shading::{CLOUD_ASYMMETRY, CumulusShadingModel};
+use nimbus_physics::optics::tables::CloudOpticsParams;
 use std::sync::Arc;
 use std::sync::atomic::Ordering;
 use wgpu::util::DeviceExt;
+
+/// The droplets' forward-peak table, their phase function without the
+/// peak resampled on [`PHASE_TEXELS`] texels (RGBA), and δ-M's 1 − f.
+fn droplet_tables(params: &CloudOpticsParams) -> DropletTables {
+    let optics = load_optics(params);
+    let n = optics.peak_removed.len() / 3;
+    let mut phase_rgba = vec![0.0f32; 4 * PHASE_TEXELS];
+    for i in 0..PHASE_TEXELS {
+        let x = i as f64 / (PHASE_TEXELS - 1) as f64 * (n - 1) as f64;
+        let j = (x.floor() as usize).min(n - 2);
+        let t = (x - j as f64) as f32;
+        for c in 0..3 {
+            let (a, b) = (
+                optics.peak_removed[3 * j + c],
+                optics.peak_removed[3 * j + 3 + c],
+            );
+            phase_rgba[4 * i + c] = a + t * (b - a);
+        }
+        phase_rgba[4 * i + 3] = 1.0;
+    }
+    DropletTables {
+        forward_peak: ForwardPeakTable::from_optics(&optics),
+        phase_rgba,
+        truncation: 1.0 - optics.forward_fraction[1],
+    }
+}
 
 impl CumulusPass {
     /// Computes (on a worker thread under [`Precompute::Background`]) and
@@ -44,12 +71,25 @@ impl CumulusPass {
         if self.forward_peak_key == Some(key) {
             return true;
         }
-        let Some(table) = self.forward_peak.request_current(&params, precompute, || {
+        let Some(tables) = self.forward_peak.request_current(&params, precompute, || {
             let job = params.clone();
-            move || Arc::new(ForwardPeakTable::from_optics(&load_optics(&job)))
+            move || Arc::new(droplet_tables(&job))
         }) else {
             return false;
         };
+        let tables = tables.clone();
+        queue.write_texture(
+            self.phase_table.as_image_copy(),
+            bytemuck::cast_slice(&tables.phase_rgba),
+            wgpu::TexelCopyBufferLayout {
+                offset: 0,
+                bytes_per_row: Some(PHASE_TEXELS as u32 * 16),
+                rows_per_image: None,
+            },
+            self.phase_table.size(),
+        );
+        self.transport_truncation = tables.truncation;
+        let table = &tables.forward_peak;
         queue.write_texture(
             self.forward_peak_table.as_image_copy(),
             bytemuck::cast_slice(&table.rgba_texels()),
@@ -66,9 +106,13 @@ impl CumulusPass {
 
     /// The work under way on worker threads.
     pub fn pending(&self) -> impl Iterator<Item = &'static str> {
-        [self.shapes.pending(), self.forward_peak.pending()]
-            .into_iter()
-            .flatten()
+        [
+            self.shapes.pending(),
+            self.forward_peak.pending(),
+            self.transfers.pending(),
+        ]
+        .into_iter()
+        .flatten()
     }
 
     /// Blocks until the work under way has finished (the next
@@ -76,6 +120,51 @@ impl CumulusPass {
     pub fn wait(&mut self) {
         self.shapes.wait();
         self.forward_peak.wait();
+        self.transfers.wait();
+    }
+
+    /// Requests (on a worker thread under [`Precompute::Background`]) the
+    /// transport model's transfers of the variants for the field's scales,
+    /// and uploads them once computed. Whether the variants' buffers hold
+    /// this key's.
+    fn update_transfers(
+        &mut self,
+        queue: &wgpu::Queue,
+        key: TransferKey,
+        precompute: Precompute,
+    ) -> Result<bool, CumulusError> {
+        if self.transfer_uploaded.as_ref() == Some(&key) {
+            return Ok(true);
+        }
+        let Some((_, variants)) = &self.variants else {
+            return Ok(false);
+        };
+        let shapes: Vec<Arc<CumulusVariant>> = variants.iter().map(|v| v.shape.clone()).collect();
+        let Some(result) = self.transfers.request_current(&key, precompute, || {
+            let job = key.clone();
+            move || {
+                let optics = load_optics(&job.optics);
+                transfer::load_or_compute(
+                    &crate::core::cache::cache_dir(),
+                    &job.params,
+                    &shapes,
+                    &optics,
+                )
+            }
+        }) else {
+            return Ok(false);
+        };
+        let transfers = result.clone()?;
+        let Some((_, variants)) = &self.variants else {
+            return Ok(false);
+        };
+        for (variant, t) in variants.iter().zip(&transfers) {
+            for (lod, data) in variant.lods.iter().zip(&t.lods) {
+                queue.write_buffer(&lod.transfer, 0, bytemuck::cast_slice(data));
+            }
+        }
+        self.transfer_uploaded = Some(key);
+        Ok(true)
     }
 
     /// Nothing drawn this frame: no clouds, no shadow.
@@ -160,7 +249,8 @@ impl CumulusPass {
                 move || variants::load_or_generate(&crate::core::cache::cache_dir(), &job)
             })
             .cloned();
-        let peak_ready = settings.shading.forward_peak <= 0.0
+        let transport = settings.shading.model == CumulusShadingModel::Transport;
+        let peak_ready = (settings.shading.forward_peak <= 0.0 && !transport)
             || self.update_forward_peak(queue, scene, precompute);
         let shapes = match shapes {
             Some(shapes) => shapes?,
@@ -194,12 +284,21 @@ impl CumulusPass {
                                 usage: wgpu::BufferUsages::INDEX,
                             }),
                             index_count: lod.indices.len() as u32,
+                            transfer: device.create_buffer(&wgpu::BufferDescriptor {
+                                label: Some("cumulus transfer"),
+                                size: (lod.vertices.len().max(1)
+                                    * std::mem::size_of::<transfer::TransferVertex>())
+                                    as u64,
+                                usage: wgpu::BufferUsages::VERTEX | wgpu::BufferUsages::COPY_DST,
+                                mapped_at_creation: false,
+                            }),
                         })
                         .collect(),
                     shape,
                 })
                 .collect();
-            self.variants = Some((params, gpu));
+            self.variants = Some((params.clone(), gpu));
+            self.transfer_uploaded = None;
             self.field = None;
             self.shadow_content = None;
         }
@@ -234,8 +333,50 @@ impl CumulusPass {
             key.area_side_m,
             drift,
         ));
+        let mut uniform = CumulusUniform::new(settings, &scene.atmosphere, scene.sun.direction());
+        if transport && !self.moved.is_empty() {
+            // The transfer's scales: the field's smallest and largest, to a
+            // thousandth (a field edited by a hair keeps its transfer).
+            let round = |s: f64| (s * 1000.0).round() / 1000.0;
+            let (lo, hi) = self.moved.iter().fold((f64::MAX, 0.0f64), |(lo, hi), c| {
+                let s = f64::from(c.instance.offset_scale[3]);
+                (lo.min(s), hi.max(s))
+            });
+            let scales = [round(lo), round(hi)];
+            let optics = match &scene.stratus {
+                Some(layer) => optics_params(layer),
+                None => optics_params(&StratusSettings::default()),
+            };
+            let key = TransferKey {
+                params: transfer::TransferParams {
+                    variants: params.clone(),
+                    density_per_m: settings.shading.density_per_m,
+                    corona_thickness_m: settings.shading.corona_thickness_m,
+                    scales,
+                    optics_hash: optics.cache_hash(),
+                    photons: transfer::TRANSFER_PHOTONS,
+                },
+                optics,
+            };
+            if self.update_transfers(queue, key, precompute)? {
+                let span = (scales[1] / scales[0]).ln();
+                uniform.flags[2] = 1;
+                uniform.transport = [
+                    scales[0].ln() as f32,
+                    if span > 1e-9 {
+                        (1.0 / span) as f32
+                    } else {
+                        0.0
+                    },
+                    self.transport_truncation,
+                    PHASE_TEXELS as f32,
+                ];
+            }
+        }
         let clouds = &self.moved;
-        let uniform = CumulusUniform::new(settings, &scene.atmosphere, scene.sun.direction());
+        let Some((_, variants)) = &self.variants else {
+            return Ok(());
+        };
         queue.write_buffer(&self.uniform, 0, bytemuck::bytes_of(&uniform));
 
         // Instances: the camera's (culled, by level of detail), then the shadow's (all).

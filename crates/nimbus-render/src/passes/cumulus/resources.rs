@@ -1,9 +1,9 @@
 //! The cumulus pass's pipelines and layouts, created once.
 
-use super::gpu_types::{CumulusUniform, vertex_layouts};
+use super::gpu_types::{CumulusUniform, draw_vertex_layouts, vertex_layouts};
 use super::node::{ACCUMULATION_FORMAT, REVEALAGE_FORMAT};
 use super::{
-    CumulusPass, FORWARD_PEAK_TEXTURE, composite_shader_source, draw_shader_source,
+    CumulusPass, FORWARD_PEAK_TEXTURE, PHASE_TEXTURE, composite_shader_source, draw_shader_source,
     shadow_shader_source,
 };
 use crate::core::background::Deferred;
@@ -39,11 +39,18 @@ impl CumulusPass {
                     false,
                     wgpu::ShaderStages::FRAGMENT,
                 ),
+                binding::texture_entry(
+                    2,
+                    wgpu::TextureViewDimension::D2,
+                    false,
+                    wgpu::ShaderStages::FRAGMENT,
+                ),
             ],
         });
-        // F(θ, τ), written by `prepare` when the droplets change (zero: no
-        // forward peak until then).
+        // F(θ, τ) and P_S(Θ), written by `prepare` when the droplets change
+        // (zero: no forward peak until then).
         let forward_peak_table = device.create_texture(&FORWARD_PEAK_TEXTURE);
+        let phase_table = device.create_texture(&PHASE_TEXTURE);
         let group = device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("cumulus"),
             layout: &group_layout,
@@ -56,6 +63,12 @@ impl CumulusPass {
                     binding: 1,
                     resource: wgpu::BindingResource::TextureView(
                         &forward_peak_table.create_view(&Default::default()),
+                    ),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 2,
+                    resource: wgpu::BindingResource::TextureView(
+                        &phase_table.create_view(&Default::default()),
                     ),
                 },
             ],
@@ -95,6 +108,7 @@ impl CumulusPass {
         ];
 
         let module = shader::create_module(device, "cumulus", &draw_shader_source());
+        let draw_buffers = draw_vertex_layouts();
         let layout = frame.pipeline_layout(device, "cumulus", Some(&group_layout));
         let draw_pipeline =
             |label: &str,
@@ -107,7 +121,7 @@ impl CumulusPass {
                     module: &module,
                     vertex_entry: "cumulus_vertex",
                     fragment_entry: Some(entry),
-                    vertex_buffers: &buffers,
+                    vertex_buffers: &draw_buffers,
                     cull_mode: Some(wgpu::Face::Back),
                     depth: Some(depth_state(depth_write, wgpu::CompareFunction::Greater)),
                     targets,
@@ -205,6 +219,10 @@ impl CumulusPass {
             variants: None,
             shapes: Deferred::new("cumulus shapes"),
             forward_peak: Deferred::new("cumulus forward peak"),
+            phase_table,
+            transfers: Deferred::new("cumulus light transfer"),
+            transfer_uploaded: None,
+            transport_truncation: 1.0,
             field: None,
             moved: Vec::new(),
             instances: None,

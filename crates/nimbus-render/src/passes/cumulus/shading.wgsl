@@ -26,18 +26,27 @@ struct Cumulus {
     extension: vec4<f32>,
     // The forward-peak table's grid: θ_max (rad), τ_max, angles, depths.
     peak_grid: vec4<f32>,
+    // The transport model: ln of the transfer's smallest scale, 1/ln of its
+    // largest over its smallest (0: one scale), the droplets' δ-M factor
+    // 1 − f (550 nm), texels of the phase table.
+    transport: vec4<f32>,
 }
 
 @group(1) @binding(0) var<uniform> cumulus: Cumulus;
 // F(θ, τ) per channel, sr⁻¹ (nimbus_physics::cumulus::forward_peak): x the
 // angle index (quadratic in θ), y the depth index (uniform in τ).
 @group(1) @binding(1) var cumulus_forward_peak_table: texture_2d<f32>;
+// The droplets' phase function without its forward peak, P_S(Θ) per
+// channel, sr⁻¹, uniform in Θ over 0–180° (one row).
+@group(1) @binding(2) var cumulus_phase_table: texture_2d<f32>;
 
 const CUMULUS_AMBIENT: u32 = 1u;
 const CUMULUS_BUMP: u32 = 2u;
 const CUMULUS_LIGHT_TRAPS: u32 = 4u;
 const CUMULUS_CORONA: u32 = 8u;
 const CUMULUS_SHADOW: u32 = 16u;
+// flags.z: the transport model's transfer is bound and ready.
+const CUMULUS_TRANSPORT: u32 = 1u;
 // Fragments at least this opaque are drawn in the opaque pass (depth
 // written); the others in the order-independent fringe pass.
 const CUMULUS_OPAQUE_ALPHA: f32 = 0.995;
@@ -268,4 +277,125 @@ fn cumulus_radiance(terms: CumulusTerms, ambient: vec3<f32>, sun: vec3<f32>, sha
         + cumulus.extension.x * terms.diffusion;
     let through = cumulus.weights.w * terms.forward + cumulus.extension.y * terms.forward_peak;
     return a * ambient + sun * (shadow * direct + forward_shadow * through);
+}
+
+// ---- The transport model (nimbus_physics::cumulus::transport) ----
+
+// The precomputed transfer at a point as a function of direction,
+// c + b·s + sᵀAs (SphericalQuadratic): (c, b), (A_xx, A_yy, A_zz, A_xy),
+// (A_yz, A_xz, unused, unused).
+struct CumulusTransfer {
+    c_b: vec4<f32>,
+    diagonal_xy: vec4<f32>,
+    yz_xz: vec4<f32>,
+}
+
+fn cumulus_transport_on() -> bool {
+    return cumulus.flags.z == CUMULUS_TRANSPORT;
+}
+
+// f(s). Twin of SphericalQuadratic::value.
+fn cumulus_transfer_value(f: CumulusTransfer, s: vec3<f32>) -> f32 {
+    let a = f.diagonal_xy;
+    let o = f.yz_xz;
+    return f.c_b.x + dot(f.c_b.yzw, s) + a.x * s.x * s.x + a.y * s.y * s.y + a.z * s.z * s.z
+        + 2.0 * (a.w * s.x * s.y + o.x * s.y * s.z + o.y * s.x * s.z);
+}
+
+// ∫ f L over the sphere for the environment's SH radiance L: f's SH
+// coefficients (SphericalQuadratic::to_sh) dotted with L's (orthonormal).
+fn cumulus_transfer_environment(f: CumulusTransfer, l: Lighting) -> vec3<f32> {
+    let b = f.c_b.yzw;
+    let a = f.diagonal_xy;
+    let o = f.yz_xz;
+    let trace = a.x + a.y + a.z;
+    let band1 = 0.488603 * 4.18879020;
+    let band2 = 1.092548 * 1.67551608;
+    var e = 0.282095 * (12.56637061 * f.c_b.x + 4.18879020 * trace) * l.sh[0].xyz;
+    e += band1 * (b.y * l.sh[1].xyz + b.z * l.sh[2].xyz + b.x * l.sh[3].xyz);
+    e += band2 * (a.w * l.sh[4].xyz + o.x * l.sh[5].xyz + o.y * l.sh[7].xyz);
+    e += 0.315392 * 0.83775804 * (6.0 * a.z - 2.0 * trace) * l.sh[6].xyz;
+    e += 0.546274 * 1.67551608 * (a.x - a.y) * l.sh[8].xyz;
+    return e;
+}
+
+// P_S(Θ) per channel, sr⁻¹, linear between the table's texels.
+fn cumulus_phase(cos_theta: f32) -> vec3<f32> {
+    let n = cumulus.transport.w;
+    let x = acos(clamp(cos_theta, -1.0, 1.0)) / PI * (n - 1.0);
+    let i = min(i32(floor(x)), i32(n) - 2);
+    let t = x - f32(i);
+    let a = textureLoad(cumulus_phase_table, vec2<i32>(i, 0), 0).rgb;
+    let b = textureLoad(cumulus_phase_table, vec2<i32>(i + 1, 0), 0).rgb;
+    return mix(a, b, t);
+}
+
+// (e^{−a/μ_v} − e^{−a/μ_l}) / (μ_v − μ_l), finite as μ_v → μ_l. Twin of
+// nimbus_physics::transport::stratus::exp_difference_quotient.
+fn cumulus_exp_difference_quotient(a: f32, mu_v: f32, mu_l: f32) -> f32 {
+    let z = a * (mu_v - mu_l) / (mu_v * mu_l);
+    if (abs(z) > 0.5) {
+        return (exp(-a / mu_v) - exp(-a / mu_l)) / (mu_v - mu_l);
+    }
+    var ratio = 1.0 + 0.5 * z + z * z / 6.0;
+    if (abs(z) > 1e-3) {
+        ratio = (exp(z) - 1.0) / z;
+    }
+    return exp(-a / mu_l) * ratio * a / (mu_v * mu_l);
+}
+
+// S: single scattering of a slab whose optical depth along the view is
+// τ_v, lit at cos μ₀ from the normal (negative: from behind) and seen at
+// cos μ, per unit ϖ P E_sun. Twin of
+// nimbus_physics::cumulus::transport::single_scattering_factor.
+fn cumulus_single_scattering(mu0: f32, mu_in: f32, tau_view: f32) -> f32 {
+    let mu = max(mu_in, 1e-3);
+    let tau_normal = tau_view * mu;
+    if (mu0 > 1e-3) {
+        return mu0 / (mu0 + mu) * (1.0 - exp(-tau_view * (1.0 + mu / mu0)));
+    }
+    let back = max(-mu0, 1e-3);
+    return back * cumulus_exp_difference_quotient(tau_normal, back, mu);
+}
+
+// The escape function of diffuse light leaving a thick medium, u(μ) =
+// (3/7)(1 + 2μ), ∫ u μ dμ = 1/2 (nimbus_physics::transport::stratus::escape_function).
+fn cumulus_escape(mu: f32) -> f32 {
+    return 3.0 / 7.0 * (1.0 + 2.0 * saturate(mu));
+}
+
+// I of the transport model: single scattering of the sun through the
+// phase function without its peak, P_S, and the slab factor S; the forward
+// peak P as in the phenomenological model (the shadows `direct` and
+// `forward_direct` are the direct beam's transmittance at the point and
+// where the chord behind it enters; `forward_shadow` the phenomenological
+// model's for P); the multiply scattered light of
+// the precomputed transfer lit by the sun (E_sun = π C_s, shadowed by the
+// layer above only: the cloud's own shadow is in the transfer) and by the
+// environment, leaving by the escape function. Twin of
+// nimbus_physics::cumulus::transport::transport_radiance.
+fn cumulus_transport_radiance(
+    terms: CumulusTerms,
+    transfer: CumulusTransfer,
+    o: vec3<f32>,
+    l: vec3<f32>,
+    environment: vec3<f32>,
+    sun: vec3<f32>,
+    layer_shadow: vec3<f32>,
+    direct: vec3<f32>,
+    forward_direct: vec3<f32>,
+    forward_shadow: vec3<f32>,
+) -> vec3<f32> {
+    let n = terms.smoothed_normal;
+    let mu = saturate(dot(n, o));
+    let mu0 = dot(n, l);
+    let tau = min(terms.optical_depth, 1e4) * cumulus.transport.z;
+    let single = cumulus_single_scattering(mu0, mu, tau);
+    let lit = select(forward_direct, direct, mu0 > 0.0);
+    let single_radiance = PI * sun * lit * cumulus_phase(-dot(o, l)) * single;
+    let multiple = PI * sun * layer_shadow * max(cumulus_transfer_value(transfer, l), 0.0)
+        + max(environment, vec3<f32>(0.0));
+    let multiple_radiance = cumulus_escape(mu) / PI * multiple;
+    let peak = cumulus.extension.y * forward_shadow * sun * terms.forward_peak;
+    return single_radiance + multiple_radiance + peak;
 }

@@ -17,7 +17,7 @@ pub const LOWER_LEVELS: usize = 3;
 /// δ written for an absent lower level: no light trap, no smoothing.
 const ABSENT_DISTANCE: f32 = 1.0e3;
 /// Version of the cache format and of the generation; bump on any change.
-const CACHE_VERSION: u32 = 1;
+const CACHE_VERSION: u32 = 2;
 const CACHE_MAGIC: &[u8; 8] = b"NIMBUSCU";
 
 /// One vertex of a cumulus mesh (WGSL `CumulusVertex`), object space, the
@@ -65,6 +65,9 @@ pub struct CumulusVariant {
     pub bounds_radius_m: f32,
     /// Largest horizontal distance of a vertex from the origin, m.
     pub footprint_radius_m: f32,
+    /// The object frame's origin in the field's frame (the generated
+    /// cloud's), m: a field point x is the object point x − origin.
+    pub origin_m: [f32; 3],
 }
 
 /// What a set of variants is generated from.
@@ -130,6 +133,14 @@ pub enum VariantError {
         index: u32,
         /// The generator's error.
         source: hierarchy::CumulusError,
+    },
+    /// The light transfer of a variant could not be precomputed.
+    #[error("cumulus variant {index}: light transfer: {reason}")]
+    Transfer {
+        /// Variant index.
+        index: u32,
+        /// Why.
+        reason: String,
     },
 }
 
@@ -222,6 +233,7 @@ pub fn generate_variant(
         bounds_centre_m: centre.map(|c| c as f32),
         bounds_radius_m: bounds_radius,
         footprint_radius_m: footprint,
+        origin_m: origin.map(|c| c as f32),
     })
 }
 
@@ -241,6 +253,7 @@ pub fn to_bytes(variant: &CumulusVariant) -> Vec<u8> {
         &mut out,
         &[variant.bounds_radius_m, variant.footprint_radius_m],
     );
+    push_f32s(&mut out, &variant.origin_m);
     out.extend_from_slice(&(variant.lods.len() as u32).to_le_bytes());
     for lod in &variant.lods {
         push_f32s(&mut out, &[lod.cell_m]);
@@ -292,6 +305,7 @@ pub fn from_bytes(bytes: &[u8]) -> Option<CumulusVariant> {
     let [last_radius_m] = r.f32s::<1>()?;
     let bounds_centre_m = r.f32s::<3>()?;
     let [bounds_radius_m, footprint_radius_m] = r.f32s::<2>()?;
+    let origin_m = r.f32s::<3>()?;
     let count = r.u32()? as usize;
     let mut lods = Vec::with_capacity(count.min(16));
     for _ in 0..count {
@@ -316,6 +330,7 @@ pub fn from_bytes(bytes: &[u8]) -> Option<CumulusVariant> {
         bounds_centre_m,
         bounds_radius_m,
         footprint_radius_m,
+        origin_m,
     })
 }
 
@@ -406,6 +421,7 @@ mod tests {
             bounds_centre_m: [0.0, 300.0, 0.0],
             bounds_radius_m: 900.0,
             footprint_radius_m: 800.0,
+            origin_m: [10.0, -5.0, 3.0],
         }
     }
 

@@ -1,0 +1,368 @@
+//! The `transport` shading model's precomputed light transfer per shape
+//! variant ([`nimbus_physics::cumulus::transport`]): T_k(x) at every vertex
+//! of every level of detail, for the smallest and the largest scale of the
+//! field's clouds, as the quadratic forms the shader turns with the cloud
+//! and interpolates in ln(scale). Computed on a worker thread (seconds per
+//! variant, see [`TRANSFER_PHOTONS`]) and cached on disk beside the shapes.
+//!
+//! A cloud at scale s is the variant's field scaled by s with the core's
+//! extinction α_ρ unchanged (as the path-traced references scale it): its
+//! optical lengths are s times the unscaled shape's, so its transfer (a
+//! ratio of exitance to irradiance, dimensionless) is the unscaled shape's
+//! with σ multiplied by s. One extinction grid serves every scale.
+
+use super::variants::{CumulusVariant, VariantError, VariantParams};
+use bytemuck::{Pod, Zeroable};
+use glam::DVec3;
+use nimbus_physics::cumulus::hierarchy;
+use nimbus_physics::cumulus::transport::{
+    GridMedium, Scattering, SphericalQuadratic, TransferSettings, trace_transfer,
+};
+use nimbus_physics::cumulus::volume::{VolumeParams, extinction_grid};
+use nimbus_physics::optics::phase::PhaseTable;
+use nimbus_physics::optics::tables::CloudOpticsTables;
+use nimbus_physics::transport::phase_model::PhaseModel;
+use std::io::Write;
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+
+/// Photons traced per variant and scale. The cost (release build, one
+/// core of this project's 2-core reference machine): about 4 s per million
+/// for the paper's cloud at scale 1 (τ ≈ 40 across its core after δ-M);
+/// docs/cumulus.md gives the measured times. At 2²¹ the transfer at a
+/// vertex of a ~1 km cloud is averaged from ~10³ photons (8 % noise
+/// before the kernel's smoothing).
+pub const TRANSFER_PHOTONS: u64 = 1 << 21;
+/// The density estimate's kernel cell in the unscaled shape, m: about two
+/// last-level blob radii, below the transport mean free path (~90 m) over
+/// which the transfer changes.
+pub const KERNEL_CELL_M: f64 = 24.0;
+/// Channel whose droplet phase function the tracer uses (550 nm): the
+/// transfer is grey (conservative scattering, nearly the same phase
+/// function at every visible wavelength).
+const TRACER_CHANNEL: usize = 1;
+const CACHE_MAGIC: &[u8; 8] = b"NIMBUSTT";
+const CACHE_VERSION: u32 = 2;
+
+/// The transfer at one vertex: for each of the two scales, the quadratic
+/// form (c, b_x, b_y, b_z), (A_xx, A_yy, A_zz, A_xy), (A_yz, A_xz, 0, 0)
+/// ([`SphericalQuadratic`]) in the variant's object frame (WGSL
+/// `CumulusTransfer`, vertex buffer 2).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct TransferVertex {
+    /// Two scales × three vec4.
+    pub forms: [[f32; 4]; 6],
+}
+
+/// Packs a quadratic form into three vec4.
+pub fn pack_form(f: &SphericalQuadratic) -> [[f32; 4]; 3] {
+    let [xx, yy, zz, xy, yz, xz] = f.quadratic;
+    [
+        [f.constant, f.linear.x, f.linear.y, f.linear.z].map(|v| v as f32),
+        [xx, yy, zz, xy].map(|v| v as f32),
+        [yz as f32, xz as f32, 0.0, 0.0],
+    ]
+}
+
+/// What a variant's transfer is computed from (its cache key, with the
+/// variant's parameters).
+#[derive(Clone, Debug, PartialEq)]
+pub struct TransferParams {
+    /// The shapes.
+    pub variants: VariantParams,
+    /// α_ρ, m⁻¹.
+    pub density_per_m: f64,
+    /// Corona thickness, m.
+    pub corona_thickness_m: f64,
+    /// The smallest and the largest scale of the field's clouds.
+    pub scales: [f64; 2],
+    /// Hash of the droplets' optical tables ([`nimbus_physics::optics::tables::CloudOpticsParams::cache_hash`]).
+    pub optics_hash: u64,
+    /// Photons per variant and scale.
+    pub photons: u64,
+}
+
+impl TransferParams {
+    fn cache_key(&self, index: u32) -> u64 {
+        let text = format!(
+            "{CACHE_VERSION} {:?} {} {} {} {:?} {} {} {KERNEL_CELL_M} {index}",
+            self.variants.hierarchy(index),
+            self.variants.levels_of_detail,
+            self.density_per_m,
+            self.corona_thickness_m,
+            self.scales,
+            self.optics_hash,
+            self.photons
+        );
+        text.bytes().fold(0xcbf2_9ce4_8422_2325u64, |h, b| {
+            (h ^ u64::from(b)).wrapping_mul(0x0100_0000_01b3)
+        })
+    }
+}
+
+/// One variant's transfer, per level of detail, per vertex.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct VariantTransfer {
+    /// Levels of detail as the variant's, finest first.
+    pub lods: Vec<Vec<TransferVertex>>,
+}
+
+/// The droplets as the tracer sees them: the phase function without its
+/// peak below θ_f, and σ's factor 1 − f (δ-M).
+pub fn tracer_scattering(optics: &CloudOpticsTables) -> (Scattering, f64) {
+    let n = optics.peak_removed.len() / 3;
+    let angles: Vec<f64> = (0..n).map(|i| 180.0 * i as f64 / (n - 1) as f64).collect();
+    let values: Vec<f64> = (0..n)
+        .map(|i| f64::from(optics.peak_removed[3 * i + TRACER_CHANNEL]))
+        .collect();
+    let phase = PhaseModel::tabulated(&PhaseTable::new(angles, values));
+    let truncated = 1.0 - f64::from(optics.forward_fraction[TRACER_CHANNEL]);
+    (
+        Scattering {
+            single_scattering_albedo: 1.0,
+            phase,
+            max_orders: 20_000,
+        },
+        truncated,
+    )
+}
+
+/// Computes variant `index`'s transfer (seconds: see [`TRANSFER_PHOTONS`]).
+pub fn compute_transfer(
+    params: &TransferParams,
+    index: u32,
+    shape: &CumulusVariant,
+    optics: &CloudOpticsTables,
+) -> Result<VariantTransfer, VariantError> {
+    let cumulus = hierarchy::build(&params.variants.hierarchy(index), |_| {})
+        .map_err(|source| VariantError::Generation { index, source })?;
+    let volume = VolumeParams {
+        density_per_m: params.density_per_m,
+        corona_thickness_m: params.corona_thickness_m,
+        ..VolumeParams::from_shading(&Default::default())
+    };
+    let grid = extinction_grid(&cumulus.field, &volume).map_err(|e| VariantError::Transfer {
+        index,
+        reason: e.to_string(),
+    })?;
+    let origin = DVec3::from_array(shape.origin_m.map(f64::from));
+    let field_point = |p: [f32; 4]| DVec3::new(p[0].into(), p[1].into(), p[2].into()) + origin;
+    let finest = &shape.lods[0];
+    let triangles: Vec<[DVec3; 3]> = finest
+        .indices
+        .chunks_exact(3)
+        .map(|t| [0, 1, 2].map(|k| field_point(finest.vertices[t[k] as usize].position_radius)))
+        .collect();
+    let (scattering, truncated) = tracer_scattering(optics);
+    let mut forms: Vec<Vec<TransferVertex>> = shape
+        .lods
+        .iter()
+        .map(|lod| vec![TransferVertex::default(); lod.vertices.len()])
+        .collect();
+    let distinct = (params.scales[1] - params.scales[0]).abs() > 1e-9;
+    for (slot, scale) in params.scales.iter().enumerate() {
+        if slot == 1 && !distinct {
+            for lod in &mut forms {
+                for v in lod {
+                    let (low, high) = v.forms.split_at_mut(3);
+                    high.copy_from_slice(low);
+                }
+            }
+            break;
+        }
+        let medium = GridMedium::new(&grid, truncated * scale);
+        let transfer = trace_transfer(
+            &medium,
+            &scattering,
+            &triangles,
+            &TransferSettings {
+                photons: params.photons,
+                kernel_cell_m: KERNEL_CELL_M,
+                seed: 0x7a5f_u64 + u64::from(index),
+            },
+        );
+        for (lod, out) in shape.lods.iter().zip(&mut forms) {
+            for (vertex, o) in lod.vertices.iter().zip(out.iter_mut()) {
+                let t = transfer.at(field_point(vertex.position_radius));
+                let packed = pack_form(&SphericalQuadratic::from_sh(&t));
+                o.forms[3 * slot..3 * slot + 3].copy_from_slice(&packed);
+            }
+        }
+    }
+    Ok(VariantTransfer { lods: forms })
+}
+
+fn to_bytes(transfer: &VariantTransfer) -> Vec<u8> {
+    let mut out = Vec::new();
+    out.extend_from_slice(CACHE_MAGIC);
+    out.extend_from_slice(&CACHE_VERSION.to_le_bytes());
+    out.extend_from_slice(&(transfer.lods.len() as u32).to_le_bytes());
+    for lod in &transfer.lods {
+        out.extend_from_slice(&(lod.len() as u32).to_le_bytes());
+        out.extend_from_slice(bytemuck::cast_slice(lod));
+    }
+    out
+}
+
+/// Reads [`to_bytes`]' format for `shape`: `None` unless it holds a whole
+/// transfer of this version with the shape's vertex counts.
+fn from_bytes(bytes: &[u8], shape: &CumulusVariant) -> Option<VariantTransfer> {
+    let header = CACHE_MAGIC.len() + 8;
+    if bytes.len() < header
+        || &bytes[..8] != CACHE_MAGIC
+        || bytes[8..12] != CACHE_VERSION.to_le_bytes()
+    {
+        return None;
+    }
+    let count = u32::from_le_bytes(bytes[12..16].try_into().ok()?) as usize;
+    if count != shape.lods.len() {
+        return None;
+    }
+    let mut at = header;
+    let mut lods = Vec::with_capacity(count);
+    for lod in &shape.lods {
+        let n = u32::from_le_bytes(bytes.get(at..at + 4)?.try_into().ok()?) as usize;
+        at += 4;
+        if n != lod.vertices.len() {
+            return None;
+        }
+        let size = n.checked_mul(std::mem::size_of::<TransferVertex>())?;
+        lods.push(bytemuck::pod_collect_to_vec(bytes.get(at..at + size)?));
+        at += size;
+    }
+    (at == bytes.len()).then_some(VariantTransfer { lods })
+}
+
+fn cache_path(dir: &Path, params: &TransferParams, index: u32) -> PathBuf {
+    dir.join(format!(
+        "cumulus-transfer-{:016x}.bin",
+        params.cache_key(index)
+    ))
+}
+
+/// Largest transfer cache file read, bytes.
+const MAX_CACHE_FILE_BYTES: u64 = 512 * 1024 * 1024;
+
+/// Every variant's transfer: from the disk cache in `dir`, else computed
+/// (variants in turn, each on every core) and cached (a cache that cannot
+/// be written is skipped).
+pub fn load_or_compute(
+    dir: &Path,
+    params: &TransferParams,
+    shapes: &[Arc<CumulusVariant>],
+    optics: &CloudOpticsTables,
+) -> Result<Vec<Arc<VariantTransfer>>, VariantError> {
+    shapes
+        .iter()
+        .enumerate()
+        .map(|(index, shape)| {
+            let index = index as u32;
+            let path = cache_path(dir, params, index);
+            if let Some(t) = nimbus_physics::io::read_bounded(&path, MAX_CACHE_FILE_BYTES)
+                .ok()
+                .and_then(|b| from_bytes(&b, shape))
+            {
+                return Ok(Arc::new(t));
+            }
+            let transfer = compute_transfer(params, index, shape, optics)?;
+            let _ = write_cache(&path, &to_bytes(&transfer));
+            Ok(Arc::new(transfer))
+        })
+        .collect()
+}
+
+/// Writes atomically (a temporary file renamed).
+fn write_cache(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
+    if let Some(dir) = path.parent() {
+        std::fs::create_dir_all(dir)?;
+    }
+    let temporary = path.with_extension(format!("tmp{}", std::process::id()));
+    let mut file = std::fs::File::create(&temporary)?;
+    file.write_all(bytes)?;
+    file.sync_all()?;
+    std::fs::rename(&temporary, path)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn cache_format_round_trips_and_rejects_other_shapes() {
+        let shape = CumulusVariant {
+            lods: vec![super::super::variants::VariantLod {
+                cell_m: 10.0,
+                vertices: vec![Default::default(); 2],
+                indices: vec![0, 1, 0],
+            }],
+            ..Default::default()
+        };
+        let transfer = VariantTransfer {
+            lods: vec![vec![
+                TransferVertex {
+                    forms: [[1.0, 2.0, 3.0, 4.0]; 6],
+                };
+                2
+            ]],
+        };
+        let bytes = to_bytes(&transfer);
+        assert_eq!(from_bytes(&bytes, &shape), Some(transfer));
+        assert_eq!(from_bytes(&bytes[..bytes.len() - 1], &shape), None);
+        let mut other = shape.clone();
+        other.lods[0].vertices.push(Default::default());
+        assert_eq!(from_bytes(&bytes, &other), None);
+    }
+
+    /// Timing and sanity of the paper's cloud (run by hand:
+    /// `cargo test --release -p nimbus-render transfer_of_the_papers_cloud -- --ignored --nocapture`).
+    #[test]
+    #[ignore]
+    fn transfer_of_the_papers_cloud() {
+        let variants = VariantParams {
+            count: 1,
+            seed: 1,
+            levels_of_detail: 3,
+        };
+        let t0 = std::time::Instant::now();
+        let shape =
+            super::super::variants::generate_variant(&variants, 0).expect("the paper's cloud");
+        let optics = crate::frame::cloud_lighting::load_optics(
+            &crate::frame::cloud_lighting::optics_params(&Default::default()),
+        );
+        eprintln!("shape + optics {:?}", t0.elapsed());
+        let params = TransferParams {
+            variants,
+            density_per_m: 0.075,
+            corona_thickness_m: 10.0,
+            scales: [0.5, 1.0],
+            optics_hash: 0,
+            photons: TRANSFER_PHOTONS,
+        };
+        let t1 = std::time::Instant::now();
+        let transfer = compute_transfer(&params, 0, &shape, &optics).expect("its transfer");
+        eprintln!("transfer {:?}", t1.elapsed());
+        let lod = &shape.lods[0];
+        let (mut top, mut bottom) = ((0.0f32, 0), (0.0f32, 0));
+        let height = lod
+            .vertices
+            .iter()
+            .map(|v| v.position_radius[1])
+            .fold(0.0, f32::max);
+        for (v, t) in lod.vertices.iter().zip(&transfer.lods[0]) {
+            if v.position_radius[1] > 0.8 * height {
+                top.0 += t.forms[3][2];
+                top.1 += 1;
+            } else if v.position_radius[1] < 0.1 * height {
+                bottom.0 += t.forms[3][2];
+                bottom.1 += 1;
+            }
+        }
+        eprintln!(
+            "mean b_y scale 1: top {} bottom {} (vertices {})",
+            top.0 / top.1 as f32,
+            bottom.0 / bottom.1 as f32,
+            lod.vertices.len()
+        );
+    }
+}
