@@ -37,10 +37,10 @@
 //! function, its diffraction peak truncated (δ-M, Wiscombe 1977: the peak
 //! below θ_f is left unscattered and σ scaled by 1 − f; the real-time
 //! shader adds the peak analytically, [`super::forward_peak`]), and on
-//! leaving after two or more scattering events deposit Y_k(s) at the point
-//! where they leave the cloud. The deposits and the surface's area are
-//! splatted trilinearly onto a coarse grid (a kernel density estimate), and
-//! T_k(x) = (4π A_disk / N) Σ_deposits / area, read trilinearly.
+//! leaving after two or more scattering events deposit Y_k(s) on the
+//! surface sample (a triangle's centroid) nearest to where they leave the
+//! cloud, and T_k(x) = (4π A_disk / N) Σ deposits / Σ area over a kernel of
+//! samples around x (a density estimate on the surface).
 //!
 //! **What stays analytic** (real-time shader): single scattering, which
 //! follows the phase function and the view, and the forward peak (the
@@ -49,6 +49,7 @@
 //! Units: metres, m⁻¹ for extinction; T_k is dimensionless (exitance per
 //! unit irradiance, projected on dimensionless Y_k over steradians).
 
+use super::grid::PointGrid;
 use super::volume::ExtinctionGrid;
 use crate::optics::sampling::rotate;
 use crate::sh;
@@ -258,29 +259,40 @@ impl Medium for GridMedium<'_> {
 pub struct TransferSettings {
     /// Photons traced (rounded up to whole batches of 2048).
     pub photons: u64,
-    /// Cell of the grid the exits and the surface's area are splatted on, m
-    /// (the kernel of the density estimate).
-    pub kernel_cell_m: f64,
+    /// Radius of the density estimate's kernel on the surface, m; a photon
+    /// is assigned to the nearest surface sample within it.
+    pub kernel_radius_m: f64,
     /// Seed of the random streams.
     pub seed: u64,
+    /// `None`: photons from every direction, deposits projected on the SH
+    /// (T_k). `Some(s₀)`: every photon from s₀ (towards the light), and
+    /// coefficient 0 holds the exitance M(x, s₀) itself, the others 0 (the
+    /// reference T is checked against).
+    pub to_light: Option<DVec3>,
 }
 
-/// T_k(x) on a grid (see the module notes): Σ Y_k(s) of the photons that
-/// left near each cell after two or more events, and the surface's area
-/// near it, both splatted trilinearly on cell centres.
-#[derive(Clone, Debug, PartialEq)]
+/// T_k(x) on the surface (see the module notes): the surface sampled by its
+/// triangles' centroids with their areas; each photon that leaves after
+/// two or more events deposits Σ w Y_k(s) on the sample nearest to where it
+/// left. Read at a point by a kernel over the samples within
+/// [`TransferSettings::kernel_radius_m`], deposits over area: both live on
+/// the surface, so where along the normal a photon left does not bias the
+/// ratio (a volume kernel did, by 7–15 % on the slab).
+#[derive(Clone, Debug)]
 pub struct SurfaceTransfer {
-    /// Minimum corner, m.
-    pub origin_m: DVec3,
-    /// Cell side, m.
-    pub cell_m: f64,
-    /// Cells along x, y, z.
-    pub dims: [usize; 3],
-    /// Σ w Y_k(s) per cell (x fastest).
-    pub deposits: Vec<[f64; 9]>,
-    /// Surface area per cell, m².
+    /// Surface samples (triangle centroids), m.
+    pub samples_m: Vec<DVec3>,
+    /// Their areas, m².
     pub area_m2: Vec<f64>,
-    /// 4π A_disk / N, m²: turns deposits per area into T_k.
+    /// Their unit normals (the triangles' winding).
+    pub normals: Vec<DVec3>,
+    /// Σ w Y_k(s) per sample.
+    pub deposits: Vec<[f64; 9]>,
+    /// The kernel's radius, m.
+    pub kernel_radius_m: f64,
+    grid: PointGrid,
+    /// 4π A_disk / N (A_disk / N for one direction), m²: turns deposits
+    /// per area into T_k.
     pub normalisation_m2: f64,
     /// Photons traced.
     pub photons: u64,
@@ -292,52 +304,64 @@ pub struct SurfaceTransfer {
     /// Fraction of the photons dropped (after [`Scattering::max_orders`]);
     /// with `escaped_by_order` it sums to 1.
     pub dropped: f64,
+    /// Fraction of the photons that left after ≥ 2 events with no surface
+    /// sample within the kernel's radius of where they left (not deposited).
+    pub unassigned: f64,
     /// Area of the bounding disk photons start on, m².
     pub disk_area_m2: f64,
 }
 
-/// Trilinear weights of `p_m` on the centres of a grid's cells: up to eight
-/// (index, weight) pairs, cells outside the grid left out.
-fn trilinear(
-    origin_m: DVec3,
-    cell_m: f64,
-    dims: [usize; 3],
-    p_m: DVec3,
-) -> impl Iterator<Item = (usize, f64)> {
-    let u = (p_m - origin_m) / cell_m - DVec3::splat(0.5);
-    let base = u.floor();
-    let t = u - base;
-    (0..8usize).filter_map(move |corner| {
-        let mut weight = 1.0;
-        let mut index = [0usize; 3];
-        for a in 0..3 {
-            let high = (corner >> a) & 1 == 1;
-            weight *= if high { t[a] } else { 1.0 - t[a] };
-            let i = base[a] + if high { 1.0 } else { 0.0 };
-            if i < 0.0 || i >= dims[a] as f64 {
-                return None;
-            }
-            index[a] = i as usize;
-        }
-        Some(((index[2] * dims[1] + index[1]) * dims[0] + index[0], weight))
-    })
-}
-
 impl SurfaceTransfer {
-    /// T_k at `p_m` (a point of the surface): the trilinear sums of deposits
-    /// over those of area, the area at least a quarter of a cell's face
-    /// (where a coarse level of detail's vertex lies off the finest
-    /// surface, little area is near and the ratio would be noise).
+    /// T_k at `p_m` (a point of the surface): Σ w deposits over the
+    /// surface's area within the kernel's radius projected on its mean
+    /// plane, Σ w A |n·n̄| (n̄ the area-weighted mean normal), w = 1 − (d/r)²;
+    /// that area at least a tenth of r² (where little surface is near, the
+    /// ratio would be noise).
+    ///
+    /// Why projected: the exitance per unit of the *macroscopic* surface.
+    /// Bumps smaller than the kernel (the last level's blobs, ≲ the
+    /// transport mean free path) do not darken a volume: the light field
+    /// leaving it is that of the smoothed surface, and a camera sees it on
+    /// every facet of the bumps; dividing by their true area would darken
+    /// the bumpy cloud by its roughness (1.5–2 on the generated shapes). On
+    /// a flat surface both are the same (the slab test).
     pub fn at(&self, p_m: DVec3) -> [f64; 9] {
-        let (mut sum, mut area) = ([0.0; 9], 0.0);
-        for (i, w) in trilinear(self.origin_m, self.cell_m, self.dims, p_m) {
-            area += w * self.area_m2[i];
-            for (s, d) in sum.iter_mut().zip(&self.deposits[i]) {
-                *s += w * d;
+        let r = self.kernel_radius_m;
+        let weight = |i: usize| 1.0 - self.samples_m[i].distance_squared(p_m) / (r * r);
+        let mut mean_normal = DVec3::ZERO;
+        self.grid.for_each_near(p_m, r, |i| {
+            let i = i as usize;
+            let w = weight(i);
+            if w > 0.0 {
+                mean_normal += w * self.area_m2[i] * self.normals[i];
             }
-        }
-        let area = area.max(0.25 * self.cell_m * self.cell_m);
+        });
+        let mean_normal = mean_normal.normalize_or_zero();
+        let (mut sum, mut area) = ([0.0; 9], 0.0);
+        self.grid.for_each_near(p_m, r, |i| {
+            let i = i as usize;
+            let w = weight(i);
+            if w > 0.0 {
+                area += w * self.area_m2[i] * self.normals[i].dot(mean_normal).abs();
+                for (s, d) in sum.iter_mut().zip(&self.deposits[i]) {
+                    *s += w * d;
+                }
+            }
+        });
+        let area = area.max(0.1 * r * r);
         sum.map(|s| s * self.normalisation_m2 / area)
+    }
+
+    fn nearest(&self, p_m: DVec3) -> Option<usize> {
+        let r2 = self.kernel_radius_m * self.kernel_radius_m;
+        let mut best: Option<(usize, f64)> = None;
+        self.grid.for_each_near(p_m, self.kernel_radius_m, |i| {
+            let d = self.samples_m[i as usize].distance_squared(p_m);
+            if d <= r2 && best.is_none_or(|(_, b)| d < b) {
+                best = Some((i as usize, d));
+            }
+        });
+        best.map(|(i, _)| i)
     }
 }
 
@@ -347,15 +371,17 @@ struct Tally {
     events: u64,
     by_order: [u64; 3],
     dropped: u64,
+    unassigned: u64,
 }
 
 impl Tally {
-    fn new(cells: usize) -> Self {
+    fn new(samples: usize) -> Self {
         Self {
-            deposits: vec![[0.0; 9]; cells],
+            deposits: vec![[0.0; 9]; samples],
             events: 0,
             by_order: [0; 3],
             dropped: 0,
+            unassigned: 0,
         }
     }
 
@@ -370,6 +396,7 @@ impl Tally {
             self.by_order[k] += other.by_order[k];
         }
         self.dropped += other.dropped;
+        self.unassigned += other.unassigned;
         self
     }
 }
@@ -390,7 +417,7 @@ fn tangents(n: DVec3) -> (DVec3, DVec3) {
 
 /// Traces the transfer of `medium` to the surface `triangles` (three
 /// vertices each, m, in the medium's frame). Parallel (rayon); memory:
-/// 80 bytes per kernel cell per worker.
+/// 72 bytes per triangle per worker.
 pub fn trace_transfer(
     medium: &impl Medium,
     scattering: &Scattering,
@@ -398,30 +425,52 @@ pub fn trace_transfer(
     settings: &TransferSettings,
 ) -> SurfaceTransfer {
     let (lo, hi) = medium.bounds_m();
-    let cell = settings.kernel_cell_m.max(1e-3);
-    let origin_m = lo - DVec3::splat(cell);
-    let dims: [usize; 3] = std::array::from_fn(|a| ((hi[a] - lo[a]) / cell).ceil() as usize + 3);
-    let cells = dims.iter().product();
-    let mut area_m2 = vec![0.0; cells];
-    for [a, b, c] in triangles {
-        let area = 0.5 * (*b - *a).cross(*c - *a).length();
-        for (i, w) in trilinear(origin_m, cell, dims, (*a + *b + *c) / 3.0) {
-            area_m2[i] += w * area;
-        }
-    }
+    let radius_m = settings.kernel_radius_m.max(1e-3);
+    let samples_m: Vec<DVec3> = triangles
+        .iter()
+        .map(|[a, b, c]| (*a + *b + *c) / 3.0)
+        .collect();
+    let area_m2: Vec<f64> = triangles
+        .iter()
+        .map(|[a, b, c]| 0.5 * (*b - *a).cross(*c - *a).length())
+        .collect();
+    let normals: Vec<DVec3> = triangles
+        .iter()
+        .map(|[a, b, c]| (*b - *a).cross(*c - *a).normalize_or_zero())
+        .collect();
+    let grid = PointGrid::new(radius_m, samples_m.iter().copied());
+    let mut surface = SurfaceTransfer {
+        deposits: Vec::new(),
+        samples_m,
+        area_m2,
+        normals,
+        kernel_radius_m: radius_m,
+        grid,
+        normalisation_m2: 0.0,
+        photons: 0,
+        scattering_events: 0,
+        escaped_by_order: [0.0; 3],
+        dropped: 0.0,
+        unassigned: 0.0,
+        disk_area_m2: 0.0,
+    };
+    let samples = surface.samples_m.len();
     let centre = 0.5 * (lo + hi);
     let radius = 0.5 * (hi - lo).length() * 1.001;
     let disk_area_m2 = PI * radius * radius;
     let batches = settings.photons.div_ceil(BATCH_PHOTONS).max(1);
     let workers = rayon::current_num_threads().max(1) as u64;
+    let reader = &surface;
     let tally = (0..workers)
         .into_par_iter()
         .map(|worker| {
-            let mut tally = Tally::new(cells);
+            let mut tally = Tally::new(samples);
             for batch in (worker..batches).step_by(workers as usize) {
                 let mut rng = Rng::new(settings.seed, batch);
                 for _ in 0..BATCH_PHOTONS {
-                    let to_light = uniform_direction(&mut rng);
+                    let to_light = settings
+                        .to_light
+                        .map_or_else(|| uniform_direction(&mut rng), DVec3::normalize);
                     let (t, b) = tangents(to_light);
                     let r = radius * rng.uniform().sqrt();
                     let phi = std::f64::consts::TAU * rng.uniform();
@@ -437,33 +486,38 @@ pub fn trace_transfer(
                         continue;
                     }
                     let exit = exit_point(medium, escape.last_event_m, escape.direction);
-                    let y = sh::basis(to_light.to_array());
-                    for (i, w) in trilinear(origin_m, cell, dims, exit) {
-                        let cell = &mut tally.deposits[i];
-                        for k in 0..9 {
-                            cell[k] += w * escape.weight * y[k];
-                        }
+                    let Some(nearest) = reader.nearest(exit) else {
+                        tally.unassigned += 1;
+                        continue;
+                    };
+                    let y = match settings.to_light {
+                        None => sh::basis(to_light.to_array()),
+                        Some(_) => [1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0],
+                    };
+                    let cell = &mut tally.deposits[nearest];
+                    for k in 0..9 {
+                        cell[k] += escape.weight * y[k];
                     }
                 }
             }
             tally
         })
-        .reduce(|| Tally::new(cells), Tally::merge);
+        .reduce(|| Tally::new(samples), Tally::merge);
     let photons = batches * BATCH_PHOTONS;
     let n = photons as f64;
-    SurfaceTransfer {
-        origin_m,
-        cell_m: cell,
-        dims,
-        deposits: tally.deposits,
-        area_m2,
-        normalisation_m2: 4.0 * PI * disk_area_m2 / n,
-        photons,
-        scattering_events: tally.events,
-        escaped_by_order: tally.by_order.map(|c| c as f64 / n),
-        dropped: tally.dropped as f64 / n,
-        disk_area_m2,
-    }
+    surface.deposits = tally.deposits;
+    surface.normalisation_m2 = if settings.to_light.is_some() {
+        disk_area_m2 / n
+    } else {
+        4.0 * PI * disk_area_m2 / n
+    };
+    surface.photons = photons;
+    surface.scattering_events = tally.events;
+    surface.escaped_by_order = tally.by_order.map(|c| c as f64 / n);
+    surface.dropped = tally.dropped as f64 / n;
+    surface.unassigned = tally.unassigned as f64 / n;
+    surface.disk_area_m2 = disk_area_m2;
+    surface
 }
 
 /// A real function of direction of order ≤ 2 written as

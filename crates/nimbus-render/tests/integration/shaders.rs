@@ -223,6 +223,7 @@ fn pass_uniforms_match_wgsl_layout() {
             sun_per_m,
             extension,
             peak_grid,
+            transport,
         ]
     );
     assert_layout!(
