@@ -112,6 +112,56 @@ fn points() -> Vec<(SurfacePoint, DVec3, DVec3)> {
     out
 }
 
+/// The pass's group 1 for a compute kernel: the uniform at binding 0 and
+/// the textures from binding 1 on.
+fn cumulus_group(
+    device: &wgpu::Device,
+    uniform: &CumulusUniform,
+    textures: &[&wgpu::TextureView],
+) -> (wgpu::BindGroupLayout, wgpu::BindGroup) {
+    let mut entries = vec![nimbus_render::binding::uniform_layout_entry(
+        0,
+        wgpu::ShaderStages::COMPUTE,
+        std::mem::size_of::<CumulusUniform>() as u64,
+    )];
+    for binding in 1..=textures.len() as u32 {
+        entries.push(nimbus_render::binding::texture_entry(
+            binding,
+            wgpu::TextureViewDimension::D2,
+            false,
+            wgpu::ShaderStages::COMPUTE,
+        ));
+    }
+    let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+        label: Some("cumulus test group"),
+        entries: &entries,
+    });
+    let buffer = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+        label: Some("cumulus test uniform"),
+        contents: bytemuck::bytes_of(uniform),
+        usage: wgpu::BufferUsages::UNIFORM,
+    });
+    let mut resources = vec![buffer.as_entire_binding()];
+    resources.extend(
+        textures
+            .iter()
+            .map(|v| wgpu::BindingResource::TextureView(v)),
+    );
+    let group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+        label: Some("cumulus test group"),
+        layout: &layout,
+        entries: &resources
+            .into_iter()
+            .enumerate()
+            .map(|(i, resource)| wgpu::BindGroupEntry {
+                binding: i as u32,
+                resource,
+            })
+            .collect::<Vec<_>>(),
+    });
+    (layout, group)
+}
+
 fn pack(v: DVec3, w: f64) -> [f32; 4] {
     [v.x as f32, v.y as f32, v.z as f32, w as f32]
 }
@@ -174,41 +224,7 @@ fn gpu_terms_match_the_cpu_reference() {
             ]);
             shader::compose(&files) + KERNEL
         };
-        let uniform_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("terms uniform"),
-            entries: &[
-                nimbus_render::binding::uniform_layout_entry(
-                    0,
-                    wgpu::ShaderStages::COMPUTE,
-                    std::mem::size_of::<CumulusUniform>() as u64,
-                ),
-                nimbus_render::binding::texture_entry(
-                    1,
-                    wgpu::TextureViewDimension::D2,
-                    false,
-                    wgpu::ShaderStages::COMPUTE,
-                ),
-            ],
-        });
-        let uniform_buffer = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-            label: Some("terms uniform"),
-            contents: bytemuck::bytes_of(&uniform),
-            usage: wgpu::BufferUsages::UNIFORM,
-        });
-        let uniform_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("terms uniform"),
-            layout: &uniform_layout,
-            entries: &[
-                wgpu::BindGroupEntry {
-                    binding: 0,
-                    resource: uniform_buffer.as_entire_binding(),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 1,
-                    resource: wgpu::BindingResource::TextureView(&peak_view),
-                },
-            ],
-        });
+        let (uniform_layout, uniform_group) = cumulus_group(device, &uniform, &[&peak_view]);
         // Nine vec4 per point in, four vec4 out.
         let gpu: Vec<[f32; 4]> = common::run_kernel(
             &h,
@@ -547,51 +563,7 @@ fn gpu_transport_matches_the_cpu_twin() {
         ]);
         shader::compose(&files) + TRANSPORT_KERNEL
     };
-    let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-        label: Some("transport uniform"),
-        entries: &[
-            nimbus_render::binding::uniform_layout_entry(
-                0,
-                wgpu::ShaderStages::COMPUTE,
-                std::mem::size_of::<CumulusUniform>() as u64,
-            ),
-            nimbus_render::binding::texture_entry(
-                1,
-                wgpu::TextureViewDimension::D2,
-                false,
-                wgpu::ShaderStages::COMPUTE,
-            ),
-            nimbus_render::binding::texture_entry(
-                2,
-                wgpu::TextureViewDimension::D2,
-                false,
-                wgpu::ShaderStages::COMPUTE,
-            ),
-        ],
-    });
-    let uniform_buffer = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-        label: Some("transport uniform"),
-        contents: bytemuck::bytes_of(&uniform),
-        usage: wgpu::BufferUsages::UNIFORM,
-    });
-    let group = device.create_bind_group(&wgpu::BindGroupDescriptor {
-        label: Some("transport uniform"),
-        layout: &layout,
-        entries: &[
-            wgpu::BindGroupEntry {
-                binding: 0,
-                resource: uniform_buffer.as_entire_binding(),
-            },
-            wgpu::BindGroupEntry {
-                binding: 1,
-                resource: wgpu::BindingResource::TextureView(&peak_view),
-            },
-            wgpu::BindGroupEntry {
-                binding: 2,
-                resource: wgpu::BindingResource::TextureView(&phase_view),
-            },
-        ],
-    });
+    let (layout, group) = cumulus_group(device, &uniform, &[&peak_view, &phase_view]);
     let gpu: Vec<[f32; 4]> = common::run_kernel(
         &h,
         &common::Kernel {

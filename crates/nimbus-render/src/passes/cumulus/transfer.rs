@@ -23,7 +23,6 @@ use nimbus_physics::cumulus::volume::{VolumeParams, extinction_grid};
 use nimbus_physics::optics::phase::PhaseTable;
 use nimbus_physics::optics::tables::CloudOpticsTables;
 use nimbus_physics::transport::phase_model::PhaseModel;
-use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
@@ -292,22 +291,10 @@ pub fn load_or_compute(
                 return Ok(Arc::new(t));
             }
             let transfer = compute_transfer(params, index, shape, optics)?;
-            let _ = write_cache(&path, &to_bytes(&transfer));
+            let _ = super::variants::write_cache(&path, &to_bytes(&transfer));
             Ok(Arc::new(transfer))
         })
         .collect()
-}
-
-/// Writes atomically (a temporary file renamed).
-fn write_cache(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
-    if let Some(dir) = path.parent() {
-        std::fs::create_dir_all(dir)?;
-    }
-    let temporary = path.with_extension(format!("tmp{}", std::process::id()));
-    let mut file = std::fs::File::create(&temporary)?;
-    file.write_all(bytes)?;
-    file.sync_all()?;
-    std::fs::rename(&temporary, path)
 }
 
 #[cfg(test)]

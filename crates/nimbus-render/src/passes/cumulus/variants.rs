@@ -340,7 +340,7 @@ fn cache_path(dir: &Path, params: &VariantParams, index: u32) -> PathBuf {
 
 /// Writes atomically (a temporary file renamed), so that a concurrent
 /// reader never sees half a file.
-fn write_cache(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
+pub(super) fn write_cache(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
     if let Some(dir) = path.parent() {
         std::fs::create_dir_all(dir)?;
     }
