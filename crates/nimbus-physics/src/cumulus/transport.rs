@@ -657,8 +657,11 @@ pub fn single_scattering_factor(mu0: f64, mu: f64, tau_view: f64) -> f64 {
 /// frame, unit vectors, RGB radiances in W·sr⁻¹·m⁻²).
 #[derive(Clone, Copy, Debug)]
 pub struct TransportPoint {
-    /// The smoothed normal N′.
+    /// The smoothed normal N′ (single scattering's slab).
     pub normal: DVec3,
+    /// The macroscopic surface's normal the multiply scattered light leaves
+    /// about (the renderer's S_{l−1} normal).
+    pub exit_normal: DVec3,
     /// Towards the observer.
     pub to_observer: DVec3,
     /// Towards the sun.
@@ -699,7 +702,9 @@ pub fn transport_radiance(p: &TransportPoint) -> [f64; 3] {
     } else {
         p.forward_direct
     };
-    let escape = crate::transport::stratus::escape_function(mu);
+    let escape = crate::transport::stratus::escape_function(
+        p.exit_normal.dot(p.to_observer).clamp(0.0, 1.0),
+    );
     let sun_transfer = p.transfer.value(p.to_sun).max(0.0);
     std::array::from_fn(|c| {
         let single_radiance = PI * p.sun_radiance[c] * lit[c] * p.phase[c] * single;

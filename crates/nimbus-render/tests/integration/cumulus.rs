@@ -422,7 +422,7 @@ fn transport_kernel(@builtin(global_invocation_id) id: vec3<u32>) {
     terms.optical_depth = c.instance.w;
     terms.forward_peak = vec3<f32>(0.25, 0.5, 0.75);
     let sun = vec3<f32>(1.0, 0.9, 0.8);
-    let radiance = cumulus_transport_radiance(terms, f, c.o.xyz, c.l.xyz, environment, sun,
+    let radiance = cumulus_transport_radiance(terms, normalize(c.normal.xyz + vec3<f32>(0.0, 0.5, 0.0)), f, c.o.xyz, c.l.xyz, environment, sun,
         vec3<f32>(0.9), vec3<f32>(0.7), vec3<f32>(0.4), vec3<f32>(0.6));
     let mu0 = dot(c.normal.xyz, c.l.xyz);
     let mu = saturate(dot(c.normal.xyz, c.o.xyz));
@@ -600,6 +600,7 @@ fn gpu_transport_matches_the_cpu_twin() {
             std::array::from_fn(|c| (0..9).map(|k| coefficients[k] * environment_sh[k][c]).sum());
         let radiance = transport_radiance(&TransportPoint {
             normal: *normal,
+            exit_normal: (*normal + DVec3::new(0.0, 0.5, 0.0)).normalize(),
             to_observer: *o,
             to_sun: *l,
             optical_depth: *tau,

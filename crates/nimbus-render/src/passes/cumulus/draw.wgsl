@@ -73,7 +73,9 @@ fn cumulus_evaluate(in: CumulusVarying) -> CumulusShaded {
         // clear sky of the SH: the sky's transfer scaled by their ratio.
         let layer = environment / max(clear_irradiance, vec3<f32>(1e-6));
         let environment_transfer = cumulus_transfer_environment(transfer, lighting) * layer;
-        radiance = cumulus_transport_radiance(terms, transfer, o, l, environment_transfer, sun, layer_shadow, direct, forward_direct, forward_shadow);
+        // S_{l−1}'s normal: its blobs (~125 m) are the first above the
+        // transport mean free path (~90 m).
+        radiance = cumulus_transport_radiance(terms, p.base_normals[0], transfer, o, l, environment_transfer, sun, layer_shadow, direct, forward_direct, forward_shadow);
     } else {
         radiance = cumulus_radiance(terms, environment / PI, sun, shadow, forward_shadow);
     }

@@ -372,10 +372,13 @@ fn cumulus_escape(mu: f32) -> f32 {
 // model's for P); the multiply scattered light of
 // the precomputed transfer lit by the sun (E_sun = π C_s, shadowed by the
 // layer above only: the cloud's own shadow is in the transfer) and by the
-// environment, leaving by the escape function. Twin of
+// environment, leaving by the escape function about `exit_normal` (the
+// macroscopic surface's: the multiply scattered light leaves the cloud's
+// shape smoothed over a transport mean free path, not its blobs). Twin of
 // nimbus_physics::cumulus::transport::transport_radiance.
 fn cumulus_transport_radiance(
     terms: CumulusTerms,
+    exit_normal: vec3<f32>,
     transfer: CumulusTransfer,
     o: vec3<f32>,
     l: vec3<f32>,
@@ -391,11 +394,12 @@ fn cumulus_transport_radiance(
     let mu0 = dot(n, l);
     let tau = min(terms.optical_depth, 1e4) * cumulus.transport.z;
     let single = cumulus_single_scattering(mu0, mu, tau);
+    let exit_mu = saturate(dot(exit_normal, o));
     let lit = select(forward_direct, direct, mu0 > 0.0);
     let single_radiance = PI * sun * lit * cumulus_phase(-dot(o, l)) * single;
     let multiple = PI * sun * layer_shadow * max(cumulus_transfer_value(transfer, l), 0.0)
         + max(environment, vec3<f32>(0.0));
-    let multiple_radiance = cumulus_escape(mu) / PI * multiple;
+    let multiple_radiance = cumulus_escape(exit_mu) / PI * multiple;
     let peak = cumulus.extension.y * forward_shadow * sun * terms.forward_peak;
     return single_radiance + multiple_radiance + peak;
 }
