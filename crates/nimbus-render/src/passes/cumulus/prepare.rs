@@ -24,6 +24,16 @@ use std::sync::Arc;
 use std::sync::atomic::Ordering;
 use wgpu::util::DeviceExt;
 
+/// The clouds' droplets: the stratus layer's size distribution, the default
+/// one without a layer (the same phase function `nimbus export` gives the
+/// cumulus volumes).
+fn droplet_params(scene: &Scene) -> CloudOpticsParams {
+    match &scene.stratus {
+        Some(layer) => optics_params(layer),
+        None => optics_params(&StratusSettings::default()),
+    }
+}
+
 /// The droplets' forward-peak table, their phase function without the
 /// peak resampled on [`PHASE_TEXELS`] texels (RGBA), and δ-M's 1 − f.
 fn droplet_tables(params: &CloudOpticsParams) -> DropletTables {
@@ -63,10 +73,7 @@ impl CumulusPass {
         scene: &Scene,
         precompute: Precompute,
     ) -> bool {
-        let params = match &scene.stratus {
-            Some(layer) => optics_params(layer),
-            None => optics_params(&StratusSettings::default()),
-        };
+        let params = droplet_params(scene);
         let key = params.cache_hash();
         if self.forward_peak_key == Some(key) {
             return true;
@@ -139,8 +146,10 @@ impl CumulusPass {
         let Some((_, variants)) = &self.variants else {
             return Ok(false);
         };
-        let shapes: Vec<Arc<CumulusVariant>> = variants.iter().map(|v| v.shape.clone()).collect();
         let Some(result) = self.transfers.request_current(&key, precompute, || {
+            // Copied only when a computation starts, not every frame.
+            let shapes: Vec<Arc<CumulusVariant>> =
+                variants.iter().map(|v| v.shape.clone()).collect();
             let job = key.clone();
             move || {
                 let optics = load_optics(&job.optics);
@@ -343,10 +352,7 @@ impl CumulusPass {
                 (lo.min(s), hi.max(s))
             });
             let scales = [round(lo), round(hi)];
-            let optics = match &scene.stratus {
-                Some(layer) => optics_params(layer),
-                None => optics_params(&StratusSettings::default()),
-            };
+            let optics = droplet_params(scene);
             let key = TransferKey {
                 params: transfer::TransferParams {
                     variants: params.clone(),
