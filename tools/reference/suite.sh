@@ -28,17 +28,23 @@
 # (nimbus | reference | HDR-FLIP).
 #
 # --spp N overrides every scene's samples per pixel (e.g. for a quick look).
+# --measure-only renders and measures nimbus against the stored references
+# (scenes/realism/references/NAME_a.exr, NAME_b.exr) without exporting or
+# path tracing anything, and updates the records' errors: for a change of
+# nimbus's models, whose references are unchanged.
 # Needs the Python setup of tools/reference/README.md.
 set -euo pipefail
 cd "$(dirname "$0")/../.."
 
 spp_override=
 max_depth=-1
+measure_only=
 scenes=()
 while [ $# -gt 0 ]; do
     case "$1" in
         --spp) spp_override="$2"; shift 2 ;;
         --max-depth) max_depth="$2"; shift 2 ;;
+        --measure-only) measure_only=1; shift ;;
         *) scenes+=("$1"); shift ;;
     esac
 done
@@ -67,6 +73,7 @@ settings() {
         stratus-overcast-below) echo "320 5" ;;         # *
         rain-drizzle | stratus-snow) echo "192 5" ;;    # *
         cumulus-front-lit | cumulus-field | cumulus-sunset) echo "256 5" ;;
+        default) echo "128 5" ;;
         *) echo "128 5" ;;
     esac
 }
@@ -75,10 +82,13 @@ cargo build -p nimbus-sky --quiet
 nimbus=target/debug/nimbus
 
 # Exports SCENE into DIR with the δ-M truncation TRUNCATION unless DIR holds
-# an export of the same scene file and truncation.
+# an export of the same scene file and truncation by the same nimbus binary
+# (an exporter's change re-exports; the render is then redone only if the
+# exported files differ).
+nimbus_md5=$(md5sum < "$nimbus" | cut -d' ' -f1)
 export_if_changed() {
     local scene=$1 dir=$2 truncation=$3
-    local key="$truncation $(md5sum < "$scene" | cut -d' ' -f1)"
+    local key="$truncation $(md5sum < "$scene" | cut -d' ' -f1) $nimbus_md5"
     if [ ! -f "$dir/scene.xml" ] || [ "$(cat "$dir/export.args" 2> /dev/null)" != "$key" ]; then
         mkdir -p "$dir"
         "$nimbus" export "$scene" --mitsuba "$dir" --phase-truncation-deg "$truncation" 2> "$dir/export.log"
@@ -110,6 +120,35 @@ for scene in "${scenes[@]}"; do
     name=$(basename "$scene" .toml)
     work=target/realism/$name
     mkdir -p "$work"
+    if [ -n "$measure_only" ]; then
+        stored=scenes/realism/references/$name
+        "$nimbus" render "$scene" -o "$work/realtime.exr" 2> /dev/null
+        sed 's/^aerial_perspective = false/aerial_perspective = true/' "$scene" > "$work/with-air.toml"
+        "$nimbus" render "$work/with-air.toml" -o "$work/realtime_air.exr" 2> /dev/null
+        halves=(--halves "${stored}_a.exr" "${stored}_b.exr" --block 4 --json)
+        "$nimbus" compare "$work/realtime.exr" "${halves[@]}" --out "$work/report.png" > "$work/error.json"
+        "$nimbus" compare "$work/realtime_air.exr" "${halves[@]}" > "$work/error_air.json"
+        python3 - "$work" "$name" <<'EOF'
+import json, os, shutil, sys
+work, name = sys.argv[1:3]
+record_path = f'scenes/realism/references/{name}.json'
+record = json.load(open(record_path))
+before = record['error']['halves']
+record['error'] = json.load(open(f'{work}/error.json'))
+record['error_with_air'] = json.load(open(f'{work}/error_air.json'))
+with open(record_path + '.tmp', 'w') as f:
+    json.dump(record, f, indent=2)
+os.replace(record_path + '.tmp', record_path)
+shutil.copyfile(f'{work}/report.png', f'docs/images/realism/{name}.png')
+h = record['error']['halves']
+key = 'luminance_relative_rmse_unbiased'
+print(f"suite: {name} (measured against the stored reference): block error "
+      f"{before['blocks'][key]:.3f} -> {h['blocks'][key]:.3f} ± {h['blocks'][key + '_se']:.3f}, "
+      f"luminance ratio {before['mean_luminance_ratio']:.3f} -> {h['mean_luminance_ratio']:.3f}, "
+      f"red/blue ratio {before['red_over_blue_ratio']:.3f} -> {h['red_over_blue_ratio']:.3f}", file=sys.stderr)
+EOF
+        continue
+    fi
     read -r spp truncation body_spp body_rule <<< "$(settings "$name")"
     body_spp=${body_spp:-0}
     spp=${spp_override:-$spp}

@@ -371,6 +371,28 @@ fn the_realism_suite_does_not_move_away_from_its_references() {
     );
 }
 
+/// The suite's copy of the default scene (scenes/realism/default.toml) is
+/// the embedded default, key for key, apart from the image size and the air
+/// in front of the clouds: the suite measures what every user sees first.
+#[test]
+fn the_suites_default_scene_is_the_default_scene() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenes");
+    let read = |path: PathBuf| -> toml::Table {
+        let text =
+            std::fs::read_to_string(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+        toml::from_str(&text).unwrap_or_else(|e| panic!("{}: {e}", path.display()))
+    };
+    let default = read(root.join("default.toml"));
+    let mut suite = read(root.join("realism/default.toml"));
+    let camera = suite["camera"].as_table_mut().expect("[camera]");
+    assert_eq!(
+        camera.remove("aerial_perspective"),
+        Some(toml::Value::Boolean(false))
+    );
+    suite.insert("image".into(), default["image"].clone());
+    assert_eq!(suite, default);
+}
+
 /// Requirement 6 of the ground-truth work: nimbus's slab Monte-Carlo tracer
 /// (`nimbus slab --method monte-carlo`) and Mitsuba 3's volumetric path
 /// tracer agree on the radiance reflected and transmitted by a homogeneous,

@@ -7,5 +7,6 @@ pub mod adding_doubling;
 pub mod fit;
 pub mod monte_carlo;
 pub mod phase_model;
+pub mod reflected_exit;
 pub mod rng;
 pub mod stratus;

@@ -59,7 +59,10 @@
 //! first few of them dominate and keep the sun's geometry, and the
 //! Lambertian R₃₊/π holds within 10 % up to 70° from the normal (the escape
 //! function is 40 % over at the zenith), too bright only at grazing angles
-//! (+68 % at 87.5°); reflection keeps it.
+//! (+68 % at 87.5°). Under a low sun they are thrown forward, up to 5 ×
+//! R₃₊/π towards grazing views facing the sun: [`DiffuseExit::EscapeAndTracedReflection`]
+//! sends them by the shape traced in nimbus's Monte-Carlo slab
+//! ([`super::reflected_exit`]).
 //! - Appendix A, T_2b. The printed ¼ r² (1 + (2Hκ_c − 1) τ_c(2H)) τ_c(3H) does
 //!   not vanish as H² for thin slabs. Integrating the printed double integral
 //!   gives ¼ r² τ_c(H) (2κ_c H − 1 + τ_c(2H)), which does.
@@ -311,6 +314,11 @@ pub enum DiffuseExit {
     /// u(μ) = (3/7)(1 + 2μ) (Chandrasekhar's H-function of conservative
     /// scattering, normalised); reflected ones Lambertian.
     EscapeFunction,
+    /// Transmitted orders 3+ by the escape function; reflected ones by the
+    /// shape traced in nimbus's Monte-Carlo slab, I₃₊ = A(θ_l, θ_v, φ)
+    /// R₃₊/π ([`super::reflected_exit`]): thrown forward under a low sun.
+    /// What `stratus.model = "marched"` draws.
+    EscapeAndTracedReflection,
 }
 
 impl DiffuseExit {
@@ -320,7 +328,27 @@ impl DiffuseExit {
     pub fn weight(self, mu: f64) -> f64 {
         match self {
             Self::Lambertian => 1.0,
-            Self::EscapeFunction => escape_function(mu),
+            Self::EscapeFunction | Self::EscapeAndTracedReflection => escape_function(mu),
+        }
+    }
+
+    /// The factor on the reflected R₃₊/π towards a viewer at
+    /// `view_zenith_deg` and `relative_azimuth_deg` from the sun's azimuth
+    /// (0: the sun behind the viewer) under the sun at `sun_zenith_deg`
+    /// (dimensionless; its flux-weighted mean over the hemisphere is 1).
+    pub fn reflected_weight(
+        self,
+        sun_zenith_deg: f64,
+        view_zenith_deg: f64,
+        relative_azimuth_deg: f64,
+    ) -> f64 {
+        match self {
+            Self::Lambertian | Self::EscapeFunction => 1.0,
+            Self::EscapeAndTracedReflection => super::reflected_exit::reflected_shape(
+                sun_zenith_deg,
+                view_zenith_deg,
+                relative_azimuth_deg,
+            ),
         }
     }
 }
@@ -447,7 +475,12 @@ impl StratusModel {
                 0.0,
                 p_s * geometry * single,
                 0.5 * p2 * geometry * double,
-                fluxes.r3plus / std::f64::consts::PI,
+                self.diffuse_exit.reflected_weight(
+                    sun_zenith_deg,
+                    view.zenith_deg,
+                    view.relative_azimuth_deg,
+                ) * fluxes.r3plus
+                    / std::f64::consts::PI,
             )
         } else {
             let a = kappa_s * h;

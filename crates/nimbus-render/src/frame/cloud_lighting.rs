@@ -8,7 +8,7 @@
 //! | 1 | the cloud shadow map (nearest and farthest core depth) | cumulus pass | `shader/cloud_shadow_lookup.wgsl` |
 //! | 2 | the stratus layer's uniform ([`StratusUniform`]) | stratus pass (prepare) | `shader/cloud_layer_lookup.wgsl` |
 //! | 3 | the layer's thickness window (R32Float, m) | stratus pass (compute) | idem |
-//! | 4 | the layer's phase tables P_S, P², P_F | stratus pass (when the droplets change) | idem |
+//! | 4 | the layer's phase tables P_S, P², P_F; then the shape A of the reflected orders 3+ | stratus pass (when the droplets change); A once, here | idem |
 //! | 5 | R_G, the radiosity received by the ground | radiosity iterations | idem |
 //! | 6 | R_C, the radiosity received by the cloud base | radiosity iterations | idem |
 //!
@@ -31,6 +31,7 @@ use crate::scene::StratusSettings;
 use bytemuck::{Pod, Zeroable};
 use nimbus_physics::optics::dsd::SizeDistribution;
 use nimbus_physics::optics::tables::{CloudOpticsParams, CloudOpticsTables};
+use nimbus_physics::transport::reflected_exit;
 use std::collections::HashMap;
 use std::path::PathBuf;
 use std::sync::{Arc, Mutex, OnceLock};
@@ -161,6 +162,11 @@ impl CloudLighting {
     /// ([`PHASE_TEXELS`] each), then P_F over 0–θ_f ([`PEAK_TEXELS`]).
     pub const PHASE_TABLE_TEXELS: usize = 2 * PHASE_TEXELS + PEAK_TEXELS;
 
+    /// Values after the phase tables: the shape A(θ_l, θ_v, φ) of the
+    /// reflected orders 3+ (`nimbus_physics::transport::reflected_exit`,
+    /// the same for every layer; written once at creation).
+    pub const REFLECTED_SHAPE_TEXELS: usize = reflected_exit::TABLE_VALUES;
+
     /// Creates the group with no layer and an empty shadow map.
     pub fn new(device: &wgpu::Device, queue: &wgpu::Queue) -> Self {
         let uniform_size = std::mem::size_of::<StratusUniform>() as u64;
@@ -172,10 +178,19 @@ impl CloudLighting {
         });
         let phase_tables = device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("stratus phase tables"),
-            size: Self::PHASE_TABLE_TEXELS as u64 * VEC4_BYTES,
+            size: (Self::PHASE_TABLE_TEXELS + Self::REFLECTED_SHAPE_TEXELS) as u64 * VEC4_BYTES,
             usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
             mapped_at_creation: false,
         });
+        let shape: Vec<[f32; 4]> = reflected_exit::REFLECTED_SHAPE
+            .iter()
+            .map(|&a| [a, a, a, 0.0])
+            .collect();
+        queue.write_buffer(
+            &phase_tables,
+            Self::PHASE_TABLE_TEXELS as u64 * VEC4_BYTES,
+            bytemuck::cast_slice(&shape),
+        );
         let shadow = CloudShadowMap::new(device, queue);
         let draw = wgpu::ShaderStages::VERTEX_FRAGMENT;
         let compute = wgpu::ShaderStages::COMPUTE;
@@ -188,7 +203,7 @@ impl CloudLighting {
                 // tests' kernels) that need to know where the cloud is.
                 binding::uniform_layout_entry(2, draw | compute, uniform_size),
                 binding::texture_entry(3, wgpu::TextureViewDimension::D2, false, draw | compute),
-                binding::buffer_entry(4, storage_read, VEC4_BYTES, draw),
+                binding::buffer_entry(4, storage_read, VEC4_BYTES, draw | compute),
                 binding::buffer_entry(5, storage_read, VEC4_BYTES, wgpu::ShaderStages::FRAGMENT),
                 binding::buffer_entry(6, storage_read, VEC4_BYTES, wgpu::ShaderStages::FRAGMENT),
                 shadow_uniform,

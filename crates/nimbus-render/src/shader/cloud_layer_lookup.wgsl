@@ -188,6 +188,41 @@ fn stratus_table(offset: u32, count: u32, x: f32) -> vec3<f32> {
     return mix(stratus_phase[offset + i].rgb, stratus_phase[offset + i + 1u].rgb, f);
 }
 
+// The shape A(θ_l, θ_v, φ) of the reflected orders 3+ (their radiance over
+// the Lambertian R₃₊/π) under the sun at `sun_zenith_deg`, towards a viewer
+// at `view_zenith_deg` and `relative_azimuth_deg` from the sun's azimuth (0:
+// the sun behind the viewer): trilinear between the traced nodes stored
+// after the phase tables, zenith angles clamped to 0–88°, the azimuth
+// folded into 0–180°. Twin of
+// nimbus_physics::transport::reflected_exit::reflected_shape (the node
+// counts and steps are its ZENITH_NODES, ZENITH_STEP_DEG, AZIMUTH_NODES,
+// AZIMUTH_STEP_DEG).
+fn stratus_reflected_shape(sun_zenith_deg: f32, view_zenith_deg: f32, relative_azimuth_deg: f32) -> f32 {
+    let offset = 2u * stratus.sizes.x + stratus.sizes.y;
+    let zenith_nodes = 9u;
+    let azimuth_nodes = 7u;
+    var azimuth = relative_azimuth_deg - 360.0 * floor(relative_azimuth_deg / 360.0);
+    if (azimuth > 180.0) {
+        azimuth = 360.0 - azimuth;
+    }
+    let p = vec3<f32>(
+        clamp(sun_zenith_deg / 11.0, 0.0, f32(zenith_nodes - 1u)),
+        clamp(view_zenith_deg / 11.0, 0.0, f32(zenith_nodes - 1u)),
+        clamp(azimuth / 30.0, 0.0, f32(azimuth_nodes - 1u)),
+    );
+    let base = min(vec3<u32>(p), vec3<u32>(zenith_nodes - 2u, zenith_nodes - 2u, azimuth_nodes - 2u));
+    let f = p - vec3<f32>(base);
+    var value = 0.0;
+    for (var corner = 0u; corner < 8u; corner += 1u) {
+        let d = vec3<u32>(corner & 1u, (corner >> 1u) & 1u, (corner >> 2u) & 1u);
+        let w = mix(1.0 - f, f, vec3<f32>(d));
+        let n = base + d;
+        let index = (n.x * zenith_nodes + n.y) * azimuth_nodes + n.z;
+        value += w.x * w.y * w.z * stratus_phase[offset + index].x;
+    }
+    return value;
+}
+
 // P_S, P² and P_F at scattering angle theta (rad), sr⁻¹.
 fn stratus_peak_removed(theta: f32) -> vec3<f32> {
     return stratus_table(0u, stratus.sizes.x, theta / PI);

@@ -193,6 +193,10 @@ pub const LIT_SURFACE: WgslFile = WgslFile {
     name: "shader/lit_surface.wgsl",
     source: include_str!("lit_surface.wgsl"),
 };
+/// GGX roughness α of the sun's glint on open water (`WATER_GGX_ALPHA` in
+/// water.wgsl; exporters give the sea the same lobe).
+pub const WATER_GGX_ALPHA: f64 = 0.06;
+
 /// Shading of open water.
 pub const WATER: WgslFile = WgslFile {
     name: "shader/water.wgsl",
@@ -309,6 +313,18 @@ mod tests {
                 );
             }
         }
+    }
+
+    /// The exporters' sea and the shader's share one glint roughness.
+    #[test]
+    fn water_glint_roughness_matches_the_shader() {
+        let line = WATER
+            .source
+            .lines()
+            .find_map(|l| l.strip_prefix("const WATER_GGX_ALPHA: f32 = "))
+            .expect("water.wgsl declares WATER_GGX_ALPHA");
+        let alpha: f64 = line.trim_end_matches(';').parse().expect("a number");
+        assert_eq!(alpha as f32, WATER_GGX_ALPHA as f32);
     }
 
     const A: WgslFile = WgslFile {

@@ -21,6 +21,12 @@ fn ggx_distribution(cos_h: f32, alpha: f32) -> f32 {
     return a2 / (PI * d * d);
 }
 
+// GGX roughness of the sun's glint on water (a calm sea's glitter path a few
+// degrees long). `nimbus export --mitsuba` gives the sea the same
+// microfacet lobe (nimbus_render::shader::WATER_GGX_ALPHA, held equal to
+// this by a test).
+const WATER_GGX_ALPHA: f32 = 0.06;
+
 // Small capillary ripples: a normal perturbation from a few travelling sine
 // waves, so that the surface is smooth but not a perfect mirror. Each wave
 // fades out where a pixel's footprint on the water covers half its
@@ -63,7 +69,7 @@ fn water_radiance(position_m: vec3<f32>, diffuse_albedo: vec3<f32>, sun_visibili
         let h = normalize(l + to_eye);
         // Microfacet specular with the implicit (Kelemen) visibility 1 / (4 cos_l cos_v) ≈ 1 / (4 (l·h)²).
         let lh = max(dot(l, h), 1e-3);
-        let d = ggx_distribution(max(dot(n, h), 0.0), 0.06);
+        let d = ggx_distribution(max(dot(n, h), 0.0), WATER_GGX_ALPHA);
         glint = sun_irradiance_at(position_m) * sun_visibility * cos_l * d * water_fresnel(lh) / (4.0 * lh * lh);
     }
     let irradiance = sun_irradiance_at(position_m) * max(frame.sun_direction.y, 0.0) * sun_visibility

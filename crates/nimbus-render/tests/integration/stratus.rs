@@ -418,3 +418,73 @@ fn gpu_layer_marches_match_the_cpu_marches() {
         "{side_entries_through_cloud} side entries"
     );
 }
+
+/// A test kernel around `stratus_reflected_shape`: one shape per query
+/// (sun zenith, view zenith, relative azimuth, degrees; w unused).
+const REFLECTED_SHAPE_KERNEL: &str = r"
+@group(0) @binding(1) var<storage, read> shape_queries: array<vec4<f32>>;
+@group(0) @binding(2) var<storage, read_write> shape_values: array<f32>;
+
+@compute @workgroup_size(64)
+fn reflected_shape_kernel(@builtin(global_invocation_id) id: vec3<u32>) {
+    if (id.x >= arrayLength(&shape_queries)) {
+        return;
+    }
+    let q = shape_queries[id.x];
+    shape_values[id.x] = stratus_reflected_shape(q.x, q.y, q.z);
+}
+";
+
+/// The layer shader's shape of the reflected orders 3+ (the table uploaded
+/// after the phase tables, interpolated in WGSL) against its CPU twin
+/// `nimbus_physics::transport::reflected_exit::reflected_shape`, at nodes,
+/// between them, beyond the clamped zenith range and at azimuths to fold.
+#[test]
+fn gpu_reflected_shape_matches_the_cpu_table() {
+    use nimbus_physics::transport::reflected_exit::reflected_shape;
+    use nimbus_render::shader;
+
+    let mut h = headless();
+    h.render_frame(&scene(0), 32, 18, 0.0).expect("frame");
+    let mut queries: Vec<[f32; 4]> = Vec::new();
+    for sun in [0.0f32, 5.5, 30.0, 44.0, 61.3, 77.0, 85.0, 89.5] {
+        for view in [0.0f32, 11.0, 37.2, 66.0, 80.0, 88.0, 95.0] {
+            for azimuth in [-30.0f32, 0.0, 15.0, 90.0, 171.0, 180.0, 250.0] {
+                queries.push([sun, view, azimuth, 0.0]);
+            }
+        }
+    }
+    let source = {
+        let mut files = shader::DRAWING_LIBRARIES.to_vec();
+        files.extend(nimbus_render::stratus::DRAWING_LIBRARIES);
+        shader::compose(&files) + REFLECTED_SHAPE_KERNEL
+    };
+    let gpu: Vec<f32> = common::run_kernel(
+        &h,
+        &common::Kernel {
+            label: "reflected shape test",
+            source: &source,
+            entry: "reflected_shape_kernel",
+            input: bytemuck::cast_slice(&queries),
+            input_stride: 16,
+            count: queries.len(),
+            outputs_per_item: 1,
+            extra: &[common::ExtraGroup {
+                index: 3,
+                layout: h.renderer.frame_resources().cloud_lighting.layout(),
+                group: h.renderer.frame_resources().cloud_lighting.bind_group(),
+            }],
+        },
+    );
+    let mut worst = 0.0f64;
+    for (q, g) in queries.iter().zip(&gpu) {
+        let cpu = reflected_shape(f64::from(q[0]), f64::from(q[1]), f64::from(q[2]));
+        let difference = (f64::from(*g) - cpu).abs();
+        assert!(
+            difference < 1e-4 * cpu.max(1.0),
+            "{q:?}: GPU {g}, CPU {cpu}"
+        );
+        worst = worst.max(difference);
+    }
+    assert!(worst < 1e-4, "largest difference {worst}");
+}

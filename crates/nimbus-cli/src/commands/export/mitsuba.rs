@@ -37,7 +37,7 @@ const SEA_HALF_SIZE_M: f64 = 200_000.0;
 const WATER_IOR: f64 = 1.333;
 
 /// Cells of the stratus grid along each horizontal side, at most.
-const STRATUS_HORIZONTAL_CELLS: usize = 512;
+const STRATUS_HORIZONTAL_CELLS: usize = 1024;
 
 /// Cells of the stratus grid across its thickest cells.
 const STRATUS_VERTICAL_CELLS: usize = 16;
@@ -711,7 +711,13 @@ fn variant_origin_m(grid: &ExtinctionGrid) -> DVec3 {
 
 /// The stratus layer's extinction on a grid around the camera: the cells
 /// with |y − y_mid| < h(x, z)/2 (the renderer's slab of thickness h about
-/// the mid-plane), h at the frame's time and drift.
+/// the mid-plane), h at the frame's time and drift. The grid covers the
+/// renderer's window (`stratus.extent_m` around the camera) and its
+/// extinction fades out over the window's outer fifth as the renderer's
+/// opacity does (`stratus_window_fade` in cloud_layer_lookup.wgsl), so that
+/// both images end the layer at the same distance: a grid of the terrain's
+/// extent ended it 12 km out where the renderer draws it to 20 km, and the
+/// references showed sea where nimbus showed the far layer.
 fn stratus_grid(
     scene: &Scene,
     settings: &StratusSettings,
@@ -721,7 +727,7 @@ fn stratus_grid(
 ) -> (ExtinctionGrid, DMat4) {
     let field = nimbus_render::stratus::cloud_layer_field(scene, settings);
     let drift = scene.cloud_drift_m(time_s);
-    let side_m = settings.extent_m.min(scene.terrain.extent_m.max(20_000.0));
+    let side_m = settings.extent_m;
     let cell_m = (side_m / STRATUS_HORIZONTAL_CELLS as f64).max(10.0);
     let n = (side_m / cell_m).ceil() as usize;
     let dy = (settings.thickness_m / STRATUS_VERTICAL_CELLS as f64).max(1.0);
@@ -738,10 +744,15 @@ fn stratus_grid(
             let x = origin.x + (i as f64 + 0.5) * cell_m;
             let z = origin.z + (k as f64 + 0.5) * cell_m;
             let h = field.thickness_with_drift_m(x, z, drift, time_s);
+            let r = (x - camera_m.x).hypot(z - camera_m.z) / (0.5 * side_m);
+            let fade = 1.0 - smoothstep(0.8, 1.0, r);
+            if fade <= 0.0 {
+                continue;
+            }
             for j in 0..ny {
                 let y = origin.y + (j as f64 + 0.5) * dy;
                 if (y - mid).abs() < 0.5 * h {
-                    values[(k * ny + j) * n + i] = extinction_per_m as f32;
+                    values[(k * ny + j) * n + i] = (extinction_per_m * fade) as f32;
                 }
             }
         }
@@ -764,6 +775,12 @@ fn stratus_grid(
         },
         box_m,
     )
+}
+
+/// WGSL's smoothstep: 0 below `edge0`, 1 above `edge1`, cubic between.
+fn smoothstep(edge0: f64, edge1: f64, x: f64) -> f64 {
+    let t = ((x - edge0) / (edge1 - edge0)).clamp(0.0, 1.0);
+    t * t * (3.0 - 2.0 * t)
 }
 
 /// Terrain mesh (PLY) with its albedo (PNG) and the sea plane.
@@ -854,7 +871,9 @@ fn write_terrain(
     </shape>
     <shape type="rectangle">
         <transform name="to_world"><matrix value="{sea}"/></transform>
-        <bsdf type="plastic">
+        <bsdf type="roughplastic">
+            <string name="distribution" value="ggx"/>
+            <float name="alpha" value="{alpha}"/>
             <rgb name="diffuse_reflectance" value="{w0:.5}, {w1:.5}, {w2:.5}"/>
             <float name="int_ior" value="{WATER_IOR}"/>
             <float name="ext_ior" value="1.0"/>
@@ -862,6 +881,7 @@ fn write_terrain(
     </shape>
 "#,
         sea = matrix(&sea),
+        alpha = nimbus_render::shader::WATER_GGX_ALPHA,
         w0 = water[0],
         w1 = water[1],
         w2 = water[2],
@@ -972,6 +992,54 @@ mod tests {
         let hi = box_m.transform_point3(DVec3::ONE);
         assert!((lo - DVec3::new(-4000.0, -100.0, -4000.0)).length() < 1e-6);
         assert!((hi - DVec3::new(4000.0, 900.0, 4000.0)).length() < 1e-6);
+    }
+
+    /// The stratus grid is nimbus's window: a square of `stratus.extent_m`
+    /// around the camera, each cell's extinction the layer's where the cell
+    /// lies within the slab, faded over the window's outer fifth as the
+    /// renderer fades the layer's opacity, and none beyond its radius.
+    #[test]
+    fn the_stratus_grid_covers_the_renderers_window() {
+        let scene = Scene::from_toml_str(
+            "[camera]\nposition_m = [500.0, 3000.0, -700.0]\n\
+             [stratus]\nbase_m = 1500.0\nthickness_m = 300.0\ncoverage = 0.9\nextent_m = 10000.0\n",
+            "grid.toml",
+        )
+        .expect("scene");
+        let settings = scene.stratus.as_ref().expect("[stratus]");
+        let camera = DVec3::new(500.0, 3000.0, -700.0);
+        let (grid, box_m) = stratus_grid(&scene, settings, 0.0, camera, 0.05);
+        let [nx, ny, nz] = grid.dims;
+        let lo = box_m.transform_point3(DVec3::ZERO);
+        let hi = box_m.transform_point3(DVec3::ONE);
+        assert!((hi.x - lo.x - 10_000.0).abs() < 1e-6 && (hi.z - lo.z - 10_000.0).abs() < 1e-6);
+        assert!((0.5 * (lo.x + hi.x) - camera.x).abs() < 1e-6);
+        assert!((0.5 * (lo.z + hi.z) - camera.z).abs() < 1e-6);
+        let (mut inner, mut faded) = (0, 0);
+        for k in 0..nz {
+            for j in 0..ny {
+                for i in 0..nx {
+                    let value = f64::from(grid.values_per_m[(k * ny + j) * nx + i]);
+                    if value == 0.0 {
+                        continue;
+                    }
+                    let x = grid.origin_m.x + (i as f64 + 0.5) * grid.cell_m;
+                    let z = grid.origin_m.z + (k as f64 + 0.5) * grid.cell_m;
+                    let r = (x - camera.x).hypot(z - camera.z) / 5000.0;
+                    let expected = 0.05 * (1.0 - smoothstep(0.8, 1.0, r));
+                    assert!(
+                        (value - expected).abs() < 1e-6,
+                        "r {r}: {value} vs {expected}"
+                    );
+                    if r < 0.8 {
+                        inner += 1;
+                    } else {
+                        faded += 1;
+                    }
+                }
+            }
+        }
+        assert!(inner > 0 && faded > 0, "inner {inner}, faded {faded}");
     }
 
     /// An angle of 0 keeps the phase function as it is.

@@ -282,8 +282,8 @@ fn shade_layer(position_m: vec3<f32>, face: f32, h: f32, level: bool) -> vec4<f3
     // towards its plane, by the escape function u(μ) = (3/7)(1 + 2μ) of the
     // vertical cosine (nimbus_physics::transport::stratus::DiffuseExit,
     // tested against the Monte-Carlo slab), not isotropically as the
-    // paper's I₃₊ = T₃₊/π; the reflected ones stay Lambertian (the Monte
-    // Carlo holds them within 10 % up to 70°). Not on a level view (the
+    // paper's I₃₊ = T₃₊/π (the reflected ones by their traced shape,
+    // below). Not on a level view (the
     // camera within the layer's height range looking along it), which sees
     // the cells' sides rather than a slab's face; nor with
     // stratus.model = "bnl2006".
@@ -300,7 +300,25 @@ fn shade_layer(position_m: vec3<f32>, face: f32, h: f32, level: bool) -> vec4<f3
         let single = p_s * geometry * (1.0 - exp(-a));
         let double = 0.5 * p2 * geometry * (1.0 - (1.0 + a) * exp(-a));
         local_orders = single + double;
-        global_orders = vec3<f32>(fluxes.r3plus / PI);
+        // The reflected orders 3+ leave by the shape traced in the
+        // Monte-Carlo slab (thrown forward under a low sun), not
+        // isotropically as the paper's R₃₊/π; not on a level view, nor with
+        // stratus.model = "bnl2006".
+        var reflected_shape = 1.0;
+        if (marched && !level) {
+            let sun_h = length(l.xz);
+            let view_h = length(v.xz);
+            var cos_phi = 1.0;
+            if (sun_h > 1e-4 && view_h > 1e-4) {
+                cos_phi = clamp(dot(l.xz, v.xz) / (sun_h * view_h), -1.0, 1.0);
+            }
+            reflected_shape = stratus_reflected_shape(
+                degrees(acos(mu_l_vertical)),
+                degrees(acos(clamp(abs(v.y), 0.0, 1.0))),
+                degrees(acos(cos_phi)),
+            );
+        }
+        global_orders = vec3<f32>(reflected_shape * fluxes.r3plus / PI);
     } else {
         // Transmission, with the forward peak I_0F (§4.2).
         let a = kappa_s * h_view;
