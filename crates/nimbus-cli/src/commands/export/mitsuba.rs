@@ -307,7 +307,7 @@ pub fn export(
     let mut approximations = vec![
         "no atmosphere between the camera and the clouds or terrain (nimbus's aerial perspective is left out); the sky is an environment map at infinity, seen from the camera".to_string(),
         format!("volumes: extinction and phase function at {PHASE_WAVELENGTH_NM} nm for every channel (droplet extinction varies < 2 % over the visible), albedo per channel; phase function tabulated at {PHASE_SAMPLES} values uniform in cos θ (the diffraction peak is averaged over the first ~0.9°)"),
-        "the sun is a directional emitter (no disc seen by the camera); the water has no waves or glint microfacets (a smooth dielectric coat over its diffuse body)".to_string(),
+        "the sun is a directional emitter (no disc seen by the camera); the water has no waves: a rough dielectric coat over its diffuse body, with nimbus's GGX glint lobe (whose shadowing darkens the sky's reflection at grazing views, where nimbus reflects it as a rippled mirror)".to_string(),
         "the environment map's lower half is the terrain and sea as seen from the camera (for rays that leave the exported terrain)".to_string(),
     ];
     // 1. Render once so that the cumulus pass places this frame's clouds.
@@ -445,6 +445,7 @@ pub fn export(
 
     // 7. Cumulus.
     let mut cumulus_count = 0;
+    let mut cumulus_bottom_m = f64::INFINITY;
     if let (Some(settings), Some(params)) = (&scene.cumulus, &variant_params) {
         // Each variant's grid and origin, built (and its .vol written) once.
         let mut variants: Vec<Option<(ExtinctionGrid, DVec3)>> =
@@ -490,6 +491,10 @@ pub fn export(
             if inside_cube(&world_from_cube, camera.position_m) {
                 camera_medium = Some(id);
             }
+            // The box turns about the vertical only: its floor is the unit
+            // cube's.
+            cumulus_bottom_m = cumulus_bottom_m
+                .min(world_from_cube.transform_point3(DVec3::new(0.0, -1.0, 0.0)).y);
             cumulus_count += 1;
         }
         if placed.iter().any(|c| (c.scale - 1.0).abs() > 1e-6) {
@@ -540,10 +545,17 @@ pub fn export(
             MIST_MIN_DIAMETER_MM,
             rain.max_diameter_mm,
         );
-        // Up to the rain's ceiling, and never into the stratus grid's box:
-        // Mitsuba tracks one medium at a time, and a ray leaving one of two
-        // overlapping boxes would lose the other (its lowest cells are empty).
-        let ceiling_m = scene.rain_ceiling_m().min(stratus_bottom_m);
+        // Up to the rain's ceiling, and never into the stratus grid's box
+        // nor a cumulus box: Mitsuba tracks one medium at a time, and a ray
+        // leaving one of two overlapping boxes would lose the other (their
+        // lowest cells are empty). The default scene's camera, inside the
+        // mist, saw no base of the cumulus right above it: its rays entered
+        // a cumulus box 9 m below the mist's ceiling and left the cumulus
+        // medium where they crossed that ceiling.
+        let ceiling_m = scene
+            .rain_ceiling_m()
+            .min(stratus_bottom_m)
+            .min(cumulus_bottom_m);
         let floor_m = scene.terrain.water_level_m.min(0.0) - scene.terrain.height_scale_m;
         let half = 0.5 * MIST_SIDE_M;
         let lo = DVec3::new(
@@ -579,7 +591,7 @@ pub fn export(
                 camera_medium = Some("mist".into());
             }
             approximations.push(format!(
-                "rain: streaks and splashes are not exported; the mist is a homogeneous medium (σ_t = {extinction:.2e} m⁻¹ from all drops of {MIST_MIN_DIAMETER_MM}–{} mm, albedo 1, Henyey–Greenstein g = {MIST_PHASE_G}, as nimbus's mist) from below the terrain to the rain's ceiling at {ceiling_m:.0} m, {:.0} km square around the camera (the scene rains everywhere)",
+                "rain: streaks and splashes are not exported; the mist is a homogeneous medium (σ_t = {extinction:.2e} m⁻¹ from all drops of {MIST_MIN_DIAMETER_MM}–{} mm, albedo 1, Henyey–Greenstein g = {MIST_PHASE_G}, as nimbus's mist) from below the terrain to {ceiling_m:.0} m (the rain's ceiling, or the floor of the lowest cloud box below it), {:.0} km square around the camera (the scene rains everywhere)",
                 rain.max_diameter_mm,
                 MIST_SIDE_M / 1000.0
             ));
@@ -604,7 +616,7 @@ pub fn export(
                 camera_medium = Some("mist".into());
             }
             approximations.push(format!(
-                "rain: streaks and splashes are not exported; the mist (σ_t = {extinction:.2e} m⁻¹ where it rains fully, from all drops of {MIST_MIN_DIAMETER_MM}–{} mm, albedo 1, Henyey–Greenstein g = {MIST_PHASE_G}, as nimbus's mist) follows nimbus's map of where it rains ({}×{} texels of {:.0} m: the rain areas with their soft edges{}), from below the terrain to the rain's ceiling at {ceiling_m:.0} m; outside the map's {:.0} km square, no mist (nimbus clamps the map's edge); nimbus's mist ends 30 km from the camera and varies its density with noise near the rain box, the export's does not",
+                "rain: streaks and splashes are not exported; the mist (σ_t = {extinction:.2e} m⁻¹ where it rains fully, from all drops of {MIST_MIN_DIAMETER_MM}–{} mm, albedo 1, Henyey–Greenstein g = {MIST_PHASE_G}, as nimbus's mist) follows nimbus's map of where it rains ({}×{} texels of {:.0} m: the rain areas with their soft edges{}), from below the terrain to {ceiling_m:.0} m (the rain's ceiling, or the floor of the lowest cloud box below it); outside the map's {:.0} km square, no mist (nimbus clamps the map's edge); nimbus's mist ends 30 km from the camera and varies its density with noise near the rain box, the export's does not",
                 rain.max_diameter_mm,
                 zones.size,
                 zones.size,
