@@ -180,6 +180,19 @@ pub fn reflected_shape(
     value
 }
 
+/// The view directions of the table's nodes, view zenith major then
+/// azimuth (the order of a sun node's values in [`table_index`]).
+pub fn node_views() -> Vec<ViewDirection> {
+    (0..ZENITH_NODES)
+        .flat_map(|j| {
+            (0..AZIMUTH_NODES).map(move |k| ViewDirection {
+                zenith_deg: j as f64 * ZENITH_STEP_DEG,
+                relative_azimuth_deg: k as f64 * AZIMUTH_STEP_DEG,
+            })
+        })
+        .collect()
+}
+
 /// Traces A at the table's nodes through `medium` (the forward peak folded
 /// into extinction, as the analytic model's orders see it): for each sun
 /// node, one trace with a local estimate at every view node; A is the
@@ -188,14 +201,7 @@ pub fn reflected_shape(
 pub fn trace_reflected_shape(medium: &SlabMedium, photons: u64, seed: u64) -> (Vec<f64>, Vec<f64>) {
     let mut values = vec![0.0; TABLE_VALUES];
     let mut errors = vec![0.0; TABLE_VALUES];
-    let views: Vec<ViewDirection> = (0..ZENITH_NODES)
-        .flat_map(|j| {
-            (0..AZIMUTH_NODES).map(move |k| ViewDirection {
-                zenith_deg: j as f64 * ZENITH_STEP_DEG,
-                relative_azimuth_deg: k as f64 * AZIMUTH_STEP_DEG,
-            })
-        })
-        .collect();
+    let views = node_views();
     for i in 0..ZENITH_NODES {
         let settings = TraceSettings {
             photons,

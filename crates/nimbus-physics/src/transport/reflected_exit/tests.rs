@@ -38,14 +38,7 @@ fn default_droplets_slab(thickness_m: f64) -> SlabMedium {
 #[test]
 fn the_table_matches_a_fresh_trace() {
     let medium = default_droplets_slab(TABLE_THICKNESS_M);
-    let views: Vec<ViewDirection> = (0..ZENITH_NODES)
-        .flat_map(|j| {
-            (0..AZIMUTH_NODES).map(move |k| ViewDirection {
-                zenith_deg: j as f64 * ZENITH_STEP_DEG,
-                relative_azimuth_deg: k as f64 * AZIMUTH_STEP_DEG,
-            })
-        })
-        .collect();
+    let views = node_views();
     for sun in [3, 7] {
         let settings = TraceSettings {
             photons: 60_000,
