@@ -311,40 +311,47 @@ pub struct FogLight {
     pub environment_fluence: [f64; 3],
     /// The sun's scattered fluence per unit irradiance Σ_k Φ_k Y_k(l).
     pub sun_fluence: f64,
-    /// The direct sunbeam's transmittance to the point (shadow map, layer).
+    /// The direct sunbeam's transmittance to the point through the cores
+    /// (the shadow map's).
     pub sun_transmittance: f64,
 }
 
 /// What is constant along a ray of the fog.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct FogRay {
-    /// Sun's irradiance E_sun = π C_s at the cloud, W m⁻² (RGB).
+    /// Sun's irradiance E_sun = π C_s at the cloud (through the stratus
+    /// layer), W m⁻² (RGB).
     pub sun_irradiance: [f64; 3],
     /// P_S(Θ) between the sun and the view, sr⁻¹ (RGB).
     pub phase: [f64; 3],
-    /// Length marched, m.
-    pub length_m: f64,
+    /// Where the march starts and ends along the ray, m.
+    pub span_m: [f64; 2],
     /// Steps.
     pub steps: u32,
 }
 
 /// Radiance and transmittance of the fog along a ray (see the module
-/// notes): midpoint steps of constant σ and source, `light(t)` read at the
-/// middle of each step. Twin of `in_cloud_march` in nimbus-render's
-/// `passes/cumulus/in_cloud.wgsl`.
+/// notes): steps of constant σ and source between t_i = t₀ + (t₁ − t₀)(i/N)²
+/// (fine near the camera, where it crosses the cloud's edge), `light(t)`
+/// read at the middle of each step. Twin of `in_cloud_march` in
+/// nimbus-render's `passes/cumulus/in_cloud.wgsl`.
 pub fn march_fog(ray: &FogRay, light: impl Fn(f64) -> FogLight) -> ([f64; 3], f64) {
     let steps = ray.steps.max(1);
-    let dt = ray.length_m.max(0.0) / f64::from(steps);
+    let [t0, t1] = ray.span_m;
+    let span = (t1 - t0).max(0.0);
     let mut radiance = [0.0; 3];
     let mut transmittance = 1.0;
     for i in 0..steps {
-        let p = light((f64::from(i) + 0.5) * dt);
+        let a = f64::from(i) / f64::from(steps);
+        let b = f64::from(i + 1) / f64::from(steps);
+        let dt = span * (b * b - a * a);
+        let p = light(t0 + span * 0.5 * (a * a + b * b));
         let sigma = p.extinction_per_m.max(0.0);
         let step_t = (-sigma * dt).exp();
-        for c in 0..3 {
+        for (c, r) in radiance.iter_mut().enumerate() {
             let source = ray.phase[c] * ray.sun_irradiance[c] * p.sun_transmittance
                 + (ray.sun_irradiance[c] * p.sun_fluence + p.environment_fluence[c]) / (4.0 * PI);
-            radiance[c] += transmittance * source * (1.0 - step_t);
+            *r += transmittance * source * (1.0 - step_t);
         }
         transmittance *= step_t;
     }

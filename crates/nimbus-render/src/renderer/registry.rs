@@ -28,6 +28,7 @@ pub fn all_modules() -> Vec<(&'static str, String)> {
         ("cumulus", cumulus::draw_shader_source()),
         ("cumulus shadow", cumulus::shadow_shader_source()),
         ("cumulus composite", cumulus::composite_shader_source()),
+        ("cumulus in-cloud", cumulus::in_cloud_shader_source()),
         ("composite", composite::shader_source()),
         ("nimbus lighting include", crate::shader::lighting_include()),
     ]);
