@@ -43,6 +43,8 @@ pub enum PassId {
     RainMist,
     /// Rain streaks and splashes.
     Rain,
+    /// The camera in the stratus layer: the layer marched as a volume.
+    StratusInLayer,
     /// The camera in a cumulus: the light inside the cloud it is in.
     CumulusInCloudLight,
     /// The camera in a cumulus: the cloud marched as a volume.
@@ -57,7 +59,7 @@ pub enum PassId {
 
 impl PassId {
     /// Every pass, in frame order.
-    pub const ALL: [PassId; 24] = [
+    pub const ALL: [PassId; 25] = [
         PassId::Transmittance,
         PassId::MultipleScattering,
         PassId::SkyView,
@@ -77,6 +79,7 @@ impl PassId {
         PassId::CumulusComposite,
         PassId::RainMist,
         PassId::Rain,
+        PassId::StratusInLayer,
         PassId::CumulusInCloudLight,
         PassId::CumulusInCloud,
         PassId::Exposure,
@@ -115,6 +118,7 @@ impl PassId {
             PassId::CumulusComposite => "cumulus_composite",
             PassId::RainMist => "rain_mist",
             PassId::Rain => "rain",
+            PassId::StratusInLayer => "stratus_in_layer",
             PassId::CumulusInCloudLight => "cumulus_in_cloud_light",
             PassId::CumulusInCloud => "cumulus_in_cloud",
             PassId::Exposure => "exposure",
@@ -139,8 +143,8 @@ impl PassId {
 }
 
 /// Names of the passes in frame order, as reported by timings.
-pub const PASS_NAMES: [&str; 24] = {
-    let mut names = [""; 24];
+pub const PASS_NAMES: [&str; 25] = {
+    let mut names = [""; 25];
     let mut i = 0;
     while i < names.len() {
         names[i] = PassId::ALL[i].name();

@@ -24,6 +24,7 @@ pub fn all_modules() -> Vec<(&'static str, String)> {
         ("tonemap", tonemap::shader_source()),
         ("radiosity", stratus::radiosity::shader_source()),
         ("stratus layer", stratus::layer_shader_source()),
+        ("stratus in-layer", stratus::in_layer_shader_source()),
         ("stratus compute", stratus::compute_shader_source()),
         ("cumulus", cumulus::draw_shader_source()),
         ("cumulus shadow", cumulus::shadow_shader_source()),
