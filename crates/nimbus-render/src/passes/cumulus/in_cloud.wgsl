@@ -135,10 +135,17 @@ fn in_cloud_march(origin_m: vec3<f32>, direction: vec3<f32>, t0: f32, t1: f32) -
     let steps = u32(in_cloud.rotation.w);
     let l = frame.sun_direction;
     let phase = cumulus_phase(dot(direction, l));
-    // The sky's light under a stratus layer: its radiosity over the clear
-    // sky's irradiance, as the mesh's transport shading scales it.
-    let clear = sh_irradiance(lighting, vec3<f32>(0.0, 1.0, 0.0));
-    let layer = stratus_ground_irradiance(origin_m + direction * t0, vec3<f32>(0.0, 1.0, 0.0), clear) / max(clear, vec3<f32>(1e-6));
+    // Under a stratus layer the light from above is the layer's radiosity,
+    // not the clear sky's: the fluence keeps its size relative to the
+    // clear sky's irradiance on a level surface and takes the layer's
+    // colour (a ratio per channel, as the mesh's shading scales its
+    // transfer, turned the fluence's share of ground light brown).
+    let up = vec3<f32>(0.0, 1.0, 0.0);
+    let clear = sh_irradiance(lighting, up);
+    let under = stratus_ground_irradiance(origin_m + direction * t0, up, clear);
+    let layered = any(under != clear);
+    let luma = vec3<f32>(0.2126, 0.7152, 0.0722);
+    let layer_scale = under / max(dot(clear, luma), 1e-6);
     // Evaluated at the middles of four quarters of the ray and held over
     // each (texture lookups in the loop are what costs on llvmpipe; the
     // shadow varies over the map's ~10 m texels, the layer's over cells).
@@ -166,7 +173,11 @@ fn in_cloud_march(origin_m: vec3<f32>, direction: vec3<f32>, t0: f32, t1: f32) -
         }
         let light = in_cloud_light_at(object);
         let sun = sun_segments[min(i * IN_CLOUD_SHADOW_SEGMENTS / steps, IN_CLOUD_SHADOW_SEGMENTS - 1u)];
-        let source = phase * sun.rgb * sun.a + (sun.rgb * light.a + light.rgb * layer) / (4.0 * PI);
+        var environment = light.rgb;
+        if (layered) {
+            environment = layer_scale * dot(light.rgb, luma);
+        }
+        let source = phase * sun.rgb * sun.a + (sun.rgb * light.a + environment) / (4.0 * PI);
         let opacity = 1.0 - exp(-sigma * dt);
         let scattered = out.transmittance * opacity;
         out.radiance += scattered * source;
