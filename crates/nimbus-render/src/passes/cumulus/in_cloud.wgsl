@@ -78,9 +78,9 @@ fn in_cloud_light_at(object_m: vec3<f32>) -> vec4<f32> {
     return mix(a, b, z - k0);
 }
 
-// The sun's irradiance at a world point through the stratus layer (rgb)
-// and the direct beam's transmittance through the shadow map's cores
-// (cumulus_direct_transmittance, a).
+// The sun's irradiance at a world point above any layer (rgb) and the
+// direct beam's transmittance there through the shadow map's cores
+// (cumulus_direct_transmittance) and the stratus layer (a).
 fn in_cloud_sun(world_m: vec3<f32>) -> vec4<f32> {
     var direct = 1.0;
     if (cumulus_term_on(CUMULUS_SHADOW)) {
@@ -91,7 +91,30 @@ fn in_cloud_sun(world_m: vec3<f32>) -> vec4<f32> {
         let optical_depth = (1.0 / max(diffuse, 1e-6) - 1.0) / (0.75 * (1.0 - cloud_shadow.params.z));
         direct = exp(-optical_depth * in_cloud.extinction_min.w);
     }
-    return vec4<f32>(PI * cumulus_sun_radiance(world_m.y) * stratus_sun_transmittance(world_m), direct);
+    return vec4<f32>(PI * cumulus_sun_radiance(world_m.y), direct * stratus_sun_transmittance(world_m).g);
+}
+
+// The world point of an object point (cumulus_varying's transform).
+fn in_cloud_world(object_m: vec3<f32>) -> vec3<f32> {
+    return in_cloud.offset_scale.xyz + cumulus_rotate(object_m * in_cloud.offset_scale.w, in_cloud.rotation.x, in_cloud.rotation.y);
+}
+
+// The stratus layer's shadow on the sunlight that the cloud scatters many
+// times: the mean of its transmittance over five points of the box's top.
+// That light has spread over hundreds of metres (the transport mean free
+// path is ~90 m): the layer's shadow at each point of the ray drew its
+// cells' sharp shafts as dark columns through the fog.
+fn in_cloud_layer_shadow() -> vec3<f32> {
+    let lo = in_cloud.extinction_min.xyz;
+    let size = in_cloud.extinction_size.xyz;
+    let top = vec3<f32>(lo.x + 0.5 * size.x, lo.y + size.y, lo.z + 0.5 * size.z);
+    var sum = stratus_sun_transmittance(in_cloud_world(top));
+    for (var k = 0u; k < 4u; k += 1u) {
+        let sx = select(-0.25, 0.25, (k & 1u) != 0u);
+        let sz = select(-0.25, 0.25, (k & 2u) != 0u);
+        sum += stratus_sun_transmittance(in_cloud_world(top + vec3<f32>(sx * size.x, 0.0, sz * size.z)));
+    }
+    return 0.2 * sum;
 }
 
 // The light pass: one fragment per cell of the atlas, the forms at the
@@ -146,6 +169,7 @@ fn in_cloud_march(origin_m: vec3<f32>, direction: vec3<f32>, t0: f32, t1: f32) -
     let layered = any(under != clear);
     let luma = vec3<f32>(0.2126, 0.7152, 0.0722);
     let layer_scale = under / max(dot(clear, luma), 1e-6);
+    let layer_shadow = in_cloud_layer_shadow();
     // Evaluated at the middles of four quarters of the ray and held over
     // each (texture lookups in the loop are what costs on llvmpipe; the
     // shadow varies over the map's ~10 m texels, the layer's over cells).
@@ -177,7 +201,7 @@ fn in_cloud_march(origin_m: vec3<f32>, direction: vec3<f32>, t0: f32, t1: f32) -
         if (layered) {
             environment = layer_scale * dot(light.rgb, luma);
         }
-        let source = phase * sun.rgb * sun.a + (sun.rgb * light.a + environment) / (4.0 * PI);
+        let source = phase * sun.rgb * sun.a + (sun.rgb * layer_shadow * light.a + environment) / (4.0 * PI);
         let opacity = 1.0 - exp(-sigma * dt);
         let scattered = out.transmittance * opacity;
         out.radiance += scattered * source;
