@@ -23,6 +23,7 @@ pub mod forward_peak;
 pub mod gltf;
 pub mod grid;
 pub mod hierarchy;
+pub mod interior;
 pub mod mesh;
 pub mod sampler;
 pub mod shading;

@@ -102,7 +102,11 @@ pub struct Escape {
 }
 
 /// Distances along a ray where it enters and leaves a box, if it does.
-fn ray_box(origin: DVec3, direction: DVec3, (lo, hi): (DVec3, DVec3)) -> Option<(f64, f64)> {
+pub(crate) fn ray_box(
+    origin: DVec3,
+    direction: DVec3,
+    (lo, hi): (DVec3, DVec3),
+) -> Option<(f64, f64)> {
     let inverse = direction.recip();
     let a = (lo - origin) * inverse;
     let b = (hi - origin) * inverse;
@@ -111,7 +115,7 @@ fn ray_box(origin: DVec3, direction: DVec3, (lo, hi): (DVec3, DVec3)) -> Option<
     (near <= far).then_some((near, far))
 }
 
-fn inside(p: DVec3, (lo, hi): (DVec3, DVec3)) -> bool {
+pub(crate) fn inside(p: DVec3, (lo, hi): (DVec3, DVec3)) -> bool {
     p.cmpge(lo).all() && p.cmple(hi).all()
 }
 
@@ -402,7 +406,7 @@ impl Tally {
 }
 
 /// A uniform direction on the sphere.
-fn uniform_direction(rng: &mut Rng) -> DVec3 {
+pub(crate) fn uniform_direction(rng: &mut Rng) -> DVec3 {
     let z = 1.0 - 2.0 * rng.uniform();
     let r = (1.0 - z * z).max(0.0).sqrt();
     let phi = std::f64::consts::TAU * rng.uniform();
@@ -410,7 +414,7 @@ fn uniform_direction(rng: &mut Rng) -> DVec3 {
 }
 
 /// Two unit vectors completing `n` to an orthonormal basis.
-fn tangents(n: DVec3) -> (DVec3, DVec3) {
+pub(crate) fn tangents(n: DVec3) -> (DVec3, DVec3) {
     let t = DVec3::from_array(rotate(n.to_array(), 0.0, 1.0, 0.0));
     (t, n.cross(t))
 }

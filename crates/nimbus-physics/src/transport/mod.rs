@@ -4,6 +4,7 @@
 //! appendices A–B) that the tracer validates.
 
 pub mod adding_doubling;
+pub mod diffusion;
 pub mod fit;
 pub mod monte_carlo;
 pub mod phase_model;

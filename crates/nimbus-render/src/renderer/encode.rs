@@ -67,6 +67,15 @@ impl Renderer {
                 run.remove(id);
             }
         }
+        let in_layer = self.stratus.enabled() && self.stratus.in_layer_active();
+        if !in_layer {
+            run.remove(PassId::StratusInLayer);
+        }
+        let in_cloud = self.cumulus.in_cloud_active();
+        if !in_cloud {
+            run.remove(PassId::CumulusInCloudLight);
+            run.remove(PassId::CumulusInCloud);
+        }
         if !self.objects.enabled() {
             run.remove(PassId::Objects);
         }
@@ -214,6 +223,33 @@ impl Renderer {
         if rain {
             let mut pass = self.overlay_pass(encoder, "rain", PassId::Rain, hdr, Some(depth));
             self.rain.draw(&mut pass, depth, &frame);
+        }
+        // 8d. The camera in or near the stratus layer's height range: the
+        // layer marched as a volume over everything (its faces faded out).
+        if in_layer {
+            self.stratus.encode_in_layer(
+                encoder,
+                &hdr.view,
+                depth,
+                &frame,
+                self.timer
+                    .as_ref()
+                    .map(|t| t.pass_writes(PassId::StratusInLayer.timer_index())),
+            );
+        }
+        // 8e. The camera in or near a cumulus: that cloud marched as a
+        // volume over everything (its mesh faded out), attenuating what is
+        // behind it — the caller's surfaces included, through the depth.
+        if in_cloud {
+            let writes = |id: PassId| self.timer.as_ref().map(|t| t.pass_writes(id.timer_index()));
+            self.cumulus.encode_in_cloud(
+                encoder,
+                &hdr.view,
+                depth,
+                &frame,
+                writes(PassId::CumulusInCloudLight),
+                writes(PassId::CumulusInCloud),
+            );
         }
         // 9–10 in LinearHdr: nimbus's target over the caller's colour; the
         // caller exposes and tone maps.

@@ -43,6 +43,12 @@ pub enum PassId {
     RainMist,
     /// Rain streaks and splashes.
     Rain,
+    /// The camera in the stratus layer: the layer marched as a volume.
+    StratusInLayer,
+    /// The camera in a cumulus: the light inside the cloud it is in.
+    CumulusInCloudLight,
+    /// The camera in a cumulus: the cloud marched as a volume.
+    CumulusInCloud,
     /// Exposure metering.
     Exposure,
     /// Tone mapping into the output.
@@ -53,7 +59,7 @@ pub enum PassId {
 
 impl PassId {
     /// Every pass, in frame order.
-    pub const ALL: [PassId; 22] = [
+    pub const ALL: [PassId; 25] = [
         PassId::Transmittance,
         PassId::MultipleScattering,
         PassId::SkyView,
@@ -73,6 +79,9 @@ impl PassId {
         PassId::CumulusComposite,
         PassId::RainMist,
         PassId::Rain,
+        PassId::StratusInLayer,
+        PassId::CumulusInCloudLight,
+        PassId::CumulusInCloud,
         PassId::Exposure,
         PassId::Tonemap,
         PassId::Export,
@@ -109,6 +118,9 @@ impl PassId {
             PassId::CumulusComposite => "cumulus_composite",
             PassId::RainMist => "rain_mist",
             PassId::Rain => "rain",
+            PassId::StratusInLayer => "stratus_in_layer",
+            PassId::CumulusInCloudLight => "cumulus_in_cloud_light",
+            PassId::CumulusInCloud => "cumulus_in_cloud",
             PassId::Exposure => "exposure",
             PassId::Tonemap => "tonemap",
             PassId::Export => "export",
@@ -131,8 +143,8 @@ impl PassId {
 }
 
 /// Names of the passes in frame order, as reported by timings.
-pub const PASS_NAMES: [&str; 22] = {
-    let mut names = [""; 22];
+pub const PASS_NAMES: [&str; 25] = {
+    let mut names = [""; 25];
     let mut i = 0;
     while i < names.len() {
         names[i] = PassId::ALL[i].name();

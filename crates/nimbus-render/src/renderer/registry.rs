@@ -24,10 +24,12 @@ pub fn all_modules() -> Vec<(&'static str, String)> {
         ("tonemap", tonemap::shader_source()),
         ("radiosity", stratus::radiosity::shader_source()),
         ("stratus layer", stratus::layer_shader_source()),
+        ("stratus in-layer", stratus::in_layer_shader_source()),
         ("stratus compute", stratus::compute_shader_source()),
         ("cumulus", cumulus::draw_shader_source()),
         ("cumulus shadow", cumulus::shadow_shader_source()),
         ("cumulus composite", cumulus::composite_shader_source()),
+        ("cumulus in-cloud", cumulus::in_cloud_shader_source()),
         ("composite", composite::shader_source()),
         ("nimbus lighting include", crate::shader::lighting_include()),
     ]);

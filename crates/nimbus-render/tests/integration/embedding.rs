@@ -441,3 +441,61 @@ fn the_renderer_can_move_between_threads() {
     assert_send::<Renderer>();
     assert_send::<View>();
 }
+
+/// The camera inside a cumulus (issue 44): the caller's surfaces are seen
+/// through the cloud's fog in `LinearHdr` as on the display path: a wall
+/// 60 m ahead in a core (visibility ~30 m after δ-M) is mostly hidden, one
+/// 3 m ahead barely, and nimbus's alpha over it is the fog's opacity.
+#[test]
+fn a_caller_surface_inside_a_cloud_is_seen_through_its_fog() {
+    let h = headless();
+    let mut scene = Scene::from_toml_str(
+        r#"
+[camera]
+position_m = [0.0, 1900.0, 0.0]
+look_at_m = [1000.0, 1900.0, -500.0]
+fov_deg = 60.0
+aerial_perspective = false
+
+[sun]
+azimuth_deg = 165.0
+elevation_deg = 35.0
+
+[cumulus]
+[[cumulus.clouds]]
+position_m = [0.0, 1500.0, 0.0]
+scale = 1.5
+"#,
+        "inside.toml",
+    )
+    .expect("scene");
+    scene.camera.auto_exposure = false;
+    let view = standard_depth_view(&scene);
+    let wall_at = |distance_m: f64| {
+        let clip = view.caller_clip_from_view() * glam::DVec4::new(0.0, 0.0, -distance_m, 1.0);
+        (clip.z / clip.w) as f32
+    };
+    let wall = [0.25f32, 0.5, 0.75, 1.0];
+    let lower = |i: usize| i / WIDTH as usize >= HEIGHT as usize / 2;
+    let count = (WIDTH * HEIGHT) as usize;
+    let colours: Vec<[f32; 4]> = (0..count)
+        .map(|i| if lower(i) { wall } else { [0.0; 4] })
+        .collect();
+    let mut renderer = linear_renderer(&h);
+    renderer.set_pre_exposure(1e-4);
+    let veil = |distance_m: f64, renderer: &mut Renderer| -> f32 {
+        let colour = caller_colour(&h, &colours);
+        let depth = caller_depth(&h, 1.0, Some(wall_at(distance_m)));
+        let out = render_linear(&h, renderer, &scene, &view, &colour, &depth);
+        let i = count - WIDTH as usize / 2;
+        relative_difference(
+            [out[i][0], out[i][1], out[i][2]],
+            [wall[0], wall[1], wall[2]],
+        )
+    };
+    let near = veil(3.0, &mut renderer);
+    let far = veil(60.0, &mut renderer);
+    eprintln!("wall 3 m: {near:.3}, 60 m: {far:.3}");
+    assert!(far > 0.5, "a wall 60 m into the cloud is veiled: {far}");
+    assert!(near < 0.5 * far, "the nearer wall less: {near} vs {far}");
+}

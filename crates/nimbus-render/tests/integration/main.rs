@@ -18,6 +18,7 @@ mod embedding;
 mod export;
 mod exposure;
 mod faults;
+mod flight;
 mod gpu;
 mod layering;
 mod objects;

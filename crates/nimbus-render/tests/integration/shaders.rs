@@ -227,6 +227,20 @@ fn pass_uniforms_match_wgsl_layout() {
         ]
     );
     assert_layout!(
+        module_named("cumulus in-cloud"),
+        "InCloud",
+        nimbus_render::cumulus::InCloudUniform,
+        [
+            offset_scale,
+            rotation,
+            extinction_min,
+            extinction_size,
+            light_min,
+            light_size,
+            light_dims,
+        ]
+    );
+    assert_layout!(
         module_named("cumulus"),
         "CloudShadow",
         nimbus_render::cumulus::CloudShadowUniform,

@@ -493,8 +493,11 @@ pub fn export(
             }
             // The box turns about the vertical only: its floor is the unit
             // cube's.
-            cumulus_bottom_m = cumulus_bottom_m
-                .min(world_from_cube.transform_point3(DVec3::new(0.0, -1.0, 0.0)).y);
+            cumulus_bottom_m = cumulus_bottom_m.min(
+                world_from_cube
+                    .transform_point3(DVec3::new(0.0, -1.0, 0.0))
+                    .y,
+            );
             cumulus_count += 1;
         }
         if placed.iter().any(|c| (c.scale - 1.0).abs() > 1e-6) {

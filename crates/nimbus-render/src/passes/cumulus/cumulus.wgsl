@@ -38,7 +38,8 @@ struct CumulusTransferVertex {
 struct CumulusInstance {
     // World position of the variant's origin (its base centre), m, and scale.
     @location(6) offset_scale: vec4<f32>,
-    // cos yaw, sin yaw, noise offset, unused.
+    // cos yaw, sin yaw, noise offset, fade (1: the in-cloud march draws
+    // the instance, in_cloud.wgsl).
     @location(7) rotation_noise: vec4<f32>,
     // Mean radii of the lower levels, object-space m, and the bump's first
     // wavelength, object-space m.
@@ -64,6 +65,8 @@ struct CumulusVarying {
     @location(9) transfer_c_b: vec4<f32>,
     @location(10) transfer_diagonal_xy: vec4<f32>,
     @location(11) transfer_yz_xz: vec4<f32>,
+    // How far the in-cloud march has taken the instance over (0 none).
+    @location(12) fade: f32,
 }
 
 fn cumulus_rotate(v: vec3<f32>, c: f32, s: f32) -> vec3<f32> {
@@ -88,6 +91,7 @@ fn cumulus_varying(v: CumulusVertex, i: CumulusInstance) -> CumulusVarying {
     out.transfer_c_b = vec4<f32>(0.0);
     out.transfer_diagonal_xy = vec4<f32>(0.0);
     out.transfer_yz_xz = vec4<f32>(0.0);
+    out.fade = i.rotation_noise.w;
     return out;
 }
 

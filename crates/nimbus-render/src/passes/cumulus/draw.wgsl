@@ -81,7 +81,8 @@ fn cumulus_evaluate(in: CumulusVarying) -> CumulusShaded {
     }
     var out: CumulusShaded;
     out.radiance = to_target(stratus_apply_aerial_perspective(radiance, in.world_m)).rgb;
-    out.opacity = cumulus_opacity(terms);
+    // An instance the in-cloud march takes over fades out (in_cloud.wgsl).
+    out.opacity = cumulus_opacity(terms) * (1.0 - in.fade);
     return out;
 }
 

@@ -141,7 +141,8 @@ pub struct CloudPlacement {
 pub struct CumulusInstance {
     /// World position of the variant's origin (base centre), m; scale.
     pub offset_scale: [f32; 4],
-    /// cos yaw, sin yaw, noise offset, unused.
+    /// cos yaw, sin yaw, noise offset, and the mesh's fade as the in-cloud
+    /// march takes the instance over (0 in the field's own data).
     pub rotation_noise: [f32; 4],
     /// Lower levels' mean radii and the bump's first wavelength, object m.
     pub radii_wavelength: [f32; 4],

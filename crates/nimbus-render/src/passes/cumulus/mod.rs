@@ -19,7 +19,11 @@
 //!    popping, between clouds or within one.
 //! 5. After the stratus layer (which is depth-tested against the bodies),
 //!    `cumulus_composite` blends the fringes over the frame.
+//! 6. Only with the camera in or near a cloud ([`in_cloud`]): that cloud
+//!    marched as a volume over everything, its mesh faded out.
 
+pub mod in_cloud;
+pub mod interior;
 pub mod transfer;
 pub mod variants;
 
@@ -132,6 +136,7 @@ pub use field::{
 pub use gpu_types::{
     BUMP_LACUNARITY, CloudPlacement, CumulusInstance, CumulusUniform, PHASE_TEXELS,
 };
+pub use in_cloud::{InCloudUniform, in_cloud_shader_source};
 /// Level of detail drawn into the shadow map (clamped to what exists): its
 /// cells (a last-level blob radius) match the map's texels of ~10 m.
 const SHADOW_LOD: usize = 1;
@@ -264,6 +269,8 @@ pub struct CumulusPass {
     shadow_content: Option<shadow::ShadowContent>,
     /// This frame's encode draws the map (its content changed).
     shadow_redraw: bool,
+    /// The camera inside a cloud.
+    in_cloud: in_cloud::InCloud,
     /// An encode has recorded the drawing of [`Self::shadow_content`]; until
     /// then a frame whose clouds match it still draws it. Atomic: encoding
     /// takes `&self`.

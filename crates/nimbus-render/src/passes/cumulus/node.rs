@@ -154,6 +154,34 @@ impl CumulusPass {
         self.record(&mut pass, &self.draws);
     }
 
+    /// Whether the camera is in or near a cloud this frame (the in-cloud
+    /// passes run).
+    pub fn in_cloud_active(&self) -> bool {
+        self.in_cloud.active().is_some()
+    }
+
+    /// Records the in-cloud passes (see [`super::in_cloud`]): the active
+    /// instance's light, then its march over `hdr`, reading `depth`.
+    pub fn encode_in_cloud(
+        &self,
+        encoder: &mut wgpu::CommandEncoder,
+        hdr: &wgpu::TextureView,
+        depth: &wgpu::TextureView,
+        frame: &FrameBindings<'_>,
+        light_timestamps: Option<wgpu::RenderPassTimestampWrites<'_>>,
+        march_timestamps: Option<wgpu::RenderPassTimestampWrites<'_>>,
+    ) {
+        self.in_cloud.encode(
+            encoder,
+            hdr,
+            depth,
+            frame,
+            &self.uniform,
+            light_timestamps,
+            march_timestamps,
+        );
+    }
+
     /// Records the fringes' composite into a pass on the HDR target.
     pub fn draw_composite(&self, pass: &mut wgpu::RenderPass<'_>) {
         let Some(fringe) = &self.fringe else { return };

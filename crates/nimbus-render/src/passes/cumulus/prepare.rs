@@ -11,6 +11,7 @@ use super::{
     CumulusError, CumulusPass, Draw, DropletTables, FieldCloud, FieldKey, GpuLod, GpuVariant,
     PHASE_TEXELS, SHADOW_FILTER_TEXELS, SHADOW_LOD, TransferKey, transfer, variants,
 };
+use super::{in_cloud, interior};
 use crate::core::background::Precompute;
 use crate::frame::FrameUniform;
 use crate::frame::cloud_lighting::{load_optics, optics_params};
@@ -117,6 +118,7 @@ impl CumulusPass {
             self.shapes.pending(),
             self.forward_peak.pending(),
             self.transfers.pending(),
+            self.in_cloud.pending(),
         ]
         .into_iter()
         .flatten()
@@ -128,6 +130,7 @@ impl CumulusPass {
         self.shapes.wait();
         self.forward_peak.wait();
         self.transfers.wait();
+        self.in_cloud.wait();
     }
 
     /// Requests (on a worker thread under [`Precompute::Background`]) the
@@ -245,6 +248,7 @@ impl CumulusPass {
     ) -> Result<(), CumulusError> {
         self.draws.clear();
         self.shadow_draws.clear();
+        self.in_cloud.clear();
         let Some(settings) = &scene.cumulus else {
             self.disable(queue, shadow_map);
             return Ok(());
@@ -259,8 +263,9 @@ impl CumulusPass {
             })
             .cloned();
         let transport = settings.shading.model == CumulusShadingModel::Transport;
-        let peak_ready = (settings.shading.forward_peak <= 0.0 && !transport)
-            || self.update_forward_peak(queue, scene, precompute);
+        // The droplets' tables are needed by the forward peak, the transport
+        // model and the in-cloud march (its phase function and δ-M factor).
+        let peak_ready = self.update_forward_peak(queue, scene, precompute);
         let shapes = match shapes {
             Some(shapes) => shapes?,
             None => {
@@ -384,12 +389,51 @@ impl CumulusPass {
             return Ok(());
         };
         queue.write_buffer(&self.uniform, 0, bytemuck::bytes_of(&uniform));
+        // The camera in or near a cloud: the march takes it over.
+        if !clouds.is_empty() {
+            let optics = droplet_params(scene);
+            let round = |s: f64| (s * 1000.0).round() / 1000.0;
+            let (lo, hi) = clouds.iter().fold((f64::MAX, 0.0f64), |(lo, hi), c| {
+                let s = f64::from(c.instance.offset_scale[3]);
+                (lo.min(s), hi.max(s))
+            });
+            let key = in_cloud::InteriorKey {
+                params: interior::InteriorParams {
+                    variants: params.clone(),
+                    density_per_m: settings.shading.density_per_m,
+                    corona_thickness_m: settings.shading.corona_thickness_m,
+                    scales: [round(lo), round(hi)],
+                    optics_hash: optics.cache_hash(),
+                },
+                optics,
+            };
+            let shapes: Vec<Arc<CumulusVariant>> =
+                variants.iter().map(|v| v.shape.clone()).collect();
+            self.in_cloud.prepare(
+                queue,
+                DVec3::from_array(frame.camera_position_m.map(f64::from)),
+                clouds,
+                &shapes,
+                key,
+                self.transport_truncation,
+                precompute,
+            )?;
+        }
+        let active = self.in_cloud.active();
 
         // Instances: the camera's (culled, by level of detail), then the shadow's (all).
         let clip_from_world = frame.clip_from_world();
         let camera = Vec3::from_array(frame.camera_position_m);
         let mut camera_list: Vec<(usize, usize, CumulusInstance)> = Vec::new();
-        for cloud in clouds {
+        for (index, cloud) in clouds.iter().enumerate() {
+            let mut instance = cloud.instance;
+            if let Some(a) = active.filter(|a| a.cloud == index) {
+                // Drawn by the march alone once it has fully taken over.
+                if a.fade >= 1.0 {
+                    continue;
+                }
+                instance.rotation_noise[3] = a.fade;
+            }
             if !sphere_in_frustum(
                 &clip_from_world,
                 cloud.centre_m.as_vec3(),
@@ -404,7 +448,7 @@ impl CumulusPass {
                 f64::from(frame.pixel_angle_rad),
                 variants[cloud.variant].lods.len(),
             );
-            camera_list.push((cloud.variant, lod, cloud.instance));
+            camera_list.push((cloud.variant, lod, instance));
         }
         camera_list.sort_by_key(|(v, l, _)| (*v, *l));
         let mut data: Vec<CumulusInstance> = Vec::with_capacity(camera_list.len() + clouds.len());

@@ -1,6 +1,7 @@
 //! The cumulus pass's pipelines and layouts, created once.
 
 use super::gpu_types::{CumulusUniform, draw_vertex_layouts, vertex_layouts};
+use super::in_cloud::InCloud;
 use super::node::{ACCUMULATION_FORMAT, REVEALAGE_FORMAT};
 use super::{
     CumulusPass, FORWARD_PEAK_TEXTURE, PHASE_TEXTURE, composite_shader_source, draw_shader_source,
@@ -51,6 +52,13 @@ impl CumulusPass {
         // (zero: no forward peak until then).
         let forward_peak_table = device.create_texture(&FORWARD_PEAK_TEXTURE);
         let phase_table = device.create_texture(&PHASE_TEXTURE);
+        let in_cloud = InCloud::new(
+            device,
+            frame,
+            uniform_size,
+            forward_peak_table.create_view(&Default::default()),
+            phase_table.create_view(&Default::default()),
+        );
         let group = device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("cumulus"),
             layout: &group_layout,
@@ -233,6 +241,7 @@ impl CumulusPass {
             shadow_content: None,
             shadow_redraw: false,
             shadow_drawn: AtomicBool::new(false),
+            in_cloud,
         }
     }
 }

@@ -113,7 +113,8 @@ fn layer_fragment(in: LayerVarying) -> @location(0) vec4<f32> {
     if (h <= 0.05) {
         discard;
     }
-    return shade_layer(in.position_m, in.face, h, false);
+    // Faded out as the in-layer march takes over (in_layer.wgsl).
+    return shade_layer(in.position_m, in.face, h, false) * (1.0 - stratus.slab_r_beta.z);
 }
 
 // A camera level with the layer sees the cells' sides, mostly near their
@@ -159,7 +160,8 @@ fn level_fragment(in: FullscreenOutput) -> LevelOutput {
     // field there may be thinner, but discarding would open the band again.
     let h = max(layer_thickness_m(stratus, position_m.xz), max(2.0 * abs(position_m.y - mid), 1.0));
     var out: LevelOutput;
-    out.color = shade_layer(position_m, face, h, true);
+    // Faded out as the in-layer march takes over (in_layer.wgsl).
+    out.color = shade_layer(position_m, face, h, true) * (1.0 - stratus.slab_r_beta.z);
     let clip = frame.clip_from_world * vec4<f32>(position_m, 1.0);
     out.depth = clamp(clip.z / clip.w, 0.0, 1.0);
     return out;

@@ -17,6 +17,11 @@
 //!    camera sees, shaded per pixel by the analytic slab model (single,
 //!    double, 3+ scattering, the forward peak, sky and ground light) and
 //!    blended with alpha 1 − τ(H_v).
+//! 5. `stratus_in_layer` (only with the camera inside a cell, or within
+//!    [`IN_LAYER_HANDOVER_M`] of its top or base): the layer marched from
+//!    the camera as the volume it stands for, lit by its cells' diffusion
+//!    light ([`nimbus_physics::transport::diffusion`]), over everything;
+//!    the faces (or the level view) fade out as the march takes over.
 //!
 //! The phase tables (P_S, P², P_F per RGB channel) come from
 //! [`nimbus_physics::optics::tables::CloudOpticsTables`], computed from the scene's droplet distribution and
@@ -38,6 +43,10 @@ const LAYER_WGSL: WgslFile = WgslFile {
     name: "passes/stratus/layer.wgsl",
     source: include_str!("layer.wgsl"),
 };
+const IN_LAYER_WGSL: WgslFile = WgslFile {
+    name: "passes/stratus/in_layer.wgsl",
+    source: include_str!("in_layer.wgsl"),
+};
 const COMPUTE_WGSL: WgslFile = WgslFile {
     name: "passes/stratus/compute.wgsl",
     source: include_str!("compute.wgsl"),
@@ -51,6 +60,16 @@ pub const DRAWING_LIBRARIES: [WgslFile; 2] = [FIELD, LOOKUP];
 pub fn layer_shader_source() -> String {
     shader::compose(&[LAYER_WGSL])
 }
+
+/// The composed WGSL of the in-layer march.
+pub fn in_layer_shader_source() -> String {
+    shader::compose(&[IN_LAYER_WGSL])
+}
+
+/// Distance from a cell's top or base over which the layer's faces hand
+/// over to the in-layer march, m: the march's weight rises from 0 that far
+/// above the top (below the base) of the cell over the camera to 1 on it.
+pub const IN_LAYER_HANDOVER_M: f64 = 100.0;
 
 /// The composed WGSL of the pass's compute shaders.
 pub fn compute_shader_source() -> String {
@@ -113,6 +132,15 @@ pub struct StratusPass {
     layer_pipeline: wgpu::RenderPipeline,
     /// The layer seen by a camera level with it (full screen, marched).
     level_pipeline: wgpu::RenderPipeline,
+    /// The same without writing the entry's depth (while the in-layer
+    /// march fades in).
+    level_blend_pipeline: wgpu::RenderPipeline,
+    /// The layer marched from a camera in (or near) a cell.
+    in_layer_pipeline: wgpu::RenderPipeline,
+    in_layer_layout: wgpu::BindGroupLayout,
+    /// Group 1 of the march (the depth it reads), per depth view.
+    in_layer_groups: crate::core::binding::PerViewGroups<wgpu::BindGroup>,
+    device: wgpu::Device,
     resources: Option<Resources>,
     /// The scene's layer, when it has one.
     settings: Option<StratusSettings>,
@@ -120,6 +148,9 @@ pub struct StratusPass {
     current: StratusUniform,
     /// The camera's height this frame, m.
     camera_height_m: f64,
+    /// The in-layer march's weight this frame (0: not drawn, 1: the faces
+    /// not drawn).
+    in_layer_weight: f32,
     /// The layer's droplet optics (Mie tables; seconds when not cached).
     optics_tables: Deferred<CloudOpticsParams, Arc<CloudOpticsTables>>,
 }

@@ -30,15 +30,74 @@ impl StratusPass {
         let (Some(resources), Some(_)) = (&self.resources, &self.settings) else {
             return;
         };
+        // The march alone draws the layer from inside a cell.
+        if self.in_layer_weight >= 1.0 {
+            return;
+        }
         frame.set_on(pass, None);
         if self.camera_is_level() {
-            // Tops and bases edge-on: each pixel marches to the layer.
-            pass.set_pipeline(&self.level_pipeline);
+            // Tops and bases edge-on: each pixel marches to the layer. While
+            // the in-layer march fades in, the entry's depth is not written
+            // (the march would stop at it).
+            let pipeline = if self.in_layer_weight > 0.0 {
+                &self.level_blend_pipeline
+            } else {
+                &self.level_pipeline
+            };
+            pass.set_pipeline(pipeline);
             pass.draw(0..3, 0..1);
         } else {
             pass.set_pipeline(&self.layer_pipeline);
             pass.set_index_buffer(resources.indices.slice(..), wgpu::IndexFormat::Uint32);
             pass.draw_indexed(0..resources.index_count, 0, 0..1);
         }
+    }
+
+    /// Whether the in-layer march runs this frame.
+    pub fn in_layer_active(&self) -> bool {
+        self.settings.is_some() && self.resources.is_some() && self.in_layer_weight > 0.0
+    }
+
+    /// Records the in-layer march over `hdr` (its own pass), reading `depth`.
+    pub fn encode_in_layer(
+        &self,
+        encoder: &mut wgpu::CommandEncoder,
+        hdr: &wgpu::TextureView,
+        depth: &wgpu::TextureView,
+        frame: &FrameBindings<'_>,
+        timestamp_writes: Option<wgpu::RenderPassTimestampWrites<'_>>,
+    ) {
+        if !self.in_layer_active() {
+            return;
+        }
+        let group = self.in_layer_groups.get(depth, || {
+            self.device.create_bind_group(&wgpu::BindGroupDescriptor {
+                label: Some("stratus in-layer"),
+                layout: &self.in_layer_layout,
+                entries: &[wgpu::BindGroupEntry {
+                    binding: 0,
+                    resource: wgpu::BindingResource::TextureView(depth),
+                }],
+            })
+        });
+        let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+            label: Some("stratus in-layer"),
+            color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+                view: hdr,
+                depth_slice: None,
+                resolve_target: None,
+                ops: wgpu::Operations {
+                    load: wgpu::LoadOp::Load,
+                    store: wgpu::StoreOp::Store,
+                },
+            })],
+            depth_stencil_attachment: None,
+            timestamp_writes,
+            occlusion_query_set: None,
+            multiview_mask: None,
+        });
+        pass.set_pipeline(&self.in_layer_pipeline);
+        frame.set_on(&mut pass, Some(&group));
+        pass.draw(0..3, 0..1);
     }
 }

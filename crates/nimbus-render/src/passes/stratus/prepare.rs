@@ -2,8 +2,8 @@
 
 use super::optics::{forward_peak_mean_square_rad2, load_optics, optics_params};
 use super::{
-    FORWARD_PEAK_DEG, PEAK_TEXELS, PHASE_TEXELS, RadiosityGrid, ResourceKey, Resources,
-    StratusError, StratusPass, StratusUniform, cloud_layer_field,
+    FORWARD_PEAK_DEG, IN_LAYER_HANDOVER_M, PEAK_TEXELS, PHASE_TEXELS, RadiosityGrid, ResourceKey,
+    Resources, StratusError, StratusPass, StratusUniform, cloud_layer_field,
 };
 use crate::core::background::Precompute;
 use crate::frame::cloud_lighting::{CloudLayerResources, CloudLighting};
@@ -46,6 +46,13 @@ impl StratusPass {
         (self.camera_height_m - mid).abs() <= reach
     }
 
+    /// The in-layer march's weight this frame: 1 with the camera inside a
+    /// cell, falling (smoothstep) to 0 at [`IN_LAYER_HANDOVER_M`] above its
+    /// top or below its base; 0 without a layer.
+    pub fn in_layer_weight(&self) -> f32 {
+        self.in_layer_weight
+    }
+
     /// Whether the scene has a layer to draw (and what it needs is ready).
     pub fn enabled(&self) -> bool {
         self.settings.is_some()
@@ -82,6 +89,7 @@ impl StratusPass {
         precompute: Precompute,
     ) -> Result<(), StratusError> {
         self.camera_height_m = scene.camera.position_m[1];
+        self.in_layer_weight = 0.0;
         let tables = scene
             .stratus
             .as_ref()
@@ -144,7 +152,19 @@ impl StratusPass {
             return Ok(());
         };
         let field = cloud_layer_field(scene, &settings);
+        // The camera's distance outside the cell over it (the layer spans
+        // |y − y_mid| < h(x, z)/2, h the field's fine thickness); in a thin
+        // part of a cell, its thinness (at a cell's rim h → 0: the camera
+        // passing from a gap into a cell at the mid-plane is then outside by
+        // the handover distance, and the weight grows with h, not at once).
         let drift = scene.cloud_drift_m(f64::from(time_s));
+        let camera = scene.camera.position_m;
+        let h_m = field.thickness_with_drift_m(camera[0], camera[2], drift, f64::from(time_s));
+        let outside_m = ((camera[1] - mid_plane_m).abs() - 0.5 * h_m)
+            .max(IN_LAYER_HANDOVER_M - h_m)
+            .max(0.0);
+        let x = (1.0 - outside_m / IN_LAYER_HANDOVER_M).clamp(0.0, 1.0);
+        self.in_layer_weight = (x * x * (3.0 - 2.0 * x)) as f32;
         let (threshold, ramp) = field.threshold_and_ramp();
         // Window: `extent_m` square around the camera, its corner snapped to
         // whole texels so that the grid does not swim as the camera moves.
@@ -194,7 +214,7 @@ impl StratusPass {
             forward_fraction: [forward[0], forward[1], forward[2], 0.0],
             forward_spread: [spread[0], spread[1], spread[2], 0.0],
             slab: [p.b as f32, p.c as f32, p.kappa_c as f32, p.t as f32],
-            slab_r_beta: [p.r as f32, beta as f32, 0.0, 0.0],
+            slab_r_beta: [p.r as f32, beta as f32, self.in_layer_weight, 0.0],
             radiosity: [
                 origin[0] as f32,
                 origin[1] as f32,

@@ -1,6 +1,8 @@
 //! The stratus pass's layouts and pipelines, created once.
 
-use super::{StratusPass, StratusUniform, compute_shader_source, layer_shader_source};
+use super::{
+    StratusPass, StratusUniform, compute_shader_source, in_layer_shader_source, layer_shader_source,
+};
 use crate::core::background::Deferred;
 use crate::core::binding;
 use crate::core::pipeline::{DrawPipeline, PREMULTIPLIED_OVER, depth_state, hdr_target};
@@ -67,7 +69,7 @@ impl StratusPass {
         let layer_module = shader::create_module(device, "stratus layer", &layer_shader_source());
         let layer_layout = frame.pipeline_layout(device, "stratus layer", None);
         // Blended over what is behind it, depth-tested but not written.
-        let draw_pipeline = |label, vertex_entry, fragment_entry| {
+        let draw_pipeline = |label, vertex_entry, fragment_entry, write| {
             DrawPipeline {
                 label,
                 layout: &layer_layout,
@@ -76,19 +78,54 @@ impl StratusPass {
                 fragment_entry: Some(fragment_entry),
                 vertex_buffers: &[],
                 cull_mode: None,
-                depth: Some(depth_state(false, wgpu::CompareFunction::Greater)),
+                depth: Some(depth_state(write, wgpu::CompareFunction::Greater)),
                 targets: &hdr_target(Some(PREMULTIPLIED_OVER)),
             }
             .create(device)
         };
-        let layer_pipeline = draw_pipeline("stratus layer", "layer_vertex", "layer_fragment");
+        let layer_pipeline =
+            draw_pipeline("stratus layer", "layer_vertex", "layer_fragment", false);
         // The camera level with the layer: a full-screen triangle whose
-        // fragments march to the layer and write the entry's depth.
+        // fragments march to the layer and write the entry's depth (or not,
+        // while the in-layer march fades in).
         let level_pipeline = draw_pipeline(
             "stratus layer (level)",
             "fullscreen_vertex",
             "level_fragment",
+            true,
         );
+        let level_blend_pipeline = draw_pipeline(
+            "stratus layer (level, blended)",
+            "fullscreen_vertex",
+            "level_fragment",
+            false,
+        );
+        // The camera in the layer: a full-screen march over everything,
+        // reading the depth (no depth attachment).
+        let in_layer_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("stratus in-layer"),
+            entries: &[crate::core::binding::depth_texture_entry(
+                0,
+                wgpu::TextureViewDimension::D2,
+                wgpu::ShaderStages::FRAGMENT,
+            )],
+        });
+        let in_layer_module =
+            shader::create_module(device, "stratus in-layer", &in_layer_shader_source());
+        let in_layer_pipeline_layout =
+            frame.pipeline_layout(device, "stratus in-layer", Some(&in_layer_layout));
+        let in_layer_pipeline = DrawPipeline {
+            label: "stratus in-layer",
+            layout: &in_layer_pipeline_layout,
+            module: &in_layer_module,
+            vertex_entry: "fullscreen_vertex",
+            fragment_entry: Some("in_layer_fragment"),
+            vertex_buffers: &[],
+            cull_mode: None,
+            depth: None,
+            targets: &hdr_target(Some(PREMULTIPLIED_OVER)),
+        }
+        .create(device);
         Self {
             uniform: cloud_lighting.layer_uniform_buffer().clone(),
             compute_layout,
@@ -96,10 +133,16 @@ impl StratusPass {
             inputs_pipeline,
             layer_pipeline,
             level_pipeline,
+            level_blend_pipeline,
+            in_layer_pipeline,
+            in_layer_layout,
+            in_layer_groups: Default::default(),
+            device: device.clone(),
             resources: None,
             settings: None,
             current: StratusUniform::default(),
             camera_height_m: 0.0,
+            in_layer_weight: 0.0,
             optics_tables: Deferred::new("stratus optics"),
         }
     }

@@ -1,0 +1,253 @@
+// import passes/cumulus/cumulus.wgsl
+// import shader/cloud_shadow_lookup.wgsl
+// import shader/fullscreen.wgsl
+// The view from inside a cumulus (or near enough that its mesh hands over):
+// the cloud as the participating medium the mesh stands for, marched from
+// the camera through the variant's extinction (the same grid the path-traced
+// references render, δ-M scaled) to the first opaque surface or out of the
+// cloud's box, lit by the transport model's light: the scattered light
+// inside, precomputed per shape (nimbus_physics::cumulus::interior), and the
+// sun's single scattering through the peak-removed phase function with the
+// shadow map's direct transmittance. Twin of
+// nimbus_physics::cumulus::interior::march_fog. Drawn over everything
+// (premultiplied: dst·(1 − fade·(1 − T)) + fade·L).
+
+struct InCloud {
+    // World position of the variant's origin, m, and the cloud's scale.
+    offset_scale: vec4<f32>,
+    // cos yaw, sin yaw, the march's weight (the mesh's fade), steps.
+    rotation: vec4<f32>,
+    // The extinction's box in the object frame (min xyz, m) and δ-M's 1 − f.
+    extinction_min: vec4<f32>,
+    // Its size (m) and the light's weight between its two scales.
+    extinction_size: vec4<f32>,
+    // The light's box in the object frame (min xyz, m), unused.
+    light_min: vec4<f32>,
+    // Its size, m, unused.
+    light_size: vec4<f32>,
+    // The light's cells along x, y, z, unused.
+    light_dims: vec4<u32>,
+}
+
+@group(1) @binding(3) var<uniform> in_cloud: InCloud;
+// σ_t (before δ-M), m⁻¹, over the extinction's box.
+@group(1) @binding(4) var in_cloud_extinction: texture_3d<f32>;
+// The light's cells as an atlas of z slices stacked in y: rgb the sky's
+// scattered fluence Σ Φ_k L_k (W m⁻², pre-exposure not applied), a the
+// sun's per unit irradiance Σ Φ_k Y_k(l).
+@group(1) @binding(5) var in_cloud_light: texture_2d<f32>;
+@group(1) @binding(6) var in_cloud_sampler: sampler;
+@group(1) @binding(7) var in_cloud_depth: texture_depth_2d;
+// The light pass's input: per cell, the quadratic forms at the two scales
+// (six vec4, interior.rs VariantInterior::light_forms).
+@group(1) @binding(8) var<storage, read> in_cloud_forms: array<vec4<f32>>;
+
+const IN_CLOUD_SHADOW_SEGMENTS: u32 = 4u;
+
+// The object frame's point of a world point (inverse of cumulus_varying's).
+fn in_cloud_object(world_m: vec3<f32>) -> vec3<f32> {
+    let d = world_m - in_cloud.offset_scale.xyz;
+    let c = in_cloud.rotation.x;
+    let s = in_cloud.rotation.y;
+    return vec3<f32>(c * d.x - s * d.z, d.y, s * d.x + c * d.z) / in_cloud.offset_scale.w;
+}
+
+// σ* = (1 − f) σ at an object point, m⁻¹ (world metres: the cloud at scale
+// s is the unscaled shape with the same α_ρ, as the references scale it).
+fn in_cloud_sigma(object_m: vec3<f32>) -> f32 {
+    let uvw = (object_m - in_cloud.extinction_min.xyz) / in_cloud.extinction_size.xyz;
+    if (any(uvw < vec3<f32>(0.0)) || any(uvw > vec3<f32>(1.0))) {
+        return 0.0;
+    }
+    return textureSampleLevel(in_cloud_extinction, in_cloud_sampler, uvw, 0.0).r * in_cloud.extinction_min.w;
+}
+
+// The light at an object point: trilinear between cell centres, clamped to
+// the edge cells (two bilinear lookups of the atlas's slices).
+fn in_cloud_light_at(object_m: vec3<f32>) -> vec4<f32> {
+    let dims = vec3<f32>(in_cloud.light_dims.xyz);
+    let u = (object_m - in_cloud.light_min.xyz) / in_cloud.light_size.xyz * dims;
+    let z = clamp(u.z - 0.5, 0.0, dims.z - 1.0);
+    let k0 = floor(z);
+    let k1 = min(k0 + 1.0, dims.z - 1.0);
+    let x = clamp(u.x, 0.5, dims.x - 0.5) / dims.x;
+    let y = clamp(u.y, 0.5, dims.y - 0.5);
+    let height = dims.y * dims.z;
+    let a = textureSampleLevel(in_cloud_light, in_cloud_sampler, vec2<f32>(x, (y + k0 * dims.y) / height), 0.0);
+    let b = textureSampleLevel(in_cloud_light, in_cloud_sampler, vec2<f32>(x, (y + k1 * dims.y) / height), 0.0);
+    return mix(a, b, z - k0);
+}
+
+// The sun's irradiance at a world point above any layer (rgb) and the
+// direct beam's transmittance there through the shadow map's cores
+// (cumulus_direct_transmittance) and the stratus layer (a).
+fn in_cloud_sun(world_m: vec3<f32>) -> vec4<f32> {
+    var direct = 1.0;
+    if (cumulus_term_on(CUMULUS_SHADOW)) {
+        // The two-stream diffuse transmittance T_d = 1/(1 + ¾(1 − g) σ Δ)
+        // the map gives, as the direct beam's e^{−σ* Δ} (draw.wgsl's
+        // cumulus_direct_transmittance, with this pass's 1 − f).
+        let diffuse = cloud_shadow_transmittance(world_m);
+        let optical_depth = (1.0 / max(diffuse, 1e-6) - 1.0) / (0.75 * (1.0 - cloud_shadow.params.z));
+        direct = exp(-optical_depth * in_cloud.extinction_min.w);
+    }
+    return vec4<f32>(PI * cumulus_sun_radiance(world_m.y), direct * stratus_sun_transmittance(world_m).g);
+}
+
+// The world point of an object point (cumulus_varying's transform).
+fn in_cloud_world(object_m: vec3<f32>) -> vec3<f32> {
+    return in_cloud.offset_scale.xyz + cumulus_rotate(object_m * in_cloud.offset_scale.w, in_cloud.rotation.x, in_cloud.rotation.y);
+}
+
+// The stratus layer's shadow on the sunlight that the cloud scatters many
+// times: the mean of its transmittance over five points of the box's top.
+// That light has spread over hundreds of metres (the transport mean free
+// path is ~90 m): the layer's shadow at each point of the ray drew its
+// cells' sharp shafts as dark columns through the fog.
+fn in_cloud_layer_shadow() -> vec3<f32> {
+    let lo = in_cloud.extinction_min.xyz;
+    let size = in_cloud.extinction_size.xyz;
+    let top = vec3<f32>(lo.x + 0.5 * size.x, lo.y + size.y, lo.z + 0.5 * size.z);
+    var sum = stratus_sun_transmittance(in_cloud_world(top));
+    for (var k = 0u; k < 4u; k += 1u) {
+        let sx = select(-0.25, 0.25, (k & 1u) != 0u);
+        let sz = select(-0.25, 0.25, (k & 2u) != 0u);
+        sum += stratus_sun_transmittance(in_cloud_world(top + vec3<f32>(sx * size.x, 0.0, sz * size.z)));
+    }
+    return 0.2 * sum;
+}
+
+// The light pass: one fragment per cell of the atlas, the forms at the
+// cloud's scale turned to the world (b → R b, A → R A Rᵀ) and integrated
+// against the sun and the sky.
+@fragment
+fn in_cloud_light_fragment(in: FullscreenOutput) -> @location(0) vec4<f32> {
+    let dims = in_cloud.light_dims;
+    let texel = vec2<u32>(in.position.xy);
+    let cell = (texel.y / dims.y) * dims.y * dims.x + (texel.y % dims.y) * dims.x + texel.x;
+    let w = in_cloud.extinction_size.w;
+    let c_b = mix(in_cloud_forms[6u * cell], in_cloud_forms[6u * cell + 3u], w);
+    let d = mix(in_cloud_forms[6u * cell + 1u], in_cloud_forms[6u * cell + 4u], w);
+    let o = mix(in_cloud_forms[6u * cell + 2u], in_cloud_forms[6u * cell + 5u], w);
+    let c = in_cloud.rotation.x;
+    let s = in_cloud.rotation.y;
+    let r = mat3x3<f32>(vec3<f32>(c, 0.0, -s), vec3<f32>(0.0, 1.0, 0.0), vec3<f32>(s, 0.0, c));
+    let a = mat3x3<f32>(vec3<f32>(d.x, d.w, o.y), vec3<f32>(d.w, d.y, o.x), vec3<f32>(o.y, o.x, d.z));
+    let turned = r * a * transpose(r);
+    var f: CumulusTransfer;
+    f.c_b = vec4<f32>(c_b.x, r * c_b.yzw);
+    f.diagonal_xy = vec4<f32>(turned[0][0], turned[1][1], turned[2][2], turned[1][0]);
+    f.yz_xz = vec4<f32>(turned[2][1], turned[2][0], 0.0, 0.0);
+    let environment = max(cumulus_transfer_environment(f, lighting), vec3<f32>(0.0));
+    let sun = max(cumulus_transfer_value(f, frame.sun_direction), 0.0);
+    return vec4<f32>(environment, sun);
+}
+
+struct InCloudMarch {
+    // Pre-exposure not applied.
+    radiance: vec3<f32>,
+    transmittance: f32,
+    // The point of the ray where its light was scattered, on average (for
+    // the air in front of it), m.
+    mean_m: vec3<f32>,
+}
+
+// Steps at t_i = t₀ + (t₁ − t₀)(i/N)²: fine near the camera, where the
+// cloud's edge is crossed, long far away.
+fn in_cloud_march(origin_m: vec3<f32>, direction: vec3<f32>, t0: f32, t1: f32) -> InCloudMarch {
+    let steps = u32(in_cloud.rotation.w);
+    let l = frame.sun_direction;
+    let phase = cumulus_phase(dot(direction, l));
+    // Under a stratus layer the light from above is the layer's radiosity,
+    // not the clear sky's: the fluence keeps its size relative to the
+    // clear sky's irradiance on a level surface and takes the layer's
+    // colour (a ratio per channel, as the mesh's shading scales its
+    // transfer, turned the fluence's share of ground light brown).
+    let up = vec3<f32>(0.0, 1.0, 0.0);
+    let clear = sh_irradiance(lighting, up);
+    let under = stratus_ground_irradiance(origin_m + direction * t0, up, clear);
+    let layered = any(under != clear);
+    let luma = vec3<f32>(0.2126, 0.7152, 0.0722);
+    let layer_scale = under / max(dot(clear, luma), 1e-6);
+    let layer_shadow = in_cloud_layer_shadow();
+    // Evaluated at the middles of four quarters of the ray and held over
+    // each (texture lookups in the loop are what costs on llvmpipe; the
+    // shadow varies over the map's ~10 m texels, the layer's over cells).
+    var sun_segments: array<vec4<f32>, IN_CLOUD_SHADOW_SEGMENTS>;
+    for (var k = 0u; k < IN_CLOUD_SHADOW_SEGMENTS; k += 1u) {
+        let f = (f32(k) + 0.5) / f32(IN_CLOUD_SHADOW_SEGMENTS);
+        sun_segments[k] = in_cloud_sun(origin_m + direction * (t0 + (t1 - t0) * f * f));
+    }
+    var out: InCloudMarch;
+    out.radiance = vec3<f32>(0.0);
+    out.transmittance = 1.0;
+    var weighted = vec3<f32>(0.0);
+    var weight = 0.0;
+    let span = t1 - t0;
+    for (var i = 0u; i < steps; i += 1u) {
+        let a = f32(i) / f32(steps);
+        let b = f32(i + 1u) / f32(steps);
+        let dt = span * (b * b - a * a);
+        let t = t0 + span * 0.5 * (a * a + b * b);
+        let p = origin_m + direction * t;
+        let object = in_cloud_object(p);
+        let sigma = in_cloud_sigma(object);
+        if (sigma <= 0.0) {
+            continue;
+        }
+        let light = in_cloud_light_at(object);
+        let sun = sun_segments[min(i * IN_CLOUD_SHADOW_SEGMENTS / steps, IN_CLOUD_SHADOW_SEGMENTS - 1u)];
+        var environment = light.rgb;
+        if (layered) {
+            environment = layer_scale * dot(light.rgb, luma);
+        }
+        let source = phase * sun.rgb * sun.a + (sun.rgb * layer_shadow * light.a + environment) / (4.0 * PI);
+        let opacity = 1.0 - exp(-sigma * dt);
+        let scattered = out.transmittance * opacity;
+        out.radiance += scattered * source;
+        weighted += scattered * p;
+        weight += scattered;
+        out.transmittance *= 1.0 - opacity;
+    }
+    out.mean_m = select(origin_m, weighted / max(weight, 1e-6), weight > 0.0);
+    return out;
+}
+
+// Where a ray (object frame) enters and leaves the extinction's box.
+fn in_cloud_box(origin: vec3<f32>, direction: vec3<f32>) -> vec2<f32> {
+    let inverse = 1.0 / direction;
+    let a = (in_cloud.extinction_min.xyz - origin) * inverse;
+    let b = (in_cloud.extinction_min.xyz + in_cloud.extinction_size.xyz - origin) * inverse;
+    let near = max(max(min(a.x, b.x), min(a.y, b.y)), min(a.z, b.z));
+    let far = min(min(max(a.x, b.x), max(a.y, b.y)), max(a.z, b.z));
+    return vec2<f32>(max(near, 0.0), far);
+}
+
+@fragment
+fn in_cloud_fragment(in: FullscreenOutput) -> @location(0) vec4<f32> {
+    let direction = view_ray_world(in.clip_xy);
+    let origin = view_ray_origin_world(in.clip_xy);
+    let depth = textureLoad(in_cloud_depth, vec2<i32>(in.position.xy), 0);
+    var end_m = 1e9;
+    if (depth > 0.0) {
+        end_m = length(world_at_depth(in.clip_xy, depth) - origin);
+    }
+    // The ray in the object frame, parametrised by world metres.
+    let c = in_cloud.rotation.x;
+    let s = in_cloud.rotation.y;
+    let object_direction = vec3<f32>(c * direction.x - s * direction.z, direction.y, s * direction.x + c * direction.z) / in_cloud.offset_scale.w;
+    let span = in_cloud_box(in_cloud_object(origin), object_direction);
+    let t1 = min(span.y, end_m);
+    if (t1 <= span.x) {
+        return vec4<f32>(0.0);
+    }
+    let march = in_cloud_march(origin, direction, span.x, t1);
+    let opacity = 1.0 - march.transmittance;
+    if (opacity <= 0.0) {
+        return vec4<f32>(0.0);
+    }
+    // The air in front of the light, at its mean depth: α f(L/α).
+    let seen = opacity * stratus_apply_aerial_perspective(march.radiance / opacity, march.mean_m);
+    let fade = in_cloud.rotation.z;
+    return vec4<f32>(to_target(seen).rgb * fade, opacity * fade);
+}
