@@ -490,22 +490,8 @@ impl InCloud {
             frame.set_on(&mut pass, Some(&light_group));
             pass.draw(0..3, 0..1);
         }
-        let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
-            label: Some("cumulus in-cloud"),
-            color_attachments: &[Some(wgpu::RenderPassColorAttachment {
-                view: hdr,
-                depth_slice: None,
-                resolve_target: None,
-                ops: wgpu::Operations {
-                    load: wgpu::LoadOp::Load,
-                    store: wgpu::StoreOp::Store,
-                },
-            })],
-            depth_stencil_attachment: None,
-            timestamp_writes: march_timestamps,
-            occlusion_query_set: None,
-            multiview_mask: None,
-        });
+        let mut pass =
+            crate::core::targets::overlay_pass(encoder, "cumulus in-cloud", hdr, march_timestamps);
         pass.set_pipeline(&self.march_pipeline);
         frame.set_on(&mut pass, Some(&march_group));
         pass.draw(0..3, 0..1);

@@ -7,13 +7,12 @@
 //! smallest and largest scale, as quadratic forms the shader turns with the
 //! cloud (like the surface transfer, [`super::transfer`]).
 
-use super::transfer::{pack_form, tracer_scattering};
+use super::transfer::{pack_form, tracer_scattering, variant_extinction_grid};
 use super::variants::{CumulusVariant, VariantError, VariantParams};
 use glam::DVec3;
-use nimbus_physics::cumulus::hierarchy;
 use nimbus_physics::cumulus::interior::{InteriorSettings, downsample, trace_interior};
 use nimbus_physics::cumulus::transport::{GridMedium, SphericalQuadratic};
-use nimbus_physics::cumulus::volume::{ExtinctionGrid, VolumeParams, extinction_grid};
+use nimbus_physics::cumulus::volume::ExtinctionGrid;
 use nimbus_physics::optics::tables::CloudOpticsTables;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
@@ -89,17 +88,12 @@ pub fn compute_interior(
     shape: &CumulusVariant,
     optics: &CloudOpticsTables,
 ) -> Result<VariantInterior, VariantError> {
-    let cumulus = hierarchy::build(&params.variants.hierarchy(index), |_| {})
-        .map_err(|source| VariantError::Generation { index, source })?;
-    let volume = VolumeParams {
-        density_per_m: params.density_per_m,
-        corona_thickness_m: params.corona_thickness_m,
-        ..VolumeParams::from_shading(&Default::default())
-    };
-    let grid = extinction_grid(&cumulus.field, &volume).map_err(|e| VariantError::Transfer {
+    let grid = variant_extinction_grid(
+        &params.variants,
         index,
-        reason: e.to_string(),
-    })?;
+        params.density_per_m,
+        params.corona_thickness_m,
+    )?;
     let origin = DVec3::from_array(shape.origin_m.map(f64::from));
     let (scattering, truncated) = tracer_scattering(optics);
     let mut forms: Vec<[[f32; 4]; 6]> = Vec::new();

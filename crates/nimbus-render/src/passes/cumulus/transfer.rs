@@ -19,7 +19,7 @@ use nimbus_physics::cumulus::shading::CLOUD_ASYMMETRY;
 use nimbus_physics::cumulus::transport::{
     GridMedium, Scattering, SphericalQuadratic, TransferSettings, trace_transfer,
 };
-use nimbus_physics::cumulus::volume::{VolumeParams, extinction_grid};
+use nimbus_physics::cumulus::volume::{ExtinctionGrid, VolumeParams, extinction_grid};
 use nimbus_physics::optics::phase::PhaseTable;
 use nimbus_physics::optics::tables::CloudOpticsTables;
 use nimbus_physics::transport::phase_model::PhaseModel;
@@ -135,6 +135,28 @@ pub fn tracer_scattering(optics: &CloudOpticsTables) -> (Scattering, f64) {
     )
 }
 
+/// Variant `index`'s extinction on the grid the references render (α_ρ
+/// `density_per_m`, corona `corona_thickness_m`): what the transfer's and
+/// the interior light's tracers walk through.
+pub(super) fn variant_extinction_grid(
+    variants: &VariantParams,
+    index: u32,
+    density_per_m: f64,
+    corona_thickness_m: f64,
+) -> Result<ExtinctionGrid, VariantError> {
+    let cumulus = hierarchy::build(&variants.hierarchy(index), |_| {})
+        .map_err(|source| VariantError::Generation { index, source })?;
+    let volume = VolumeParams {
+        density_per_m,
+        corona_thickness_m,
+        ..VolumeParams::from_shading(&Default::default())
+    };
+    extinction_grid(&cumulus.field, &volume).map_err(|e| VariantError::Transfer {
+        index,
+        reason: e.to_string(),
+    })
+}
+
 /// Computes variant `index`'s transfer (seconds: see [`TRANSFER_PHOTONS`]).
 pub fn compute_transfer(
     params: &TransferParams,
@@ -142,17 +164,12 @@ pub fn compute_transfer(
     shape: &CumulusVariant,
     optics: &CloudOpticsTables,
 ) -> Result<VariantTransfer, VariantError> {
-    let cumulus = hierarchy::build(&params.variants.hierarchy(index), |_| {})
-        .map_err(|source| VariantError::Generation { index, source })?;
-    let volume = VolumeParams {
-        density_per_m: params.density_per_m,
-        corona_thickness_m: params.corona_thickness_m,
-        ..VolumeParams::from_shading(&Default::default())
-    };
-    let grid = extinction_grid(&cumulus.field, &volume).map_err(|e| VariantError::Transfer {
+    let grid = variant_extinction_grid(
+        &params.variants,
         index,
-        reason: e.to_string(),
-    })?;
+        params.density_per_m,
+        params.corona_thickness_m,
+    )?;
     let origin = DVec3::from_array(shape.origin_m.map(f64::from));
     let field_point = |p: [f32; 4]| DVec3::new(p[0].into(), p[1].into(), p[2].into()) + origin;
     let finest = &shape.lods[0];

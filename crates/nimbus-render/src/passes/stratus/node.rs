@@ -80,22 +80,8 @@ impl StratusPass {
                 }],
             })
         });
-        let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
-            label: Some("stratus in-layer"),
-            color_attachments: &[Some(wgpu::RenderPassColorAttachment {
-                view: hdr,
-                depth_slice: None,
-                resolve_target: None,
-                ops: wgpu::Operations {
-                    load: wgpu::LoadOp::Load,
-                    store: wgpu::StoreOp::Store,
-                },
-            })],
-            depth_stencil_attachment: None,
-            timestamp_writes,
-            occlusion_query_set: None,
-            multiview_mask: None,
-        });
+        let mut pass =
+            crate::core::targets::overlay_pass(encoder, "stratus in-layer", hdr, timestamp_writes);
         pass.set_pipeline(&self.in_layer_pipeline);
         frame.set_on(&mut pass, Some(&group));
         pass.draw(0..3, 0..1);
