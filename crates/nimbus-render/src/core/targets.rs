@@ -52,13 +52,13 @@ impl Target {
     }
 }
 
-/// Begins a render pass that draws over `view` (its content loaded and
-/// kept) without a depth attachment: the full-screen overlays that blend
-/// onto the HDR target.
-pub fn overlay_pass<'e>(
+/// A pass drawing over `view` as it is (colour loaded and kept), with a
+/// depth attached read-only when given.
+pub fn colour_pass<'e>(
     encoder: &'e mut wgpu::CommandEncoder,
     label: &str,
     view: &wgpu::TextureView,
+    read_only_depth: Option<&wgpu::TextureView>,
     timestamp_writes: Option<wgpu::RenderPassTimestampWrites<'_>>,
 ) -> wgpu::RenderPass<'e> {
     encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
@@ -72,7 +72,13 @@ pub fn overlay_pass<'e>(
                 store: wgpu::StoreOp::Store,
             },
         })],
-        depth_stencil_attachment: None,
+        depth_stencil_attachment: read_only_depth.map(|view| {
+            wgpu::RenderPassDepthStencilAttachment {
+                view,
+                depth_ops: None,
+                stencil_ops: None,
+            }
+        }),
         timestamp_writes,
         occlusion_query_set: None,
         multiview_mask: None,

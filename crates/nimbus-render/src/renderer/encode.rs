@@ -1,7 +1,7 @@
 //! Recording a frame: the passes in their order.
 
 use super::{FrameTargets, PassId, PassSet, Renderer, TargetLoad};
-use crate::core::targets::{FAR_DEPTH, Target};
+use crate::core::targets::{FAR_DEPTH, Target, colour_pass};
 use std::sync::atomic::Ordering;
 
 /// Set in `Renderer::lighting_recorded` when `encode_lighting` recorded
@@ -258,7 +258,7 @@ impl Renderer {
                 .timer
                 .as_ref()
                 .map(|t| t.pass_writes(PassId::Export.timer_index()));
-            let mut pass = Self::colour_pass(encoder, "export", targets.output, None, timestamps);
+            let mut pass = colour_pass(encoder, "export", targets.output, None, timestamps);
             composite.draw_export(&mut pass, &frame);
             drop(pass);
             if let Some(timer) = &self.timer {
@@ -391,40 +391,7 @@ impl Renderer {
         read_only_depth: Option<&wgpu::TextureView>,
     ) -> wgpu::RenderPass<'e> {
         let timestamps = self.timer.as_ref().map(|t| t.pass_writes(id.timer_index()));
-        Self::colour_pass(encoder, label, &hdr.view, read_only_depth, timestamps)
-    }
-
-    /// A pass drawing over `view` as it is (colour loaded and kept), with a
-    /// depth attached read-only when given.
-    fn colour_pass<'e>(
-        encoder: &'e mut wgpu::CommandEncoder,
-        label: &str,
-        view: &wgpu::TextureView,
-        read_only_depth: Option<&wgpu::TextureView>,
-        timestamp_writes: Option<wgpu::RenderPassTimestampWrites<'_>>,
-    ) -> wgpu::RenderPass<'e> {
-        encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
-            label: Some(label),
-            color_attachments: &[Some(wgpu::RenderPassColorAttachment {
-                view,
-                depth_slice: None,
-                resolve_target: None,
-                ops: wgpu::Operations {
-                    load: wgpu::LoadOp::Load,
-                    store: wgpu::StoreOp::Store,
-                },
-            })],
-            depth_stencil_attachment: read_only_depth.map(|view| {
-                wgpu::RenderPassDepthStencilAttachment {
-                    view,
-                    depth_ops: None,
-                    stencil_ops: None,
-                }
-            }),
-            timestamp_writes,
-            occlusion_query_set: None,
-            multiview_mask: None,
-        })
+        colour_pass(encoder, label, &hdr.view, read_only_depth, timestamps)
     }
 
     #[allow(clippy::too_many_arguments)]

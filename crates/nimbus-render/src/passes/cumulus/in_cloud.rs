@@ -490,8 +490,13 @@ impl InCloud {
             frame.set_on(&mut pass, Some(&light_group));
             pass.draw(0..3, 0..1);
         }
-        let mut pass =
-            crate::core::targets::overlay_pass(encoder, "cumulus in-cloud", hdr, march_timestamps);
+        let mut pass = crate::core::targets::colour_pass(
+            encoder,
+            "cumulus in-cloud",
+            hdr,
+            None,
+            march_timestamps,
+        );
         pass.set_pipeline(&self.march_pipeline);
         frame.set_on(&mut pass, Some(&march_group));
         pass.draw(0..3, 0..1);

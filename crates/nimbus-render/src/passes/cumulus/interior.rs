@@ -227,16 +227,14 @@ pub fn load_or_compute(
         .enumerate()
         .map(|(index, shape)| {
             let index = index as u32;
-            let path = cache_path(dir, params, index);
-            if let Some(v) = nimbus_physics::io::read_bounded(&path, MAX_CACHE_FILE_BYTES)
-                .ok()
-                .and_then(|b| from_bytes(&b))
-            {
-                return Ok(Arc::new(v));
-            }
-            let interior = compute_interior(params, index, shape, optics)?;
-            let _ = super::variants::write_cache(&path, &to_bytes(&interior));
-            Ok(Arc::new(interior))
+            super::variants::read_or_compute(
+                &cache_path(dir, params, index),
+                MAX_CACHE_FILE_BYTES,
+                from_bytes,
+                || compute_interior(params, index, shape, optics),
+                to_bytes,
+            )
+            .map(Arc::new)
         })
         .collect()
 }

@@ -300,16 +300,14 @@ pub fn load_or_compute(
         .enumerate()
         .map(|(index, shape)| {
             let index = index as u32;
-            let path = cache_path(dir, params, index);
-            if let Some(t) = nimbus_physics::io::read_bounded(&path, MAX_CACHE_FILE_BYTES)
-                .ok()
-                .and_then(|b| from_bytes(&b, shape))
-            {
-                return Ok(Arc::new(t));
-            }
-            let transfer = compute_transfer(params, index, shape, optics)?;
-            let _ = super::variants::write_cache(&path, &to_bytes(&transfer));
-            Ok(Arc::new(transfer))
+            super::variants::read_or_compute(
+                &cache_path(dir, params, index),
+                MAX_CACHE_FILE_BYTES,
+                |bytes| from_bytes(bytes, shape),
+                || compute_transfer(params, index, shape, optics),
+                to_bytes,
+            )
+            .map(Arc::new)
         })
         .collect()
 }

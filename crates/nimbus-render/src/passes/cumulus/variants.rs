@@ -351,6 +351,29 @@ pub(super) fn write_cache(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
     std::fs::rename(&temporary, path)
 }
 
+/// A value cached on disk at `path`: decoded from the file (read up to
+/// `max_bytes`: a file far larger, or not a regular file, is not ours and is
+/// never read whole; one that does not decode is ignored), else computed and
+/// written (the cache is an optimisation: a read-only disk costs time, not
+/// correctness).
+pub(super) fn read_or_compute<T, E>(
+    path: &Path,
+    max_bytes: u64,
+    decode: impl FnOnce(&[u8]) -> Option<T>,
+    compute: impl FnOnce() -> Result<T, E>,
+    encode: impl FnOnce(&T) -> Vec<u8>,
+) -> Result<T, E> {
+    if let Some(value) = nimbus_physics::io::read_bounded(path, max_bytes)
+        .ok()
+        .and_then(|bytes| decode(&bytes))
+    {
+        return Ok(value);
+    }
+    let value = compute()?;
+    let _ = write_cache(path, &encode(&value));
+    Ok(value)
+}
+
 type Memory = Mutex<HashMap<(PathBuf, u64), Arc<CumulusVariant>>>;
 
 fn memory() -> &'static Memory {
@@ -376,22 +399,14 @@ pub fn load_or_generate(
             if let Some(v) = memory.get(&key) {
                 return Ok(v.clone());
             }
-            let path = cache_path(dir, params, index);
-            // A shape's cache is 6–13 MB; a file far larger, or not a
-            // regular file, is not ours: generated again, never read whole.
-            let variant = match nimbus_physics::io::read_bounded(&path, MAX_CACHE_FILE_BYTES)
-                .ok()
-                .and_then(|b| from_bytes(&b))
-            {
-                Some(v) => v,
-                None => {
-                    let v = generate_variant(params, index)?;
-                    // The cache is an optimisation: a read-only disk costs time, not correctness.
-                    let _ = write_cache(&path, &to_bytes(&v));
-                    v
-                }
-            };
-            let variant = Arc::new(variant);
+            // A shape's cache is 6–13 MB (MAX_CACHE_FILE_BYTES bounds it).
+            let variant = Arc::new(read_or_compute(
+                &cache_path(dir, params, index),
+                MAX_CACHE_FILE_BYTES,
+                from_bytes,
+                || generate_variant(params, index),
+                to_bytes,
+            )?);
             memory.insert(key, variant.clone());
             Ok(variant)
         })

@@ -80,8 +80,13 @@ impl StratusPass {
                 }],
             })
         });
-        let mut pass =
-            crate::core::targets::overlay_pass(encoder, "stratus in-layer", hdr, timestamp_writes);
+        let mut pass = crate::core::targets::colour_pass(
+            encoder,
+            "stratus in-layer",
+            hdr,
+            None,
+            timestamp_writes,
+        );
         pass.set_pipeline(&self.in_layer_pipeline);
         frame.set_on(&mut pass, Some(&group));
         pass.draw(0..3, 0..1);
