@@ -17,6 +17,7 @@ mod lighting;
 mod lut;
 mod params;
 mod scattering;
+pub mod under_layer;
 
 pub use lighting::{LIGHTING_DIRECTIONS, SkyLighting};
 pub use lut::*;

@@ -25,6 +25,25 @@ pub const TRANSMITTANCE_STEPS: u32 = 256;
 /// Isotropic phase function, sr⁻¹.
 pub const ISOTROPIC_PHASE: f64 = 1.0 / (4.0 * std::f64::consts::PI);
 
+/// Light scattered along a segment of air towards its start, and its
+/// parts (per RGB channel, per unit solar irradiance at the top of the
+/// atmosphere where a radiance).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct AirPath {
+    /// All the light scattered in: [`AirPath::sun_single`] plus the
+    /// multiple scattering Ψ_ms σ_s of the clear sky's light.
+    pub luminance: [f64; 3],
+    /// Transmittance of the segment.
+    pub transmittance: [f64; 3],
+    /// The sun's single scattering, the part a cloud layer's shadow dims.
+    pub sun_single: [f64; 3],
+    /// ∫ σ_R(s) T(s) ds, dimensionless: the weight by which the molecules
+    /// scatter a light field's Rayleigh-phase-weighted radiance to the start.
+    pub rayleigh_weight: [f64; 3],
+    /// ∫ σ_M(s) T(s) ds, dimensionless: the aerosols' weight, likewise.
+    pub mie_weight: [f64; 3],
+}
+
 /// Direction `index` of `count` directions spread uniformly over the unit
 /// sphere (spherical Fibonacci lattice; Keinert et al., "Spherical Fibonacci
 /// Mapping", SIGGRAPH Asia 2015), +Y up.
@@ -200,12 +219,30 @@ impl AtmosphereTables {
         length: f64,
         steps: u32,
     ) -> ([f64; 3], [f64; 3]) {
+        let path = self.air_path(r, view, sun, length, steps);
+        (path.luminance, path.transmittance)
+    }
+
+    /// [`Self::scatter_along`] with its parts: the sun's single scattering
+    /// and the scattering weights of the two constituents, which a light
+    /// field other than the clear sky's (an overcast's, under a cloud layer)
+    /// multiplies.
+    pub fn air_path(
+        &self,
+        r: f64,
+        view: [f64; 3],
+        sun: [f64; 3],
+        length: f64,
+        steps: u32,
+    ) -> AirPath {
         let p = &self.params;
         let cos_theta = view[0] * sun[0] + view[1] * sun[1] + view[2] * sun[2];
         let phase_r = rayleigh_phase(cos_theta);
         let phase_m = cornette_shanks_phase(cos_theta, p.aerosol_asymmetry);
-        let mut luminance = [0.0; 3];
-        let mut throughput = [1.0; 3];
+        let mut path = AirPath {
+            transmittance: [1.0; 3],
+            ..AirPath::default()
+        };
         let mut t_previous = 0.0;
         for i in 0..steps {
             // Step i covers [length (i/N)², length ((i+1)/N)²], sampled at its midpoint.
@@ -220,19 +257,23 @@ impl AtmosphereTables {
             let sun_t = self.sun_transmittance(sample_r, sample_mu_s);
             let ms = self.multiple_scattering(sample_r, sample_mu_s);
             for c in 0..3 {
-                let source = sun_t[c] * (rayleigh[c] * phase_r + mie[c] * phase_m)
-                    + ms[c] * (rayleigh[c] + mie[c]);
+                let single = sun_t[c] * (rayleigh[c] * phase_r + mie[c] * phase_m);
+                let source = single + ms[c] * (rayleigh[c] + mie[c]);
                 let step_t = (-extinction[c] * dt).exp();
                 let integral = if extinction[c] > 0.0 {
                     (1.0 - step_t) / extinction[c]
                 } else {
                     dt
                 };
-                luminance[c] += throughput[c] * source * integral;
-                throughput[c] *= step_t;
+                let weight = path.transmittance[c] * integral;
+                path.luminance[c] += weight * source;
+                path.sun_single[c] += weight * single;
+                path.rayleigh_weight[c] += weight * rayleigh[c];
+                path.mie_weight[c] += weight * mie[c];
+                path.transmittance[c] *= step_t;
             }
         }
-        (luminance, throughput)
+        path
     }
 
     /// Sky luminance seen from radius r at view zenith angle `zenith` (rad)

@@ -144,6 +144,13 @@ pub struct AtmosphereLookups {
     pub sky_view: wgpu::Texture,
     /// In-scattering and transmittance along the view (`AERIAL_PERSPECTIVE_SIZE`, 3-D, RGBA16F).
     pub aerial_perspective: wgpu::Texture,
+    /// The aerial perspective's parts, each like it: the sun's single
+    /// scattering and the air's weights for a diffuse field A₀ and A₁
+    /// ([`nimbus_physics::atmosphere::under_layer::DiffuseWeights`]) in RGB,
+    /// their total W's R, G and B in A; with them the drawing passes light
+    /// the air under a cloud layer by the layer's light
+    /// (`shader/cloud_layer_lookup.wgsl`).
+    pub aerial_perspective_parts: [wgpu::Texture; 3],
     /// The lighting inputs ([`LightingUniform`], storage).
     pub lighting: wgpu::Buffer,
     /// Bilinear, clamped sampler of the LUTs.
@@ -204,6 +211,12 @@ impl AtmosphereLookups {
         let multiple_scattering = lut_texture(device, "multiple-scattering LUT", [mw, mh, 1], D2);
         let sky_view = lut_texture(device, "sky-view LUT", [sw, sh, 1], D2);
         let aerial_perspective = lut_texture(device, "aerial-perspective volume", [aw, ah, ad], D3);
+        let aerial_perspective_parts = [
+            "aerial perspective: the sun's single scattering",
+            "aerial perspective: the weight of diffuse light from above",
+            "aerial perspective: that weight by the vertical cosine",
+        ]
+        .map(|label| lut_texture(device, label, [aw, ah, ad], D3));
         let sampler = device.create_sampler(&wgpu::SamplerDescriptor {
             label: Some("atmosphere LUTs"),
             mag_filter: wgpu::FilterMode::Linear,
@@ -225,6 +238,9 @@ impl AtmosphereLookups {
                     lighting_size,
                     stages,
                 ),
+                texture_entry(6, Dim::D3, true, stages),
+                texture_entry(7, Dim::D3, true, stages),
+                texture_entry(8, Dim::D3, true, stages),
             ],
         });
         let view = |t: &wgpu::Texture| t.create_view(&Default::default());
@@ -233,6 +249,7 @@ impl AtmosphereLookups {
             view(&sky_view),
             view(&aerial_perspective),
         );
+        let parts_views = aerial_perspective_parts.each_ref().map(view);
         let bind_group = sequential_bind_group(
             device,
             "atmosphere lookup",
@@ -244,6 +261,9 @@ impl AtmosphereLookups {
                 wgpu::BindingResource::TextureView(&sky_view_view),
                 wgpu::BindingResource::TextureView(&aerial_view),
                 lighting.as_entire_binding(),
+                wgpu::BindingResource::TextureView(&parts_views[0]),
+                wgpu::BindingResource::TextureView(&parts_views[1]),
+                wgpu::BindingResource::TextureView(&parts_views[2]),
             ],
         );
         Self {
@@ -252,6 +272,7 @@ impl AtmosphereLookups {
             multiple_scattering,
             sky_view,
             aerial_perspective,
+            aerial_perspective_parts,
             lighting,
             sampler,
             layout,

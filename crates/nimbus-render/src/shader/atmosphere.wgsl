@@ -185,12 +185,17 @@ fn radius_and_mu_s_along(r: f32, dir: vec3<f32>, t: f32, sun: vec3<f32>) -> vec2
 struct ScatteringResult {
     luminance: vec3<f32>,
     transmittance: vec3<f32>,
+    // The parts of AtmosphereTables::air_path: the sun's single scattering,
+    // and ∫ σ T ds of the molecules and of the aerosols.
+    sun_single: vec3<f32>,
+    rayleigh_weight: vec3<f32>,
+    mie_weight: vec3<f32>,
 }
 
 // Single scattering (Rayleigh and Cornette–Shanks phases) plus Ψ_ms σ_s
 // multiple scattering along `length` metres of the view ray, samples placed
 // quadratically; per unit solar irradiance. Mirrors
-// AtmosphereTables::scatter_along.
+// AtmosphereTables::air_path.
 fn scatter_along(
     transmittance_lut: texture_2d<f32>,
     multiple_scattering_lut: texture_2d<f32>,
@@ -207,6 +212,9 @@ fn scatter_along(
     let phase_m = cornette_shanks_phase(cos_theta, a.mie_asymmetry);
     var luminance = vec3<f32>(0.0);
     var throughput = vec3<f32>(1.0);
+    var sun_single = vec3<f32>(0.0);
+    var rayleigh_weight = vec3<f32>(0.0);
+    var mie_weight = vec3<f32>(0.0);
     var t_previous = 0.0;
     for (var i = 0u; i < steps; i = i + 1u) {
         let f = f32(i + 1u) / f32(steps);
@@ -221,13 +229,18 @@ fn scatter_along(
         let mie = mie_scattering_at(a, h);
         let sun_t = sample_sun_transmittance(transmittance_lut, s, a, rm.x, rm.y);
         let ms = sample_multiple_scattering(multiple_scattering_lut, s, a, rm.x, rm.y);
-        let source = sun_t * (rayleigh * phase_r + mie * phase_m) + ms * (rayleigh + mie);
+        let single = sun_t * (rayleigh * phase_r + mie * phase_m);
+        let source = single + ms * (rayleigh + mie);
         let step_t = exp(-extinction * dt);
         let integral = select(vec3<f32>(dt), (1.0 - step_t) / extinction, extinction > vec3<f32>(0.0));
-        luminance += throughput * source * integral;
+        let weight = throughput * integral;
+        luminance += weight * source;
+        sun_single += weight * single;
+        rayleigh_weight += weight * rayleigh;
+        mie_weight += weight * mie;
         throughput *= step_t;
     }
-    return ScatteringResult(luminance, throughput);
+    return ScatteringResult(luminance, throughput, sun_single, rayleigh_weight, mie_weight);
 }
 
 // Radius of an observer at `height_m` above sea level; kept at least a metre

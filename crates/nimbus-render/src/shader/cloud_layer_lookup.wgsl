@@ -306,26 +306,64 @@ fn stratus_ground_irradiance(position_m: vec3<f32>, n: vec3<f32>, clear: vec3<f3
     return stratus_radiosity_sample(true, position_m.xz) * tilt;
 }
 
-// Share of the aerial perspective's in-scattered light that is the sun's
-// single scattering, which the layer's shadow removes (the rest, light of
-// the sky scattered again, is left as is). An estimate: in clear daytime air
-// near the ground single scattering of sunlight carries most of the
-// in-scattered light, and nearly all of it towards the sun (the aureole).
-const STRATUS_SUN_SHARE_OF_INSCATTER: f32 = 0.75;
+// The light the air scatters towards the eye from the diffuse field under
+// the layer at `position_m`, by the air's weights for a diffuse field (the
+// CPU twin is nimbus_physics::atmosphere::under_layer::diffuse_inscatter):
+// the layer's light from above (R_G, the radiosity's irradiance on the
+// ground, leaving the deck by the escape function, or uniform with
+// stratus.model = "bnl2006") and the ground's from below.
+fn stratus_air_diffuse_inscatter(parts: AirParts, position_m: vec3<f32>, sun_transmittance: vec3<f32>) -> vec3<f32> {
+    let from_above = stratus_radiosity_sample(true, position_m.xz);
+    let sun_on_ground = sun_irradiance_at(position_m) * max(frame.sun_direction.y, 0.0) * sun_transmittance;
+    let from_below = atmosphere.ground_albedo * (from_above + sun_on_ground);
+    var shape = vec2<f32>(3.0 / 7.0, 6.0 / 7.0);
+    if (stratus.model.x == 0u) {
+        shape = vec2<f32>(1.0, 0.0);
+    }
+    return (from_above * (shape.x * parts.above + shape.y * parts.above_cosine)
+        + from_below * (parts.total - parts.above)) / PI;
+}
 
-// The aerial perspective between the camera and `position_m` with the air
-// under the layer in its shadow: the sun's share of the in-scattered light is
-// scaled by the mean of the layer's directional transmittance at the path's
-// two ends (without it, looking towards a sun hidden by the layer would show
-// the aureole of sunlit air in front of the cloud).
+// The aerial perspective between the camera and `position_m` under the
+// layer, lit by the light that is there. The clear air's in-scattered light
+// is the sun's single scattering plus the sky's light scattered again
+// (Hillaire 2020's Ψ_ms σ_s). Under the layer the sun's part is dimmed by
+// the layer's directional transmittance T_C along the path (without it,
+// looking towards a sun hidden by the layer would show the aureole of
+// sunlit air in front of the cloud; the sun's beams through the layer's
+// gaps light the air they cross), and the sky's part is replaced by the
+// layer's and the ground's diffuse light (stratus_air_diffuse_inscatter)
+// over the share of the path below the layer's mid-plane, evaluated at the
+// middle of that share.
 fn stratus_aerial_perspective(position_m: vec3<f32>) -> vec4<f32> {
     let ap = aerial_perspective(position_m);
     if (!stratus_enabled()) {
         return ap;
     }
-    let shade = 0.5 * (stratus_sun_transmittance(frame.camera_position_m) + stratus_sun_transmittance(position_m));
-    let scale = mix(vec3<f32>(1.0), shade, STRATUS_SUN_SHARE_OF_INSCATTER);
-    return vec4<f32>(ap.rgb * scale, ap.a);
+    let camera = frame.camera_position_m;
+    let parts = aerial_perspective_parts(position_m);
+    let clear_sky_light = max(ap.rgb - parts.sun_single, vec3<f32>(0.0));
+    // The share of the path from the camera (t = 0) to the point (t = 1)
+    // below the mid-plane, [t0, t1], and its middle.
+    let mid_plane = stratus.window.x;
+    var below = vec2<f32>(0.0, select(0.0, 1.0, camera.y < mid_plane));
+    let rise = position_m.y - camera.y;
+    if (abs(rise) > 1e-3) {
+        let crossing = clamp((mid_plane - camera.y) / rise, 0.0, 1.0);
+        below = select(vec2<f32>(crossing, 1.0), vec2<f32>(0.0, crossing), rise > 0.0);
+    }
+    let share = below.y - below.x;
+    let middle = mix(camera, position_m, select(0.5, 0.5 * (below.x + below.y), share > 0.0));
+    // T_C along the path: its two ends and the middle (weights ¼, ½, ¼).
+    let middle_transmittance = stratus_sun_transmittance(middle);
+    let shade = 0.25 * (stratus_sun_transmittance(camera) + stratus_sun_transmittance(position_m))
+        + 0.5 * middle_transmittance;
+    var light = parts.sun_single * shade + clear_sky_light;
+    if (share > 0.0) {
+        let under = stratus_air_diffuse_inscatter(parts, middle, middle_transmittance);
+        light = parts.sun_single * shade + mix(clear_sky_light, under, share);
+    }
+    return vec4<f32>(light, ap.a);
 }
 
 // Radiance leaving a world point as seen from the camera, through air

@@ -244,6 +244,13 @@ pub const CLOUD_SHADOW_LOOKUP: WgslFile = WgslFile {
     source: include_str!("cloud_shadow_lookup.wgsl"),
 };
 
+/// Hemisphere moments of phase functions (diffuse light scattered by the
+/// rain's mist and by the air under a cloud layer); self-contained.
+pub const HEMISPHERE_MOMENTS: WgslFile = WgslFile {
+    name: "shader/hemisphere_moments.wgsl",
+    source: include_str!("hemisphere_moments.wgsl"),
+};
+
 /// nimbus's lighting for the caller's own pipelines: the stable functions
 /// `nimbus_sun_visibility`, `nimbus_sun_direction`, `nimbus_sun_irradiance`,
 /// `nimbus_lambert_radiance`, `nimbus_pre_exposure` ([`lighting_include`]).
@@ -264,7 +271,7 @@ pub fn lighting_include() -> String {
 }
 
 /// Every shared WGSL file: what imports resolve against.
-pub const LIBRARY: [WgslFile; 11] = [
+pub const LIBRARY: [WgslFile; 12] = [
     COMMON,
     FULLSCREEN,
     LIT_SURFACE,
@@ -276,6 +283,7 @@ pub const LIBRARY: [WgslFile; 11] = [
     CLOUD_LAYER_LOOKUP,
     CLOUD_SHADOW_UNIFORM,
     CLOUD_SHADOW_LOOKUP,
+    HEMISPHERE_MOMENTS,
 ];
 
 /// The files every drawing pass that reads the atmosphere needs, in order

@@ -4,6 +4,7 @@
 //! the GPU's bilinear filtering of the LUTs the later passes read.
 
 use glam::{DMat4, DVec3, DVec4};
+use nimbus_physics::atmosphere::under_layer::diffuse_weights;
 use nimbus_physics::atmosphere::{
     AERIAL_PERSPECTIVE_SIZE, AtmosphereTables, MULTIPLE_SCATTERING_LUT_SIZE, SKY_VIEW_LUT_SIZE,
     TRANSMITTANCE_LUT_SIZE, aerial_perspective_distance_m, unit_of_texel,
@@ -17,6 +18,9 @@ use nimbus_render::{AdapterPreference, Scene};
 struct Fixture {
     scene: Scene,
     luts: [Vec<[f32; 4]>; 4],
+    /// The aerial perspective's parts: sun single scattering and the air's
+    /// weights for a diffuse field.
+    parts: [Vec<[f32; 4]>; 3],
     lighting: Vec<f32>,
     tables: AtmosphereTables,
 }
@@ -42,6 +46,7 @@ fn fixture() -> Fixture {
     };
     let [t, m, s, a] = h.renderer.atmosphere().textures();
     let luts = [read(t), read(m), read(s), read(a)];
+    let parts = h.renderer.atmosphere().aerial_perspective_parts().map(read);
     let lighting_uniform: nimbus_render::atmosphere::LightingUniform = h
         .read_buffer(h.renderer.atmosphere().lighting_buffer())
         .expect("read lighting");
@@ -50,6 +55,7 @@ fn fixture() -> Fixture {
     Fixture {
         scene,
         luts,
+        parts,
         lighting,
         tables,
     }
@@ -134,14 +140,16 @@ fn gpu_atmosphere_matches_the_cpu_reference() {
         let view: DVec3 = (near.truncate() / near.w - camera.position_m).normalize();
         for k in [0, 5, 15, 31] {
             let w = (k as f64 + 0.5) / ad as f64;
-            let (l, t) = f.tables.scatter_along(
+            let path = f.tables.air_path(
                 r,
                 view.to_array(),
                 sun,
                 aerial_perspective_distance_m(w),
                 16,
             );
-            let gpu = f.luts[3][((k * ah + j) * aw + i) as usize];
+            let (l, t) = (path.luminance, path.transmittance);
+            let texel = ((k * ah + j) * aw + i) as usize;
+            let gpu = f.luts[3][texel];
             let cpu = [0, 1, 2].map(|c| l[c] * e0[c]);
             assert_close(
                 &format!("aerial perspective ({i}, {j}, {k})"),
@@ -150,6 +158,34 @@ fn gpu_atmosphere_matches_the_cpu_reference() {
                 0.02,
                 1e-4,
             );
+            // Its parts: the sun's single scattering (a radiance) and the
+            // air's weights for a diffuse field (dimensionless), packed as
+            // (sun, W.r), (A₀, W.g), (A₁, W.b).
+            let weights = diffuse_weights(&path, p.aerosol_asymmetry, view.y);
+            let sun_single = [0, 1, 2].map(|c| path.sun_single[c] * e0[c]);
+            for (part, (name, cpu)) in [
+                ("sun single scattering", sun_single),
+                ("weight of light from above", weights.above),
+                ("weight by the vertical cosine", weights.above_cosine),
+            ]
+            .into_iter()
+            .enumerate()
+            {
+                let gpu = f.parts[part][texel];
+                assert_close(
+                    &format!("aerial perspective's {name} ({i}, {j}, {k})"),
+                    gpu,
+                    cpu,
+                    0.02,
+                    1e-6,
+                );
+                let total = weights.total[part];
+                assert!(
+                    (f64::from(gpu[3]) - total).abs() <= 0.02 * total + 1e-6,
+                    "aerial perspective's total weight ({i}, {j}, {k}), channel {part}: GPU {} vs CPU {total}",
+                    gpu[3]
+                );
+            }
             let mean_t = (t[0] + t[1] + t[2]) / 3.0;
             assert!(
                 (gpu[3] as f64 - mean_t).abs() < 2e-3,
@@ -271,5 +307,54 @@ fn without_aerial_perspective_only_what_is_in_front_of_the_sky_changes() {
     assert!(
         hazy > 1.05 * clear,
         "terrain blue/red with air {hazy}, without {clear}"
+    );
+}
+
+/// Under a thick overcast the air is lit by the layer's diffuse light, not
+/// by the hidden sun: the haze over flat ground looks the same with the
+/// sun ahead of the camera or behind it (before the air under the layer
+/// was lit by the layer, the sun ahead showed its aerosol aureole through
+/// 900 m of cloud, and the ground 3.7 × brighter).
+#[test]
+fn under_an_overcast_the_air_shows_no_aureole() {
+    let mut h = HeadlessRenderer::new(AdapterPreference::Auto)
+        .unwrap_or_else(|e| panic!("GPU tests need an adapter: {e}"));
+    let ground = |h: &mut HeadlessRenderer, sun_azimuth_deg: f64| {
+        let text = format!(
+            r#"
+[camera]
+position_m = [0.0, 300.0, 4000.0]
+yaw_deg = 0.0
+pitch_deg = -3.0
+fov_deg = 50.0
+
+[sun]
+azimuth_deg = {sun_azimuth_deg}
+elevation_deg = 10.0
+
+[stratus]
+base_m = 1500.0
+thickness_m = 900.0
+coverage = 1.0
+
+[terrain]
+height_scale_m = 0.0
+water_level_m = -100.0
+"#
+        );
+        let scene = Scene::from_toml_str(&text, "overcast.toml").expect("scene");
+        let image = h.render_hdr(&scene, 64, 36, 0.0).expect("render");
+        // Rows 22–35 are ground from about 700 m to 6 km away.
+        let rows = &image.pixels[22 * 64..];
+        rows.iter()
+            .map(|p| 0.2126 * p[0] as f64 + 0.7152 * p[1] as f64 + 0.0722 * p[2] as f64)
+            .sum::<f64>()
+            / rows.len() as f64
+    };
+    let ahead = ground(&mut h, 0.0);
+    let behind = ground(&mut h, 180.0);
+    assert!(
+        (ahead / behind - 1.0).abs() < 0.07,
+        "ground and air with the sun ahead {ahead}, behind {behind}"
     );
 }

@@ -865,57 +865,76 @@ fn a_steps_splashes_fill_the_ring_in_the_order_of_the_drops() {
     assert!(h.renderer.rain().drops_buffers().len() >= 3);
 }
 
-/// A test kernel around `mist_hemisphere_moments`: one (g, d_y) in, (M₀, M₁) out.
-const MIST_MOMENTS_KERNEL: &str = r"
-@group(0) @binding(1) var<storage, read> mist_cases: array<vec2<f32>>;
-@group(0) @binding(2) var<storage, read_write> mist_moments: array<f32>;
+/// A test kernel around the hemisphere moments: one (g, d_y) in; out the
+/// (M₀, M₁) of Henyey–Greenstein and Cornette–Shanks of that g, and of
+/// Rayleigh.
+const MOMENTS_KERNEL: &str = r"
+@group(0) @binding(1) var<storage, read> moment_cases: array<vec2<f32>>;
+@group(0) @binding(2) var<storage, read_write> moments: array<f32>;
 
 @compute @workgroup_size(64)
-fn mist_moments_kernel(@builtin(global_invocation_id) id: vec3<u32>) {
-    if (id.x >= arrayLength(&mist_cases)) {
+fn moments_kernel(@builtin(global_invocation_id) id: vec3<u32>) {
+    if (id.x >= arrayLength(&moment_cases)) {
         return;
     }
-    let m = mist_hemisphere_moments(mist_cases[id.x].x, mist_cases[id.x].y);
-    mist_moments[2u * id.x] = m.x;
-    mist_moments[2u * id.x + 1u] = m.y;
+    let g = moment_cases[id.x].x;
+    let d_y = moment_cases[id.x].y;
+    let hg = hg_hemisphere_moments(g, d_y);
+    let cs = cornette_shanks_hemisphere_moments(g, d_y);
+    let rayleigh = rayleigh_hemisphere_moments(d_y);
+    let out = array<f32, 6>(hg.x, hg.y, cs.x, cs.y, rayleigh.x, rayleigh.y);
+    for (var k = 0u; k < 6u; k++) {
+        moments[6u * id.x + k] = out[k];
+    }
 }
 ";
 
-/// The mist shader's hemisphere moments of its phase function equal the
-/// CPU twin's (`nimbus_physics::rain::mist_light::hg_hemisphere_moments`,
-/// itself tested against brute-force integration) at every elevation.
+/// The shaders' hemisphere moments of the mist's phase function and of the
+/// air's equal the CPU twins' (`nimbus_physics::rain::mist_light` and
+/// `nimbus_physics::atmosphere::under_layer`, themselves tested against
+/// brute-force integration) at every elevation.
 #[test]
-fn gpu_mist_moments_match_the_cpu_twin() {
+fn gpu_hemisphere_moments_match_the_cpu_twins() {
+    use nimbus_physics::atmosphere::under_layer::{
+        AEROSOL_MOMENT_SAMPLES, cornette_shanks_hemisphere_moments, rayleigh_hemisphere_moments,
+    };
     use nimbus_physics::rain::mist_light::{MIST_MOMENT_SAMPLES, hg_hemisphere_moments};
     let h = headless();
-    let cases: Vec<[f32; 2]> = [0.85f32, 0.5, 0.0]
+    let cases: Vec<[f32; 2]> = [0.85f32, 0.8, 0.5, 0.0]
         .iter()
         .flat_map(|&g| (0..=40).map(move |k| [g, -1.0 + k as f32 / 20.0]))
         .collect();
-    let source = nimbus_render::rain::MIST_LIGHT_WGSL.source.to_owned() + MIST_MOMENTS_KERNEL;
+    let source = nimbus_render::shader::HEMISPHERE_MOMENTS.source.to_owned() + MOMENTS_KERNEL;
     let gpu: Vec<f32> = crate::common::run_kernel(
         &h,
         &crate::common::Kernel {
-            label: "mist moments test",
+            label: "hemisphere moments test",
             source: &source,
-            entry: "mist_moments_kernel",
+            entry: "moments_kernel",
             input: bytemuck::cast_slice(&cases),
             input_stride: 8,
             count: cases.len(),
-            outputs_per_item: 2,
+            outputs_per_item: 6,
             extra: &[],
         },
     );
-    for (case, m) in cases.iter().zip(gpu.chunks(2)) {
-        let (m0, m1) =
-            hg_hemisphere_moments(f64::from(case[0]), f64::from(case[1]), MIST_MOMENT_SAMPLES);
-        assert!(
-            (f64::from(m[0]) - m0).abs() < 2e-4 && (f64::from(m[1]) - m1).abs() < 2e-4,
-            "g {}, d_y {}: GPU ({}, {}), CPU ({m0}, {m1})",
-            case[0],
-            case[1],
-            m[0],
-            m[1]
-        );
+    for (case, m) in cases.iter().zip(gpu.chunks(6)) {
+        let (g, d_y) = (f64::from(case[0]), f64::from(case[1]));
+        let cpu = [
+            hg_hemisphere_moments(g, d_y, MIST_MOMENT_SAMPLES),
+            cornette_shanks_hemisphere_moments(g, d_y, AEROSOL_MOMENT_SAMPLES),
+            rayleigh_hemisphere_moments(d_y),
+        ];
+        for (k, (name, (m0, m1))) in ["Henyey–Greenstein", "Cornette–Shanks", "Rayleigh"]
+            .iter()
+            .zip(cpu)
+            .enumerate()
+        {
+            let (g0, g1) = (f64::from(m[2 * k]), f64::from(m[2 * k + 1]));
+            assert!(
+                (g0 - m0).abs() < 2e-4 && (g1 - m1).abs() < 2e-4,
+                "{name}, g {g}, d_y {d_y}: GPU ({g0}, {g1}), CPU ({m0}, {m1})"
+            );
+        }
     }
 }

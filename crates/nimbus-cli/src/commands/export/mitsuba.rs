@@ -94,6 +94,16 @@ pub struct Truncation {
     pub extinction_scale: f64,
 }
 
+/// Clearance between the boxes of two media stacked one on the other, m.
+/// Mitsuba tracks one medium at a time by the boundaries a ray crosses, and
+/// it starts each new ray a small distance past the surface it left (some
+/// 10⁻⁴ of the coordinates' magnitude: metres, tens of kilometres from the
+/// origin). Where the top of one box was the floor of the next, a ray that
+/// crossed both at once kept only the first crossing: leaving the lower box
+/// it entered no medium, and went through the layer above as through empty
+/// space (the air's first reference lit the ground by an unclouded sky).
+pub const BOX_GAP_M: f64 = 25.0;
+
 /// Largest `--phase-truncation-deg`, degrees: beyond it the flattened peak
 /// changes the light seen around the sun's direction over most of a view.
 pub const MAX_PHASE_TRUNCATION_DEG: f64 = 30.0;
@@ -199,7 +209,7 @@ fn vector(v: DVec3) -> String {
     format!("{:.6}, {:.6}, {:.6}", v.x, v.y, v.z)
 }
 
-fn matrix(m: &DMat4) -> String {
+pub(super) fn matrix(m: &DMat4) -> String {
     // Mitsuba reads the 16 values row by row.
     let rows = m.transpose().to_cols_array();
     rows.iter()
@@ -288,6 +298,9 @@ pub struct Options {
     pub time_s: f64,
     /// δ-M truncation angle of the droplets' forward peak, degrees (0: none).
     pub phase_truncation_deg: f64,
+    /// Whether to export the air below the clouds as a medium
+    /// ([`super::air`]).
+    pub air: bool,
 }
 
 /// Writes the scene.
@@ -303,9 +316,18 @@ pub fn export(
     let Options {
         time_s,
         phase_truncation_deg,
+        air,
     } = options;
+    anyhow::ensure!(
+        !air || !scene.rain.as_ref().is_some_and(|r| r.mist),
+        "--air: the scene's rain mist would share the air's box (Mitsuba tracks one medium at a time); set rain.mist = false"
+    );
     let mut approximations = vec![
-        "no atmosphere between the camera and the clouds or terrain (nimbus's aerial perspective is left out); the sky is an environment map at infinity, seen from the camera".to_string(),
+        if air {
+            "the air below the clouds is a medium (below); the sky is an environment map at infinity, seen from the camera".to_string()
+        } else {
+            "no atmosphere between the camera and the clouds or terrain (nimbus's aerial perspective is left out); the sky is an environment map at infinity, seen from the camera".to_string()
+        },
         format!("volumes: extinction and phase function at {PHASE_WAVELENGTH_NM} nm for every channel (droplet extinction varies < 2 % over the visible), albedo per channel; phase function tabulated at {PHASE_SAMPLES} values uniform in cos θ (the diffraction peak is averaged over the first ~0.9°)"),
         "the sun is a directional emitter (no disc seen by the camera); the water has no waves: a rough dielectric coat over its diffuse body, with nimbus's GGX glint lobe (whose shadowing darkens the sky's reflection at grazing views, where nimbus reflects it as a rippled mirror)".to_string(),
         "the environment map's lower half is the terrain and sea as seen from the camera (for rays that leave the exported terrain)".to_string(),
@@ -362,7 +384,7 @@ pub fn export(
 <scene version="3.0.0">
     <default name="spp" value="64"/>
     <default name="seed" value="0"/>
-    <default name="max_depth" value="-1"/>
+    <default name="max_depth" value="-1"/>{air_channel}
     <integrator type="volpath">
         <integer name="max_depth" value="$max_depth"/>
         <integer name="rr_depth" value="100000"/>
@@ -396,6 +418,11 @@ pub fn export(
         <transform name="to_world"><rotate y="1" angle="180"/></transform>
     </emitter>
 "#,
+        air_channel = if air {
+            "\n    <default name=\"air\" value=\"g\"/>"
+        } else {
+            ""
+        },
         fov = scene.camera.fov_deg,
         origin = vector(camera.position_m),
         target = vector(camera.position_m + camera.forward * 1000.0),
@@ -557,8 +584,8 @@ pub fn export(
         // medium where they crossed that ceiling.
         let ceiling_m = scene
             .rain_ceiling_m()
-            .min(stratus_bottom_m)
-            .min(cumulus_bottom_m);
+            .min(stratus_bottom_m - BOX_GAP_M)
+            .min(cumulus_bottom_m - BOX_GAP_M);
         let floor_m = scene.terrain.water_level_m.min(0.0) - scene.terrain.height_scale_m;
         let half = 0.5 * MIST_SIDE_M;
         let lo = DVec3::new(
@@ -631,6 +658,28 @@ pub fn export(
     } else if scene.rain.is_some() {
         approximations
             .push("rain: not exported (no streaks or splashes; the scene's mist is off)".into());
+    }
+    // 10. The air, below every cloud box.
+    if air {
+        let floor_m = scene.terrain.water_level_m.min(0.0) - scene.terrain.height_scale_m;
+        let ceiling_m = (stratus_bottom_m.min(cumulus_bottom_m) - BOX_GAP_M)
+            .min(super::air::AIR_CLEAR_CEILING_M);
+        let air_box = super::air::write_air(
+            &scene.atmosphere,
+            &super::air::AirExtent {
+                centre_m: camera.position_m,
+                floor_m,
+                ceiling_m,
+            },
+            dir,
+            files,
+            &mut media,
+            &mut xml,
+        )?;
+        if camera_medium.is_none() && inside_cube(&air_box.world_from_cube, camera.position_m) {
+            camera_medium = Some("air".into());
+        }
+        approximations.push(air_box.approximation);
     }
     if let Some(id) = &camera_medium {
         // The camera is inside a medium: its rays start in it.

@@ -30,6 +30,7 @@
 //!   soft edges and under the clouds with `rain.under_clouds` (a grid), or
 //!   everywhere below the rain's ceiling when the scene rains everywhere.
 
+mod air;
 mod gltf;
 mod mitsuba;
 
@@ -63,6 +64,13 @@ pub struct ExportArgs {
     /// seen within about this angle of the sun's direction.
     #[arg(long, default_value_t = 5.0, value_name = "DEG")]
     phase_truncation_deg: f64,
+    /// With --mitsuba: export the air below the clouds as a medium, nimbus's
+    /// molecules and aerosols, so that the reference has the aerial
+    /// perspective nimbus draws; one grey medium per channel, chosen by the
+    /// scene's `$air` parameter (r, g or b; tools/reference/air.sh renders
+    /// the three and combines them).
+    #[arg(long)]
+    air: bool,
 }
 
 /// Runs the subcommand.
@@ -135,6 +143,7 @@ pub fn run(args: &ExportArgs) -> anyhow::Result<()> {
         mitsuba::Options {
             time_s: args.time_s,
             phase_truncation_deg: args.phase_truncation_deg,
+            air: args.air,
         },
         mitsuba_dir,
         &mut files,

@@ -92,6 +92,7 @@ type ViewKey = crate::frame::FrameUniform;
 pub struct AtmospherePass {
     uniform: wgpu::Buffer,
     textures: [wgpu::Texture; 4],
+    aerial_perspective_parts: [wgpu::Texture; 3],
     lighting: wgpu::Buffer,
     steps: [ComputeStep; 5],
     /// The parameters and the aerial-perspective switch last uploaded.
@@ -125,6 +126,8 @@ mod slot {
     pub const MULTIPLE_SCATTERING: u32 = 3;
     pub const SKY_VIEW: u32 = 4;
     pub const OUTPUT: u32 = 8;
+    /// The aerial perspective's parts, after its volume (bindings 9–11).
+    pub const AERIAL_PERSPECTIVE_PARTS: u32 = 9;
 }
 
 impl AtmospherePass {
@@ -162,12 +165,14 @@ impl AtmospherePass {
                 Resource::Sampler(&lookups.sampler),
             )
         };
-        let written = |texture: &wgpu::Texture, dimension| {
+        let written_at = |binding, texture: &wgpu::Texture, dimension| {
             (
-                storage_texture_entry(slot::OUTPUT, dimension),
+                storage_texture_entry(binding, dimension),
                 Resource::View(view(texture)),
             )
         };
+        let written =
+            |texture: &wgpu::Texture, dimension| written_at(slot::OUTPUT, texture, dimension);
 
         // Each compute step: its WGSL, and its group 1 as (layout entry,
         // resource) pairs of the bindings its entry point uses.
@@ -266,6 +271,21 @@ impl AtmospherePass {
                     sampled(slot::TRANSMITTANCE, &lookups.transmittance),
                     sampled(slot::MULTIPLE_SCATTERING, &lookups.multiple_scattering),
                     written(&lookups.aerial_perspective, Dim::D3),
+                    written_at(
+                        slot::AERIAL_PERSPECTIVE_PARTS,
+                        &lookups.aerial_perspective_parts[0],
+                        Dim::D3,
+                    ),
+                    written_at(
+                        slot::AERIAL_PERSPECTIVE_PARTS + 1,
+                        &lookups.aerial_perspective_parts[1],
+                        Dim::D3,
+                    ),
+                    written_at(
+                        slot::AERIAL_PERSPECTIVE_PARTS + 2,
+                        &lookups.aerial_perspective_parts[2],
+                        Dim::D3,
+                    ),
                 ],
                 [aw.div_ceil(4), ah.div_ceil(4), ad.div_ceil(4)],
             ),
@@ -299,6 +319,7 @@ impl AtmospherePass {
                 lookups.sky_view.clone(),
                 lookups.aerial_perspective.clone(),
             ],
+            aerial_perspective_parts: lookups.aerial_perspective_parts.clone(),
             lighting: lookups.lighting.clone(),
             steps,
             params: None,
@@ -381,6 +402,13 @@ impl AtmospherePass {
     pub fn textures(&self) -> [&wgpu::Texture; 4] {
         let [t, m, s, a] = &self.textures;
         [t, m, s, a]
+    }
+
+    /// The aerial perspective's parts, for tests and tools: the sun's single
+    /// scattering and the air's weights for a diffuse field
+    /// ([`AtmosphereLookups::aerial_perspective_parts`]).
+    pub fn aerial_perspective_parts(&self) -> [&wgpu::Texture; 3] {
+        self.aerial_perspective_parts.each_ref()
     }
 
     /// The lighting-inputs buffer ([`LightingUniform`]).

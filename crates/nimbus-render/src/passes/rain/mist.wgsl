@@ -1,7 +1,7 @@
 // import shader/cloud_layer_lookup.wgsl
 // import passes/rain/rain_types.wgsl
 // import passes/rain/zones.wgsl
-// import passes/rain/mist_light.wgsl
+// import shader/hemisphere_moments.wgsl
 // Rain mist (Blanchard 2023, §4.3, after Weber et al. 2015): beyond the
 // rain box, drops are no longer drawn one by one; the rain there is a
 // participating medium with the extinction of the same drops,
@@ -73,7 +73,7 @@ fn mist_hash(p: vec3<i32>) -> f32 {
 // hemisphere moments around the direction (see the file's notes).
 fn mist_ambient_radiance(position_m: vec3<f32>, direction: vec3<f32>) -> vec3<f32> {
     let up = vec3<f32>(0.0, 1.0, 0.0);
-    let m = mist_hemisphere_moments(MIST_PHASE_G, direction.y);
+    let m = hg_hemisphere_moments(MIST_PHASE_G, direction.y);
     if (!stratus_enabled() || position_m.y >= stratus.window.x) {
         // The clear sky above, the sunlit ground below (the environment's SH).
         return (sh_irradiance(lighting, up) * m.x + sh_irradiance(lighting, -up) * (1.0 - m.x)) / PI;

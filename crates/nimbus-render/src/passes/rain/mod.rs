@@ -71,19 +71,13 @@ const RAIN_BOX_WGSL: WgslFile = WgslFile {
     name: "passes/rain/rain_box.wgsl",
     source: include_str!("rain_box.wgsl"),
 };
-/// The mist's diffuse light (self-contained: tests compose it with a kernel).
-pub const MIST_LIGHT_WGSL: WgslFile = WgslFile {
-    name: "passes/rain/mist_light.wgsl",
-    source: include_str!("mist_light.wgsl"),
-};
 /// The pass's own WGSL library: what its shaders import besides the crate's.
-const LIBRARY: [WgslFile; 6] = [
+const LIBRARY: [WgslFile; 5] = [
     RAIN_TYPES_WGSL,
     RANDOM_WGSL,
     WIND_WGSL,
     ZONES_WGSL,
     RAIN_BOX_WGSL,
-    MIST_LIGHT_WGSL,
 ];
 
 /// Composes `file` with what it imports of the pass's library and the crate's.
