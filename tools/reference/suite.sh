@@ -74,6 +74,9 @@ settings() {
         rain-drizzle | stratus-snow) echo "192 5" ;;    # *
         cumulus-front-lit | cumulus-field | cumulus-sunset) echo "256 5" ;;
         default) echo "128 5" ;;
+        # The in-cloud views (camera anywhere issue, requirement 2).
+        in-cumulus-sunward | in-overcast-up) echo "128 5" ;;
+        below-base-30m | in-overcast-along) echo "256 5" ;;
         *) echo "128 5" ;;
     esac
 }
