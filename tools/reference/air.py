@@ -7,8 +7,8 @@ channel (the scene's $air = r, g or b; see the exporter's notes); each is
 path-traced on its own and the reference takes channel c of render c.
 
     python3 tools/reference/air.py combine R.exr G.exr B.exr -o OUT.exr
-        OUT.exr, OUT_a.exr, OUT_b.exr (halves kept independent) and OUT.json
-        from three render.py --halves outputs.
+        OUT.exr, OUT_a.exr, OUT_b.exr (half floats; halves kept independent)
+        and OUT.json from three render.py --halves outputs.
     python3 tools/reference/air.py measure REALTIME.exr... --halves A.exr B.exr
         Prints one JSON document: for each real-time EXR (nimbus render -o
         x.exr, its Z and cloud.A layers give the masks), over the terrain
@@ -56,7 +56,8 @@ def combine(a):
     out_stem = a.output[: -len(".exr")]
     for suffix in ("", "_a", "_b"):
         planes = [load(f"{s}{suffix}.exr")["RGB"[c]] for c, s in enumerate(stems)]
-        image = np.stack(planes, axis=-1).astype(np.float32)
+        # Half floats, as the suite's references.
+        image = np.stack(planes, axis=-1).astype(np.float16)
         mi.Bitmap(image, mi.Bitmap.PixelFormat.RGB).write(f"{out_stem}{suffix}.exr")
     record = {
         "channels": "channel c of render c (r, g, b): one grey air medium per channel",

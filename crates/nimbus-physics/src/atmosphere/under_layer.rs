@@ -126,25 +126,7 @@ mod tests {
     use crate::atmosphere::{cornette_shanks_phase, rayleigh_phase};
     use crate::rain::mist_light::{ESCAPE_FUNCTION, UNIFORM_SKY};
 
-    /// The moments of a phase function by brute force: a grid over the
-    /// sphere of arrival directions, uniform in ω_y and azimuth.
-    fn brute_force(phase: impl Fn(f64) -> f64, d_y: f64) -> (f64, f64) {
-        let d = [(1.0 - d_y * d_y).max(0.0).sqrt(), d_y, 0.0];
-        let (nu, nphi) = (1000, 2000);
-        let cell = (1.0 / nu as f64) * (2.0 * std::f64::consts::PI / nphi as f64);
-        let (mut m0, mut m1) = (0.0, 0.0);
-        for i in 0..nu {
-            let wy = (i as f64 + 0.5) / nu as f64;
-            let r = (1.0 - wy * wy).sqrt();
-            for j in 0..nphi {
-                let phi = (j as f64 + 0.5) * 2.0 * std::f64::consts::PI / nphi as f64;
-                let p = phase(r * phi.cos() * d[0] + wy * d[1]) * cell;
-                m0 += p;
-                m1 += p * wy;
-            }
-        }
-        (m0, m1)
-    }
+    use crate::rain::mist_light::tests::brute_force_moments as brute_force;
 
     /// Rayleigh's closed form and the weighted quantiles of
     /// Cornette–Shanks (the atmosphere's aerosol g = 0.8, a milder one, and

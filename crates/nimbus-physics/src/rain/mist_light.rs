@@ -99,7 +99,7 @@ pub const UNIFORM_SKY: [f64; 2] = [1.0, 0.0];
 pub const ESCAPE_FUNCTION: [f64; 2] = [3.0 / 7.0, 6.0 / 7.0];
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
 
     /// Henyey–Greenstein, normalised to 1 over the sphere.
@@ -107,9 +107,11 @@ mod tests {
         (1.0 - g * g) / (4.0 * std::f64::consts::PI * (1.0 + g * g - 2.0 * g * cos_theta).powf(1.5))
     }
 
-    /// The moments by brute force: a fine grid over the sphere of arrival
-    /// directions (1200 × 2400 cells, uniform in ω_y and azimuth).
-    fn brute_force(g: f64, d_y: f64) -> (f64, f64) {
+    /// The moments (M₀, M₁) of a phase function of cos Θ (normalised to 1
+    /// over the sphere) around a direction of vertical component `d_y`, by
+    /// brute force: a fine grid over the sphere of arrival directions
+    /// (1200 × 2400 cells, uniform in ω_y and azimuth).
+    pub(crate) fn brute_force_moments(phase: impl Fn(f64) -> f64, d_y: f64) -> (f64, f64) {
         let d = [(1.0 - d_y * d_y).max(0.0).sqrt(), d_y, 0.0];
         let (nu, nphi) = (1200, 2400);
         let cell = (1.0 / nu as f64) * (2.0 * std::f64::consts::PI / nphi as f64);
@@ -119,13 +121,16 @@ mod tests {
             let r = (1.0 - wy * wy).sqrt();
             for j in 0..nphi {
                 let phi = (j as f64 + 0.5) * 2.0 * std::f64::consts::PI / nphi as f64;
-                let w = [r * phi.cos(), wy, r * phi.sin()];
-                let p = hg(g, w[0] * d[0] + w[1] * d[1] + w[2] * d[2]) * cell;
+                let p = phase(r * phi.cos() * d[0] + wy * d[1]) * cell;
                 m0 += p;
                 m1 += p * wy;
             }
         }
         (m0, m1)
+    }
+
+    fn brute_force(g: f64, d_y: f64) -> (f64, f64) {
+        brute_force_moments(|c| hg(g, c), d_y)
     }
 
     /// The shader's 24 quantiles match brute-force integration over the

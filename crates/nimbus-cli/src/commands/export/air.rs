@@ -164,16 +164,7 @@ pub fn write_air(
         sigma_t = volume("sigma_t", "sigma_t"),
         albedo = volume("albedo", "albedo"),
     );
-    let _ = write!(
-        xml,
-        r#"    <shape type="cube">
-        <transform name="to_world"><matrix value="{cube}"/></transform>
-        <bsdf type="null"/>
-        <ref name="interior" id="air"/>
-    </shape>
-"#,
-        cube = super::mitsuba::matrix(&world_from_cube),
-    );
+    super::mitsuba::cube_shape(xml, "air", &world_from_cube);
     Ok(AirBox {
         world_from_cube,
         approximation: format!(

@@ -266,7 +266,7 @@ fn medium_shape(
 }
 
 /// A box bounding a medium (no surface of its own).
-fn cube_shape(xml: &mut String, medium_id: &str, world_from_cube: &DMat4) {
+pub(super) fn cube_shape(xml: &mut String, medium_id: &str, world_from_cube: &DMat4) {
     let _ = write!(
         xml,
         r#"    <shape type="cube">
