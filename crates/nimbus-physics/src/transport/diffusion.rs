@@ -22,6 +22,14 @@
 //!   Φ = A + B t, B = 4 (F_base − F_top)/(T + 4/3), A = 4 F_top + ⅔ B;
 //!   an isotropic field (F_top = F_base = π L) gives Φ = 4π L everywhere.
 //!
+//! The radiance (Eddington's P1, the first two terms of its angular
+//! expansion): I(μ) = (Φ + 3 F μ)/(4π), F = −⅓ dΦ/dt the net flux along
+//! the depth axis (Fick's law), μ the cosine between the light's direction
+//! of travel and that axis; so I = (Φ − μ Φ')/(4π) ([`eddington_radiance`]).
+//! Looking up into an overcast (the light travelling down the axis, μ = 1)
+//! the radiance is above the fluence's isotropic part Φ/(4π), looking down
+//! below it.
+//!
 //! Units: t, T dimensionless; E, F in W m⁻², Φ in W m⁻².
 
 /// Diffuse fluence at transport depth `t` below the lit face of a slab of
@@ -48,6 +56,31 @@ pub fn diffuse_fluence(t: f64, total: f64, flux_top: f64, flux_base: f64) -> f64
     let b = 4.0 * (flux_base - flux_top) / (total + 4.0 / 3.0);
     let a = 4.0 * flux_top + 2.0 / 3.0 * b;
     (a + b * t).max(0.0)
+}
+
+/// dΦ/dt of [`collimated_fluence`] (per unit normal irradiance), the
+/// unclamped solution's: B + 3 μ₀ e^{−t/μ₀}. 0 for mu0 ≤ 0.
+pub fn collimated_fluence_gradient(t: f64, total: f64, mu0: f64) -> f64 {
+    if mu0 <= 0.0 {
+        return 0.0;
+    }
+    let total = total.max(0.0);
+    let t = t.clamp(0.0, total);
+    let e = (-total / mu0).exp();
+    let b = -(3.0 * mu0 * mu0 * (1.0 - e) + 2.0 * mu0 * (1.0 + e)) / (total + 4.0 / 3.0);
+    b + 3.0 * mu0 * (-t / mu0).exp()
+}
+
+/// dΦ/dt of [`diffuse_fluence`], W m⁻²: 4 (F_base − F_top)/(T + 4/3).
+pub fn diffuse_fluence_gradient(total: f64, flux_top: f64, flux_base: f64) -> f64 {
+    4.0 * (flux_base - flux_top) / (total.max(0.0) + 4.0 / 3.0)
+}
+
+/// Eddington's radiance (W m⁻² sr⁻¹ for Φ in W m⁻²) of a fluence `fluence`
+/// and its gradient `gradient` along the depth axis, for light travelling
+/// at cosine `mu` to that axis: (Φ − μ Φ')/(4π), never below 0.
+pub fn eddington_radiance(fluence: f64, gradient: f64, mu: f64) -> f64 {
+    (fluence - mu * gradient).max(0.0) / (4.0 * std::f64::consts::PI)
 }
 
 #[cfg(test)]
@@ -110,5 +143,38 @@ mod tests {
         assert!(f(0.0) > f(6.0) && f(6.0) > f(12.0));
         assert!((f(0.0) - 2.0 / 3.0 * derivative(f, 1e-4) - 4.0).abs() < 1e-6);
         assert!((f(12.0) + 2.0 / 3.0 * derivative(f, 12.0 - 1e-4)).abs() < 1e-6);
+    }
+
+    /// The gradients are the fluences' derivatives, and the radiance
+    /// carries the flux: ∫ I μ dω = −⅓ Φ' (Fick), and its mean over the
+    /// sphere is Φ/(4π); inside a slab lit from above, looking up is
+    /// brighter than looking level.
+    #[test]
+    fn gradients_and_radiance_carry_the_flux() {
+        for (t, total, mu0) in [(0.3, 2.0, 0.7), (1.5, 6.0, 0.4), (4.0, 9.0, 1.0)] {
+            let numeric = derivative(|x| collimated_fluence(x, total, mu0), t);
+            let exact = collimated_fluence_gradient(t, total, mu0);
+            assert!((numeric - exact).abs() < 1e-5, "{numeric} vs {exact}");
+            let numeric = derivative(|x| diffuse_fluence(x, total, 2.0, 0.3), t);
+            let exact = diffuse_fluence_gradient(total, 2.0, 0.3);
+            assert!((numeric - exact).abs() < 1e-6, "{numeric} vs {exact}");
+        }
+        let (phi, gradient) = (5.0, -1.2);
+        let n = 20_000;
+        let (mut flux, mut mean) = (0.0, 0.0);
+        for k in 0..n {
+            let mu = -1.0 + 2.0 * (k as f64 + 0.5) / n as f64;
+            let radiance = eddington_radiance(phi, gradient, mu);
+            flux += radiance * mu * 2.0 * std::f64::consts::PI * 2.0 / n as f64;
+            mean += radiance / n as f64;
+        }
+        assert!((flux + gradient / 3.0).abs() < 1e-6, "flux {flux}");
+        assert!((mean - phi / (4.0 * std::f64::consts::PI)).abs() < 1e-9);
+        let t = 3.0;
+        let phi = collimated_fluence(t, 6.0, 0.7);
+        let gradient = collimated_fluence_gradient(t, 6.0, 0.7);
+        assert!(
+            eddington_radiance(phi, gradient, 1.0) > 1.2 * eddington_radiance(phi, gradient, 0.0)
+        );
     }
 }

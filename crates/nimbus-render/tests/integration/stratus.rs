@@ -501,25 +501,33 @@ fn diffusion_kernel(@builtin(global_invocation_id) id: vec3<u32>) {
     }
     let a = diffusion_in[2u * i];
     let b = diffusion_in[2u * i + 1u];
-    diffusion_out[2u * i] = in_layer_collimated(a.x, a.y, a.z);
-    diffusion_out[2u * i + 1u] = in_layer_diffuse(a.x, a.y, vec3<f32>(b.x), vec3<f32>(b.y)).x;
+    let diffuse = in_layer_diffuse(a.x, a.y, vec3<f32>(b.x), vec3<f32>(b.y));
+    let diffuse_gradient = in_layer_diffuse_gradient(a.y, vec3<f32>(b.x), vec3<f32>(b.y));
+    diffusion_out[3u * i] = in_layer_collimated(a.x, a.y, a.z);
+    diffusion_out[3u * i + 1u] = in_layer_collimated_gradient(a.x, a.y, a.z);
+    diffusion_out[3u * i + 2u] = in_layer_radiance(diffuse, diffuse_gradient, b.z).x;
 }
 ";
 
 /// The in-layer march's light (in_layer.wgsl) against its CPU twin
 /// (`nimbus_physics::transport::diffusion`): the diffuse fluence of a
-/// conservative slab lit by a beam and by diffuse fluxes, over depths,
-/// thicknesses and sun cosines, within 1e-4 relative (f32 against f64).
+/// conservative slab lit by a beam and its gradient, and Eddington's
+/// radiance of one lit by diffuse fluxes, over depths, thicknesses, sun
+/// cosines and view cosines, within 1e-4 relative (f32 against f64).
 #[test]
 fn in_layer_diffusion_matches_the_cpu_twin() {
-    use nimbus_physics::transport::diffusion::{collimated_fluence, diffuse_fluence};
+    use nimbus_physics::transport::diffusion::{
+        collimated_fluence, collimated_fluence_gradient, diffuse_fluence, diffuse_fluence_gradient,
+        eddington_radiance,
+    };
     let h = HeadlessRenderer::new(AdapterPreference::Auto)
         .unwrap_or_else(|e| panic!("GPU tests need an adapter: {e}"));
     let mut items: Vec<[[f32; 4]; 2]> = Vec::new();
     for total in [0.05f32, 0.8, 3.0, 12.0, 40.0] {
         for f in [0.0f32, 0.1, 0.5, 0.9, 1.0] {
             for mu0 in [0.05f32, 0.3, 0.7, 1.0] {
-                items.push([[f * total, total, mu0, 0.0], [1.7, 0.4, 0.0, 0.0]]);
+                let view_mu = 2.0 * f - 1.0;
+                items.push([[f * total, total, mu0, 0.0], [1.7, 0.4, view_mu, 0.0]]);
             }
         }
     }
@@ -533,16 +541,22 @@ fn in_layer_diffusion_matches_the_cpu_twin() {
             input: bytemuck::cast_slice(&items),
             input_stride: 32,
             count: items.len(),
-            outputs_per_item: 2,
+            outputs_per_item: 3,
             extra: &[],
         },
     );
-    for (item, out) in items.iter().zip(gpu.chunks(2)) {
+    for (item, out) in items.iter().zip(gpu.chunks(3)) {
         let [a, b] = item;
         let (t, total, mu0) = (f64::from(a[0]), f64::from(a[1]), f64::from(a[2]));
+        let (top, base, view_mu) = (f64::from(b[0]), f64::from(b[1]), f64::from(b[2]));
         let beam = collimated_fluence(t, total, mu0);
-        let diffuse = diffuse_fluence(t, total, f64::from(b[0]), f64::from(b[1]));
-        for (gpu, cpu) in [(out[0], beam), (out[1], diffuse)] {
+        let beam_gradient = collimated_fluence_gradient(t, total, mu0);
+        let diffuse = eddington_radiance(
+            diffuse_fluence(t, total, top, base),
+            diffuse_fluence_gradient(total, top, base),
+            view_mu,
+        );
+        for (gpu, cpu) in [(out[0], beam), (out[1], beam_gradient), (out[2], diffuse)] {
             assert!(
                 (f64::from(gpu) - cpu).abs() <= 1e-4 * cpu.abs().max(1.0),
                 "t {t}, T {total}, μ₀ {mu0}: GPU {gpu} vs CPU {cpu}"

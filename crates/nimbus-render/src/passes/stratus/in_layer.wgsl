@@ -13,11 +13,13 @@
 // attenuated by e^{−κ_s d/μ₀} from the lit face (κ_s = (1 − P_f) κ, the
 // δ-M extinction the layer model uses; d the depth below the cell's top,
 // or the sun ray's path through cloud times μ₀ where shorter: the cells'
-// sunlit sides), plus the diffuse fluence Φ/(4π) of the column as a
-// conservative slab in the diffusion approximation at that depth, lit by
-// the sun's beam, the sky from above and the ground's radiosity from below
-// (twin: nimbus_physics::transport::diffusion; the same slab and the same
-// inputs as the faces' shading, layer.wgsl).
+// sunlit sides), plus the diffuse light of the column as a conservative
+// slab in the diffusion approximation at that depth, lit by the sun's beam,
+// the sky from above and the ground's radiosity from below, as Eddington's
+// radiance (Φ − μ Φ')/(4π): the fluence's isotropic part and the net
+// flux's, so that looking up into an overcast is brighter than looking
+// level (twin: nimbus_physics::transport::diffusion; the same slab and the
+// same inputs as the faces' shading, layer.wgsl).
 
 @group(1) @binding(0) var in_layer_depth: texture_depth_2d;
 
@@ -51,6 +53,29 @@ fn in_layer_diffuse(t_in: f32, total_in: f32, top: vec3<f32>, base: vec3<f32>) -
     let b = 4.0 * (base - top) / (total + 4.0 / 3.0);
     let a = 4.0 * top + 2.0 / 3.0 * b;
     return max(a + b * t, vec3<f32>(0.0));
+}
+
+// Twin of diffusion::collimated_fluence_gradient: dΦ/dt per unit irradiance.
+fn in_layer_collimated_gradient(t_in: f32, total_in: f32, mu0: f32) -> f32 {
+    if (mu0 <= 0.0) {
+        return 0.0;
+    }
+    let total = max(total_in, 0.0);
+    let t = clamp(t_in, 0.0, total);
+    let e = exp(-total / mu0);
+    let b = -(3.0 * mu0 * mu0 * (1.0 - e) + 2.0 * mu0 * (1.0 + e)) / (total + 4.0 / 3.0);
+    return b + 3.0 * mu0 * exp(-t / mu0);
+}
+
+// Twin of diffusion::diffuse_fluence_gradient.
+fn in_layer_diffuse_gradient(total_in: f32, top: vec3<f32>, base: vec3<f32>) -> vec3<f32> {
+    return 4.0 * (base - top) / (max(total_in, 0.0) + 4.0 / 3.0);
+}
+
+// Twin of diffusion::eddington_radiance: (Φ − μ Φ')/(4π), at least 0, for
+// light travelling at cosine μ to the depth axis.
+fn in_layer_radiance(fluence: vec3<f32>, gradient: vec3<f32>, mu: f32) -> vec3<f32> {
+    return max(fluence - mu * gradient, vec3<f32>(0.0)) / (4.0 * PI);
 }
 
 // Steps of the march towards the sun from a step of the view's march.
@@ -172,7 +197,10 @@ fn in_layer_fragment(in: FullscreenOutput) -> @location(0) vec4<f32> {
         // the point is in a slab across that face as thick as the cloud's
         // chord along the sun through it (towards and away from the sun).
         let lit_depth_m = select(above_base, below_top, sun_above);
-        var phi = in_layer_diffuse(kappa_t * below_top, kappa_t * h, sky, light.ground);
+        // The diffuse part's depth axis points down: the light reaching the
+        // camera travels along −direction, at cosine direction.y to it.
+        var diffuse = in_layer_radiance(in_layer_diffuse(kappa_t * below_top, kappa_t * h, sky, light.ground),
+            in_layer_diffuse_gradient(kappa_t * h, sky, light.ground), direction.y);
         var direct = vec3<f32>(0.0);
         if (l.y > 0.0) {
             // The sun ray's paths (towards and away from the sun), marched
@@ -186,11 +214,21 @@ fn in_layer_fragment(in: FullscreenOutput) -> @location(0) vec4<f32> {
             let top_path_m = lit_depth_m / mu0;
             let path_m = min(sun_paths.x, top_path_m);
             let chord_m = path_m + sun_paths.y;
-            let mu_face = select(mu0, sqrt(max(1.0 - mu0 * mu0, 0.0)), path_m < 0.9 * top_path_m);
-            phi += light.sun * in_layer_collimated(kappa_t * path_m * mu_face, kappa_t * chord_m * mu_face, mu_face);
+            let side_lit = path_m < 0.9 * top_path_m;
+            let mu_face = select(mu0, sqrt(max(1.0 - mu0 * mu0, 0.0)), side_lit);
+            // The beam's depth axis: into the lit face, down from the top,
+            // up from the base, or away from the sun through a side.
+            var axis = vec3<f32>(0.0, select(1.0, -1.0, sun_above), 0.0);
+            if (side_lit) {
+                axis = -normalize(vec3<f32>(l.x, 0.0, l.z) + vec3<f32>(1e-6, 0.0, 0.0));
+            }
+            let depth = kappa_t * path_m * mu_face;
+            let thickness = kappa_t * chord_m * mu_face;
+            diffuse += light.sun * in_layer_radiance(vec3<f32>(in_layer_collimated(depth, thickness, mu_face)),
+                vec3<f32>(in_layer_collimated_gradient(depth, thickness, mu_face)), dot(-direction, axis));
             direct = light.sun * exp(-kappa_s * path_m);
         }
-        let source = phase * direct + phi / (4.0 * PI);
+        let source = phase * direct + diffuse;
         let opacity = (1.0 - exp(-kappa_s * dt)) * fade;
         let scattered = transmittance * opacity;
         radiance += scattered * source;
