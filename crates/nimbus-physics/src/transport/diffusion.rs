@@ -41,10 +41,17 @@ pub fn collimated_fluence(t: f64, total: f64, mu0: f64) -> f64 {
     }
     let total = total.max(0.0);
     let t = t.clamp(0.0, total);
+    let (a, b) = collimated_coefficients(total, mu0);
+    (a + b * t - 3.0 * mu0 * mu0 * (-t / mu0).exp()).max(0.0)
+}
+
+/// A and B of the beam's solution Φ = A + B t − 3 μ₀² e^{−t/μ₀} (module
+/// notes), per unit normal irradiance, for a slab of transport thickness
+/// `total` (≥ 0) and a beam at cosine `mu0` (> 0).
+fn collimated_coefficients(total: f64, mu0: f64) -> (f64, f64) {
     let e = (-total / mu0).exp();
     let b = -(3.0 * mu0 * mu0 * (1.0 - e) + 2.0 * mu0 * (1.0 + e)) / (total + 4.0 / 3.0);
-    let a = 3.0 * mu0 * mu0 + 2.0 * mu0 + 2.0 / 3.0 * b;
-    (a + b * t - 3.0 * mu0 * mu0 * (-t / mu0).exp()).max(0.0)
+    (3.0 * mu0 * mu0 + 2.0 * mu0 + 2.0 / 3.0 * b, b)
 }
 
 /// Diffuse fluence at transport depth `t` below the top of a slab of
@@ -66,8 +73,7 @@ pub fn collimated_fluence_gradient(t: f64, total: f64, mu0: f64) -> f64 {
     }
     let total = total.max(0.0);
     let t = t.clamp(0.0, total);
-    let e = (-total / mu0).exp();
-    let b = -(3.0 * mu0 * mu0 * (1.0 - e) + 2.0 * mu0 * (1.0 + e)) / (total + 4.0 / 3.0);
+    let (_, b) = collimated_coefficients(total, mu0);
     b + 3.0 * mu0 * (-t / mu0).exp()
 }
 

@@ -40,10 +40,15 @@ fn in_layer_collimated(t_in: f32, total_in: f32, mu0: f32) -> f32 {
     }
     let total = max(total_in, 0.0);
     let t = clamp(t_in, 0.0, total);
+    let ab = in_layer_collimated_coefficients(total, mu0);
+    return max(ab.x + ab.y * t - 3.0 * mu0 * mu0 * exp(-t / mu0), 0.0);
+}
+
+// Twin of diffusion::collimated_coefficients: (A, B) of the beam's solution.
+fn in_layer_collimated_coefficients(total: f32, mu0: f32) -> vec2<f32> {
     let e = exp(-total / mu0);
     let b = -(3.0 * mu0 * mu0 * (1.0 - e) + 2.0 * mu0 * (1.0 + e)) / (total + 4.0 / 3.0);
-    let a = 3.0 * mu0 * mu0 + 2.0 * mu0 + 2.0 / 3.0 * b;
-    return max(a + b * t - 3.0 * mu0 * mu0 * exp(-t / mu0), 0.0);
+    return vec2<f32>(3.0 * mu0 * mu0 + 2.0 * mu0 + 2.0 / 3.0 * b, b);
 }
 
 // Twin of diffusion::diffuse_fluence.
@@ -62,9 +67,7 @@ fn in_layer_collimated_gradient(t_in: f32, total_in: f32, mu0: f32) -> f32 {
     }
     let total = max(total_in, 0.0);
     let t = clamp(t_in, 0.0, total);
-    let e = exp(-total / mu0);
-    let b = -(3.0 * mu0 * mu0 * (1.0 - e) + 2.0 * mu0 * (1.0 + e)) / (total + 4.0 / 3.0);
-    return b + 3.0 * mu0 * exp(-t / mu0);
+    return in_layer_collimated_coefficients(total, mu0).y + 3.0 * mu0 * exp(-t / mu0);
 }
 
 // Twin of diffusion::diffuse_fluence_gradient.
