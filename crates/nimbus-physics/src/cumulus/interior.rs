@@ -41,7 +41,7 @@
 //! channel.
 
 use super::transport::{Medium, Scattering, inside, ray_box, tangents, uniform_direction};
-use super::volume::ExtinctionGrid;
+use super::volume::{ExtinctionGrid, trilinear};
 use crate::sh;
 use crate::transport::rng::Rng;
 use glam::DVec3;
@@ -106,37 +106,6 @@ impl InteriorTransfer {
             self.cell(c)
         })
     }
-}
-
-/// Trilinear interpolation of cell values (value of cell c held at its
-/// centre c + ½) at `u` in cell units, clamped to the edge cells.
-pub fn trilinear<const N: usize>(
-    dims: [usize; 3],
-    u: DVec3,
-    value: impl Fn([usize; 3]) -> [f64; N],
-) -> [f64; N] {
-    let u = u - DVec3::splat(0.5);
-    let base = u.floor();
-    let t = u - base;
-    let mut sum = [0.0; N];
-    for corner in 0..8usize {
-        let mut weight = 1.0;
-        let mut cell = [0usize; 3];
-        for a in 0..3 {
-            let high = (corner >> a) & 1 == 1;
-            weight *= if high { t[a] } else { 1.0 - t[a] };
-            let i = base[a] + if high { 1.0 } else { 0.0 };
-            cell[a] = i.clamp(0.0, (dims[a].max(1) - 1) as f64) as usize;
-        }
-        if weight == 0.0 {
-            continue;
-        }
-        let v = value(cell);
-        for (s, x) in sum.iter_mut().zip(v) {
-            *s += weight * x;
-        }
-    }
-    sum
 }
 
 /// Per-worker sums.

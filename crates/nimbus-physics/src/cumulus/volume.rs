@@ -450,22 +450,9 @@ impl ExtinctionGrid {
     /// σ_t at `p_m` as Mitsuba 3's `gridvolume` interpolates it (trilinear
     /// between cell centres, clamped to the edge cells), m⁻¹.
     pub fn lookup_per_m(&self, p_m: DVec3) -> f64 {
-        let u = (p_m - self.origin_m) / self.cell_m - DVec3::splat(0.5);
-        let base = u.floor();
-        let t = u - base;
-        let mut sum = 0.0;
-        for corner in 0..8usize {
-            let mut weight = 1.0;
-            let mut cell = [0usize; 3];
-            for a in 0..3 {
-                let high = (corner >> a) & 1 == 1;
-                weight *= if high { t[a] } else { 1.0 - t[a] };
-                let i = base[a] + if high { 1.0 } else { 0.0 };
-                cell[a] = i.clamp(0.0, (self.dims[a].max(1) - 1) as f64) as usize;
-            }
-            sum += weight * f64::from(self.value_per_m(cell));
-        }
-        sum
+        trilinear(self.dims, (p_m - self.origin_m) / self.cell_m, |cell| {
+            [f64::from(self.value_per_m(cell))]
+        })[0]
     }
 
     /// τ along the segment from `from_m` to `to_m` through
@@ -515,6 +502,37 @@ impl ExtinctionGrid {
         }
         out
     }
+}
+
+/// Trilinear interpolation of cell values (value of cell c held at its
+/// centre c + ½) at `u` in cell units, clamped to the edge cells.
+pub fn trilinear<const N: usize>(
+    dims: [usize; 3],
+    u: DVec3,
+    value: impl Fn([usize; 3]) -> [f64; N],
+) -> [f64; N] {
+    let u = u - DVec3::splat(0.5);
+    let base = u.floor();
+    let t = u - base;
+    let mut sum = [0.0; N];
+    for corner in 0..8usize {
+        let mut weight = 1.0;
+        let mut cell = [0usize; 3];
+        for a in 0..3 {
+            let high = (corner >> a) & 1 == 1;
+            weight *= if high { t[a] } else { 1.0 - t[a] };
+            let i = base[a] + if high { 1.0 } else { 0.0 };
+            cell[a] = i.clamp(0.0, (dims[a].max(1) - 1) as f64) as usize;
+        }
+        if weight == 0.0 {
+            continue;
+        }
+        let v = value(cell);
+        for (s, x) in sum.iter_mut().zip(v) {
+            *s += weight * x;
+        }
+    }
+    sum
 }
 
 #[cfg(test)]
