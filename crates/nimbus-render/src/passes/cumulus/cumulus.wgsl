@@ -103,8 +103,15 @@ fn cumulus_transfer_at(t: CumulusTransferVertex, i: CumulusInstance) -> CumulusT
     let c_b = mix(t.low_c_b, t.high_c_b, w);
     let d = mix(t.low_diagonal_xy, t.high_diagonal_xy, w);
     let o = mix(t.low_yz_xz, t.high_yz_xz, w);
-    let c = i.rotation_noise.x;
-    let s = i.rotation_noise.y;
+    return cumulus_turned_transfer(c_b, d, o, i.rotation_noise.xy);
+}
+
+// A transfer of the shape's frame (c, b; A's diagonal and xy in `d`, its yz
+// and xz in `o`) turned with a cloud of yaw cosine and sine `cos_sin`:
+// b → R b, A → R A Rᵀ (SphericalQuadratic::yawed).
+fn cumulus_turned_transfer(c_b: vec4<f32>, d: vec4<f32>, o: vec4<f32>, cos_sin: vec2<f32>) -> CumulusTransfer {
+    let c = cos_sin.x;
+    let s = cos_sin.y;
     // R's columns (cumulus_rotate: x' = c x + s z, z' = −s x + c z).
     let r = mat3x3<f32>(vec3<f32>(c, 0.0, -s), vec3<f32>(0.0, 1.0, 0.0), vec3<f32>(s, 0.0, c));
     let a = mat3x3<f32>(vec3<f32>(d.x, d.w, o.y), vec3<f32>(d.w, d.y, o.x), vec3<f32>(o.y, o.x, d.z));

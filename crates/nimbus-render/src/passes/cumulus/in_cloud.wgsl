@@ -129,15 +129,7 @@ fn in_cloud_light_fragment(in: FullscreenOutput) -> @location(0) vec4<f32> {
     let c_b = mix(in_cloud_forms[6u * cell], in_cloud_forms[6u * cell + 3u], w);
     let d = mix(in_cloud_forms[6u * cell + 1u], in_cloud_forms[6u * cell + 4u], w);
     let o = mix(in_cloud_forms[6u * cell + 2u], in_cloud_forms[6u * cell + 5u], w);
-    let c = in_cloud.rotation.x;
-    let s = in_cloud.rotation.y;
-    let r = mat3x3<f32>(vec3<f32>(c, 0.0, -s), vec3<f32>(0.0, 1.0, 0.0), vec3<f32>(s, 0.0, c));
-    let a = mat3x3<f32>(vec3<f32>(d.x, d.w, o.y), vec3<f32>(d.w, d.y, o.x), vec3<f32>(o.y, o.x, d.z));
-    let turned = r * a * transpose(r);
-    var f: CumulusTransfer;
-    f.c_b = vec4<f32>(c_b.x, r * c_b.yzw);
-    f.diagonal_xy = vec4<f32>(turned[0][0], turned[1][1], turned[2][2], turned[1][0]);
-    f.yz_xz = vec4<f32>(turned[2][1], turned[2][0], 0.0, 0.0);
+    let f = cumulus_turned_transfer(c_b, d, o, in_cloud.rotation.xy);
     let environment = max(cumulus_transfer_environment(f, lighting), vec3<f32>(0.0));
     let sun = max(cumulus_transfer_value(f, frame.sun_direction), 0.0);
     return vec4<f32>(environment, sun);
