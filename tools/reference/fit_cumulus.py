@@ -88,10 +88,18 @@ def blocks(a, n=None):
     return a.reshape(h // n, n, w // n, n, *a.shape[2:]).mean(axis=(1, 3))
 
 
+def read_reference(name):
+    """The stored reference's RGB: the mean of its two independent halves
+    (tools/reference/suite.sh keeps NAME_a.exr and NAME_b.exr)."""
+    stem = os.path.join(ROOT, "scenes", "realism", "references", name)
+    halves = [read_layers(f"{stem}_{h}.exr")[0] for h in "ab"]
+    return 0.5 * (halves[0] + halves[1])
+
+
 def scene_system(nimbus, name, out_dir):
     """The scene's design matrix, target and metadata over its cloud pixels."""
     scene = os.path.join(ROOT, "scenes", "realism", f"{name}.toml")
-    reference, _ = read_layers(os.path.join(ROOT, "scenes", "realism", "references", f"{name}.exr"))
+    reference = read_reference(name)
     zero = {w: 0.0 for w in WEIGHTS}
     base, alpha = render(nimbus, scene, zero, out_dir, f"{name}-zero")
     basis = []

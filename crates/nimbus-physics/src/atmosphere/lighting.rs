@@ -26,11 +26,12 @@ pub struct SkyLighting {
     pub sun_irradiance: [f64; 3],
     /// C_sky: the sky's irradiance on an upward surface (no sun), W·m⁻².
     pub sky_irradiance_up: [f64; 3],
-    /// C_ground: radiance of a Lambertian ground of the atmosphere's ground
-    /// albedo lit by that sun and sky, W·sr⁻¹·m⁻².
+    /// C_ground: radiance of a Lambertian ground of the given albedo (the
+    /// ground under the observer) lit by that sun and sky, W·sr⁻¹·m⁻².
     pub ground_radiance: [f64; 3],
-    /// The environment's radiance (the sky above the horizon, C_ground below
-    /// it, the sun's disc excluded) as order-2 real SH coefficients
+    /// The environment's radiance (the sky above the horizon; below it
+    /// C_ground through the air and the air's own light; the sun's disc
+    /// excluded) as order-2 real SH coefficients
     /// ([`crate::sh`]); [`sh::irradiance`] gives the irradiance on a normal.
     pub sh: [[f64; 3]; 9],
 }
@@ -38,12 +39,17 @@ pub struct SkyLighting {
 impl SkyLighting {
     /// The lighting at `observer_height_m` above the ground, the sun along
     /// `sun_direction` (unit, y up) with `solar_irradiance_top` (W·m⁻² per
-    /// channel) at the top of the atmosphere.
+    /// channel) at the top of the atmosphere, over a Lambertian ground of
+    /// `ground_albedo`: the ground the observer sees below the horizon (a
+    /// renderer's terrain), which need not be the atmosphere's
+    /// `ground_albedo`, the planet's far ground that the sky's multiple
+    /// scattering sees.
     pub fn at(
         tables: &AtmosphereTables,
         observer_height_m: f64,
         sun_direction: [f64; 3],
         solar_irradiance_top: [f64; 3],
+        ground_albedo: [f64; 3],
     ) -> Self {
         let p = &tables.params;
         let r = p.bottom_radius_m + observer_height_m.max(0.0);
@@ -75,11 +81,20 @@ impl SkyLighting {
         let transmittance = p.transmittance_to_top(r, mu_s);
         let sun_irradiance = [0, 1, 2].map(|c| solar_irradiance_top[c] * transmittance[c]);
         let ground_radiance = [0, 1, 2].map(|c| {
-            p.ground_albedo[c] / std::f64::consts::PI
+            ground_albedo[c] / std::f64::consts::PI
                 * (sun_irradiance[c] * mu_s.max(0.0) + sky_irradiance_up[c])
         });
+        // Below the horizon the ground through the air, and the air's own
+        // light (the sky-view integral ends on the ground).
         let coefficients = sh::project(&directions, |d| {
-            if d[1] > 0.0 { sky(d) } else { ground_radiance }
+            let mut radiance = sky(d);
+            if p.ray_hits_ground(r, d[1]) {
+                let t = ground_transmittance(p, r, d[1]);
+                for c in 0..3 {
+                    radiance[c] += t[c] * ground_radiance[c];
+                }
+            }
+            radiance
         });
         Self {
             sun_direction,
@@ -97,6 +112,14 @@ impl SkyLighting {
     }
 }
 
+/// The air's transmittance from radius `r` along a ray of cosine `mu` that
+/// hits the ground, to the ground (twin of WGSL `ground_transmittance` in
+/// nimbus-render's lighting pass, which reads it from the transmittance LUT).
+pub fn ground_transmittance(p: &super::AtmosphereParams, r: f64, mu: f64) -> [f64; 3] {
+    let length = p.distance_to_bottom(r, mu);
+    p.optical_depth(r, mu, length, 200).map(|tau| (-tau).exp())
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -105,7 +128,13 @@ mod tests {
     fn lighting(sun_elevation_deg: f64) -> SkyLighting {
         let tables = AtmosphereTables::new(&AtmosphereParams::default());
         let e = sun_elevation_deg.to_radians();
-        SkyLighting::at(&tables, 200.0, [e.cos(), e.sin(), 0.0], [1.0; 3])
+        SkyLighting::at(
+            &tables,
+            200.0,
+            [e.cos(), e.sin(), 0.0],
+            [1.0; 3],
+            tables.params.ground_albedo,
+        )
     }
 
     /// The SH reproduce the directly integrated sky irradiance on an upward

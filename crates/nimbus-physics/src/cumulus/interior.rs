@@ -32,10 +32,27 @@
 //! `passes/cumulus/in_cloud.wgsl`): the radiance along a view ray from the
 //! camera, L = Σ_i T_i J_i/σ_i (1 − e^{−σ_i Δ}) + T L_behind over steps of
 //! constant σ and source, with the source per unit length
-//! J = σ [P_S(Θ) E_sun T_sun + (E_sun Φ_sun + Φ_env)/(4π)]: the mean
-//! radiance of the scattered light Φ/(4π) scattered towards the camera as
-//! if isotropic (its anisotropy, the diffuse flux, is left out: inside a
-//! core it is a few per cent of Φ, near a face up to a third).
+//! J = σ [P_S(Θ) E_sun T_sun + (E_sun Φ_sun + Φ_env)/(4π)], the scattered
+//! light's fluence sent towards the camera as if isotropic except for the
+//! sun's forward-scattered part (below).
+//!
+//! **The sun's forward-scattered light** ([`forward_orders_lobe`]). Near a
+//! sunlit face most of the sun's scattered light still travels close to the
+//! beam: the droplets scatter forwards (g* ≈ 0.74 with the peak removed),
+//! and isotropic it made the fog as bright looking away from the sun as
+//! towards it (docs/REALISM.md, "In-cloud views"). In the forward
+//! (small-angle) picture, light that has crossed an optical depth τ along
+//! the beam has scattered n times with Poisson probability τⁿe^{−τ}/n!, and
+//! after n Henyey–Greenstein scatterings its directions follow HG(gⁿ) (the
+//! Legendre moments of convolved phase functions multiply, gˡ for HG:
+//! Funk–Hecke); scattered once more towards the camera, HG(gⁿ⁺¹). That
+//! light cannot exceed what left the beam, 1 − e^{−τ} per unit irradiance
+//! (all of it, were none to escape sideways), so the source takes
+//! min(Φ_sun, 1 − T_sun) with that lobe and the rest of Φ_sun isotropic.
+//! The same idea as the "octaves" of multiple scattering with a shrinking
+//! g in production volume renderers (Wrenninge, Kulla & Lundqvist 2013,
+//! "Oz: the great and volumetric"), here with the orders' weights from the
+//! beam's optical depth and no free parameter.
 //!
 //! Units: metres, m⁻¹; Φ_k dimensionless; radiances in W sr⁻¹ m⁻² per
 //! channel.
@@ -280,8 +297,8 @@ pub struct FogLight {
     pub environment_fluence: [f64; 3],
     /// The sun's scattered fluence per unit irradiance Σ_k Φ_k Y_k(l).
     pub sun_fluence: f64,
-    /// The direct sunbeam's transmittance to the point through the cores
-    /// (the shadow map's).
+    /// The direct sunbeam's transmittance T_sun = e^{−τ} to the point
+    /// (through the cloud's own grid and the shadow map's other clouds).
     pub sun_transmittance: f64,
 }
 
@@ -297,6 +314,42 @@ pub struct FogRay {
     pub span_m: [f64; 2],
     /// Steps.
     pub steps: u32,
+    /// cos of the angle between the view ray and the direction to the sun.
+    pub cos_view_sun: f64,
+    /// Asymmetry g* of the peak-removed phase function.
+    pub asymmetry: f64,
+}
+
+/// Orders of [`forward_orders_lobe`] summed; the rest is taken as
+/// isotropic (its Poisson weight is below 1e-6 for τ ≤ 4, and HG(g¹⁷) is
+/// within 3 % of isotropic for g ≤ 0.75).
+pub const FORWARD_ORDERS: u32 = 16;
+
+/// The angular distribution (per unit solid angle, relative to isotropic:
+/// its mean over the sphere is 1) of the sun's light scattered towards a
+/// direction at cosine `cos_theta` to the beam's travel, at an optical
+/// depth `optical_depth` along the beam, in the forward picture of the
+/// module notes: Σ_{n≥1} w_n 4π HG(g^{n+1}, cos θ), w_n = τⁿe^{−τ}/(n!(1 −
+/// e^{−τ})) the orders of the light that left the beam. Twin of WGSL
+/// `forward_orders_lobe` (nimbus-render's `shader/diffusion.wgsl`).
+pub fn forward_orders_lobe(optical_depth: f64, cos_theta: f64, asymmetry: f64) -> f64 {
+    let tau = optical_depth.max(0.0);
+    let hg4pi = |g: f64| (1.0 - g * g) / (1.0 + g * g - 2.0 * g * cos_theta).powf(1.5);
+    // w_n ∝ τⁿ/n!, whose sum over n ≥ 1 is e^τ − 1: the series itself
+    // below τ = 1 (the terms beyond the 16th are below 1e-14 there, and the
+    // shader's e^τ − 1 cancels in f32).
+    let (mut term, mut g, mut series, mut sum) = (1.0, asymmetry, 0.0, 0.0);
+    for n in 1..=FORWARD_ORDERS {
+        term *= tau / f64::from(n);
+        g *= asymmetry;
+        series += term;
+        sum += term * hg4pi(g);
+    }
+    if series <= 0.0 {
+        return hg4pi(asymmetry * asymmetry);
+    }
+    let normalisation = if tau < 1.0 { series } else { tau.exp() - 1.0 };
+    sum / normalisation + (1.0 - series / normalisation).max(0.0)
 }
 
 /// Radiance and transmittance of the fog along a ray (see the module
@@ -317,9 +370,13 @@ pub fn march_fog(ray: &FogRay, light: impl Fn(f64) -> FogLight) -> ([f64; 3], f6
         let p = light(t0 + span * 0.5 * (a * a + b * b));
         let sigma = p.extinction_per_m.max(0.0);
         let step_t = (-sigma * dt).exp();
+        let tau = -p.sun_transmittance.max(1e-8).ln();
+        let forward = p.sun_fluence.min(1.0 - p.sun_transmittance).max(0.0);
+        let lobe = forward_orders_lobe(tau, ray.cos_view_sun, ray.asymmetry);
+        let sun_fluence = p.sun_fluence - forward + forward * lobe;
         for (c, r) in radiance.iter_mut().enumerate() {
             let source = ray.phase[c] * ray.sun_irradiance[c] * p.sun_transmittance
-                + (ray.sun_irradiance[c] * p.sun_fluence + p.environment_fluence[c]) / (4.0 * PI);
+                + (ray.sun_irradiance[c] * sun_fluence + p.environment_fluence[c]) / (4.0 * PI);
             *r += transmittance * source * (1.0 - step_t);
         }
         transmittance *= step_t;

@@ -224,12 +224,12 @@ impl CumulusShading {
     pub fn fitted() -> Self {
         Self {
             model: CumulusShadingModel::Fitted,
-            ambient: 0.58,
+            ambient: 1.18,
             lambert: 0.0,
-            light_traps: 0.06,
+            light_traps: 0.02,
             transmission: 0.0,
-            diffusion: 0.33,
-            forward_peak: 1.07,
+            diffusion: 0.32,
+            forward_peak: 1.10,
             ..Self::bouthors2004()
         }
     }

@@ -30,6 +30,7 @@ use nimbus_physics::sky::SOLAR_ILLUMINANCE_CONSTANT_LUX;
 /// with nimbus-physics optimised): call it when the sun or the atmosphere
 /// change, off the render thread; with the tables kept, [`SkyLighting::at`]
 /// alone takes 3.7 ms.
+/// The ground below the horizon is the scene's ([`ground_albedo`]).
 /// Clouds are not in it (a layer's shadow and light are nimbus's own).
 pub fn sky_lighting(scene: &Scene) -> SkyLighting {
     let tables = AtmosphereTables::new(&scene.atmosphere);
@@ -38,7 +39,28 @@ pub fn sky_lighting(scene: &Scene) -> SkyLighting {
         scene.camera.position_m[1],
         scene.sun.direction(),
         solar_irradiance_top().map(f64::from),
+        ground_albedo(scene),
     )
+}
+
+/// The mean albedo of the ground the scene draws (the terrain's over its
+/// square, water included, or the flat ground's): the ground that reflects
+/// the sun's and the sky's light onto the clouds, the rain and the air
+/// (the environment's lower half, the mist's and the air's light from
+/// below). The atmosphere's `ground_albedo` is the planet's far ground,
+/// which only the sky's multiple scattering sees (Hillaire 2020); nimbus
+/// used it for the near ground too, which lit the clouds from below by a
+/// 0.3 ground over terrain of 0.08–0.12 (docs/REALISM.md, "The ground the
+/// clouds see"). Generates the terrain at the default resolution: call it
+/// when the ground changes.
+pub fn ground_albedo(scene: &Scene) -> [f64; 3] {
+    if scene.ground.terrain {
+        nimbus_physics::terrain::mean_albedo(&scene.terrain)
+    } else if let Some(map) = &scene.ground.albedo_map {
+        map.map().mean()
+    } else {
+        scene.ground.albedo
+    }
 }
 
 /// Solar irradiance at the top of the atmosphere per RGB channel, W·m⁻²:
@@ -102,6 +124,11 @@ pub struct AtmosphereUniform {
     pub _padding1: f32,
     /// Padding.
     pub _padding2: f32,
+    /// Mean albedo of the ground the scene draws ([`ground_albedo`]): the
+    /// light it reflects onto the clouds, the rain and the air.
+    pub near_ground_albedo: [f32; 3],
+    /// Padding.
+    pub _padding3: f32,
 }
 
 impl From<&AtmosphereParams> for AtmosphereUniform {
@@ -124,6 +151,8 @@ impl From<&AtmosphereParams> for AtmosphereUniform {
             aerial_perspective_scale: 1.0,
             _padding1: 0.0,
             _padding2: 0.0,
+            near_ground_albedo: v(p.ground_albedo),
+            _padding3: 0.0,
         }
     }
 }

@@ -524,12 +524,6 @@ impl Renderer {
             }
         }
         self.frame.write_uniform(&self.queue, &frame);
-        self.atmosphere.prepare(
-            &self.queue,
-            &scene.atmosphere,
-            scene.camera.aerial_perspective,
-            &frame,
-        );
         self.sky.prepare(
             &self.queue,
             SkySettings {
@@ -552,6 +546,19 @@ impl Renderer {
             .prepare(&self.device, &self.queue, &ground, precompute)?;
         self.terrain
             .prepare_sun(&self.queue, scene.sun.direction(), precompute);
+        // The near ground's albedo lights the clouds from below; until the
+        // terrain is generated (in the background), the atmosphere's.
+        let near_ground_albedo = self
+            .terrain
+            .mean_albedo()
+            .unwrap_or(scene.atmosphere.ground_albedo);
+        self.atmosphere.prepare(
+            &self.queue,
+            &scene.atmosphere,
+            scene.camera.aerial_perspective,
+            near_ground_albedo,
+            &frame,
+        );
         self.objects.prepare(&self.device, scene)?;
         self.stratus.prepare(
             &self.device,

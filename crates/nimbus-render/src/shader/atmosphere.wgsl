@@ -26,6 +26,11 @@ struct Atmosphere {
     aerial_perspective_scale: f32,
     _padding1: f32,
     _padding2: f32,
+    // Mean albedo of the ground the scene draws (terrain or flat ground):
+    // what reflects light onto the clouds, the rain and the air. ground_albedo
+    // is the planet's far ground of the sky's multiple scattering.
+    near_ground_albedo: vec3<f32>,
+    _padding3: f32,
 }
 
 const TRANSMITTANCE_LUT_SIZE: vec2<f32> = vec2<f32>(256.0, 64.0);

@@ -315,7 +315,7 @@ fn stratus_ground_irradiance(position_m: vec3<f32>, n: vec3<f32>, clear: vec3<f3
 fn stratus_air_diffuse_inscatter(parts: AirParts, position_m: vec3<f32>, sun_transmittance: vec3<f32>) -> vec3<f32> {
     let from_above = stratus_radiosity_sample(true, position_m.xz);
     let sun_on_ground = sun_irradiance_at(position_m) * max(frame.sun_direction.y, 0.0) * sun_transmittance;
-    let from_below = atmosphere.ground_albedo * (from_above + sun_on_ground);
+    let from_below = atmosphere.near_ground_albedo * (from_above + sun_on_ground);
     var shape = vec2<f32>(3.0 / 7.0, 6.0 / 7.0);
     if (stratus.model.x == 0u) {
         shape = vec2<f32>(1.0, 0.0);

@@ -251,6 +251,13 @@ pub const HEMISPHERE_MOMENTS: WgslFile = WgslFile {
     source: include_str!("hemisphere_moments.wgsl"),
 };
 
+/// Eddington's radiance of a fluence and its gradient (the in-cloud
+/// marches of the cumulus and of the stratus layer).
+pub const DIFFUSION: WgslFile = WgslFile {
+    name: "shader/diffusion.wgsl",
+    source: include_str!("diffusion.wgsl"),
+};
+
 /// nimbus's lighting for the caller's own pipelines: the stable functions
 /// `nimbus_sun_visibility`, `nimbus_sun_direction`, `nimbus_sun_irradiance`,
 /// `nimbus_lambert_radiance`, `nimbus_pre_exposure` ([`lighting_include`]).
@@ -271,7 +278,7 @@ pub fn lighting_include() -> String {
 }
 
 /// Every shared WGSL file: what imports resolve against.
-pub const LIBRARY: [WgslFile; 12] = [
+pub const LIBRARY: [WgslFile; 13] = [
     COMMON,
     FULLSCREEN,
     LIT_SURFACE,
@@ -284,6 +291,7 @@ pub const LIBRARY: [WgslFile; 12] = [
     CLOUD_SHADOW_UNIFORM,
     CLOUD_SHADOW_LOOKUP,
     HEMISPHERE_MOMENTS,
+    DIFFUSION,
 ];
 
 /// The files every drawing pass that reads the atmosphere needs, in order

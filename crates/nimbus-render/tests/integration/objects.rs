@@ -145,7 +145,9 @@ fn box_faces_receive_the_sun_at_their_angle() {
     // facing east, seen from the east, under a sun in the east 30° high:
     // cos θ = cos 30°. The same wall made by turning a box a quarter turn
     // anticlockwise (its +Z face then looks east) must look the same.
-    let mut scene = flat_scene([0.2; 3]);
+    // A black ground: nothing reflected onto the wall from below.
+    let mut scene = flat_scene([0.0; 3]);
+    scene.terrain.albedo.water = [0.0; 3];
     scene.atmosphere.rayleigh_scattering_per_m = [0.0; 3];
     scene.atmosphere.aerosol_optical_depth = 0.0;
     scene.atmosphere.ozone_absorption_per_m = [0.0; 3];

@@ -141,6 +141,8 @@ fn atmosphere_and_lighting_match_wgsl_layout() {
             aerial_perspective_scale,
             _padding1,
             _padding2,
+            near_ground_albedo,
+            _padding3,
         ]
     );
     assert_layout!(

@@ -505,7 +505,7 @@ fn diffusion_kernel(@builtin(global_invocation_id) id: vec3<u32>) {
     let diffuse_gradient = in_layer_diffuse_gradient(a.y, vec3<f32>(b.x), vec3<f32>(b.y));
     diffusion_out[3u * i] = in_layer_collimated(a.x, a.y, a.z);
     diffusion_out[3u * i + 1u] = in_layer_collimated_gradient(a.x, a.y, a.z);
-    diffusion_out[3u * i + 2u] = in_layer_radiance(diffuse, diffuse_gradient, b.z).x;
+    diffusion_out[3u * i + 2u] = eddington_radiance(diffuse, diffuse_gradient, b.z).x;
 }
 ";
 

@@ -147,6 +147,8 @@ fn march_of_a_uniform_fog_is_the_closed_form() {
         phase: [0.1, 0.2, 0.3],
         span_m: [10.0, 60.0],
         steps: 7,
+        cos_view_sun: 0.3,
+        asymmetry: 0.74,
     };
     let light = FogLight {
         extinction_per_m: 0.04,
@@ -157,11 +159,82 @@ fn march_of_a_uniform_fog_is_the_closed_form() {
     let (l, t) = march_fog(&ray, |_| light);
     let opacity = 1.0 - (-0.04f64 * 50.0).exp();
     assert!((t - (1.0 - opacity)).abs() < 1e-12);
+    // Φ_sun = 0.5 ≤ 1 − T_sun: all of it in the forward lobe.
+    let lobe = forward_orders_lobe(4f64.ln(), 0.3, 0.74);
     for (c, l) in l.iter().enumerate() {
         let s = ray.phase[c] * ray.sun_irradiance[c] * 0.25
-            + (ray.sun_irradiance[c] * 0.5 + light.environment_fluence[c]) / (4.0 * PI);
+            + (ray.sun_irradiance[c] * 0.5 * lobe + light.environment_fluence[c]) / (4.0 * PI);
         assert!((l - s * opacity).abs() < 1e-12 * s, "{c}");
     }
+}
+
+/// The forward lobe is a distribution (its mean over the sphere is 1), is
+/// HG(g²) where the beam has barely been scattered, tends to isotropic
+/// deep in, and grows towards the beam's travel with τ's fall.
+#[test]
+fn forward_orders_lobe_is_normalised_and_spreads_with_depth() {
+    let hg4pi = |g: f64, c: f64| (1.0 - g * g) / (1.0 + g * g - 2.0 * g * c).powf(1.5);
+    for g in [0.3, 0.74, 0.85] {
+        for tau in [0.01, 0.5, 2.0, 6.0, 20.0] {
+            // ∫ lobe dω/(4π) = ½ ∫ lobe d(cos θ), Simpson over cos θ.
+            let n = 20_000;
+            let h = 2.0 / f64::from(n);
+            let mut mean = 0.0;
+            for i in 0..=n {
+                let c = -1.0 + f64::from(i) * h;
+                let w = if i == 0 || i == n {
+                    1.0
+                } else if i % 2 == 1 {
+                    4.0
+                } else {
+                    2.0
+                };
+                mean += w * forward_orders_lobe(tau, c, g);
+            }
+            mean *= h / 3.0 / 2.0;
+            assert!((mean - 1.0).abs() < 1e-3, "g {g} τ {tau}: mean {mean}");
+        }
+        let shallow = forward_orders_lobe(1e-6, 0.9, g);
+        assert!(
+            (shallow / hg4pi(g * g, 0.9) - 1.0).abs() < 1e-3,
+            "{shallow}"
+        );
+        assert!((forward_orders_lobe(200.0, 0.9, g) - 1.0).abs() < 1e-9);
+        let along = |tau| forward_orders_lobe(tau, 1.0, g);
+        assert!(along(0.5) > along(2.0) && along(2.0) > along(6.0) && along(6.0) > 1.0);
+    }
+}
+
+/// The sun's scattered light beyond what left the beam (Φ_sun > 1 − T_sun)
+/// stays isotropic: looking towards and away from the sun differ by the
+/// forward part only.
+#[test]
+fn march_keeps_the_sun_light_beyond_the_beams_loss_isotropic() {
+    let (tau, phi) = (1.5f64, 2.0f64);
+    let t_sun = (-tau).exp();
+    let light = FogLight {
+        extinction_per_m: 0.05,
+        environment_fluence: [0.0; 3],
+        sun_fluence: phi,
+        sun_transmittance: t_sun,
+    };
+    let fog = |cos_view_sun: f64| {
+        let ray = FogRay {
+            sun_irradiance: [1.0; 3],
+            phase: [0.0; 3],
+            span_m: [0.0, 1e4],
+            steps: 4,
+            cos_view_sun,
+            asymmetry: 0.74,
+        };
+        march_fog(&ray, |_| light).0[0]
+    };
+    let forward = 1.0 - t_sun;
+    for c in [-1.0, 0.0, 0.7, 1.0] {
+        let expected = (phi - forward + forward * forward_orders_lobe(tau, c, 0.74)) / (4.0 * PI);
+        assert!((fog(c) - expected).abs() < 1e-9 * expected, "{c}");
+    }
+    assert!(fog(1.0) > 3.0 * fog(-1.0));
 }
 
 /// Block averages keep the mean extinction and the box.

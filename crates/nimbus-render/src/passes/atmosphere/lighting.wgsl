@@ -4,12 +4,13 @@
 // and transmittance LUTs, in one storage buffer (`Lighting`):
 // - sh: radiance of the whole environment seen from the camera as order-2
 //   real spherical harmonics (Ramamoorthi & Hanrahan 2001): the sky above the
-//   horizon, the ground (C_ground) below it;
+//   horizon, below it the ground (C_ground) through the air and the air's
+//   own light;
 // - sky_irradiance_up: C_sky, the sky's irradiance on an upward surface;
 // - sun_irradiance: C_sun, the direct solar irradiance at the camera's
 //   altitude after atmospheric transmittance (normal incidence);
 // - ground_radiance: C_ground, the radiance of a Lambertian ground of the
-//   atmosphere's ground albedo lit by that sun and sky.
+//   near ground albedo (the scene's terrain) lit by that sun and sky.
 // One workgroup of 64 invocations integrates 1024 Fibonacci directions.
 // Mirrors nimbus_physics::sh and the CPU reference in the render tests.
 
@@ -43,6 +44,19 @@ fn sh_basis(d: vec3<f32>) -> array<f32, 9> {
     );
 }
 
+// The air's transmittance from radius r along a ray of cosine μ that hits
+// the ground, to the ground: T(ground → top)/T(r → top) along the reversed
+// ray (both upwards, in the transmittance LUT). Twin of
+// nimbus_physics::atmosphere::lighting's ground_transmittance.
+fn ground_transmittance(r: f32, mu: f32) -> vec3<f32> {
+    let length_m = distance_to_bottom(atmosphere, r, mu);
+    let r_ground = atmosphere.bottom_radius_m;
+    let mu_ground = clamp((r * mu + length_m) / r_ground, -1.0, 1.0);
+    let from_ground = sample_sun_transmittance(transmittance_lut, lut_sampler, atmosphere, r_ground, -mu_ground);
+    let from_observer = sample_sun_transmittance(transmittance_lut, lut_sampler, atmosphere, r, -mu);
+    return min(from_ground / max(from_observer, vec3<f32>(1e-6)), vec3<f32>(1.0));
+}
+
 fn sky_view_radiance(direction: vec3<f32>) -> vec3<f32> {
     let r = observer_radius(atmosphere, frame.camera_position_m.y);
     return sky_view_lookup(sky_view_lut, lut_sampler, atmosphere, r, direction, frame.sun_direction);
@@ -73,19 +87,21 @@ fn lighting_main(@builtin(local_invocation_index) thread: u32) {
     let mu_s = frame.sun_direction.y;
     let sun_irradiance = atmosphere.sun_irradiance_top
         * sample_sun_transmittance(transmittance_lut, lut_sampler, atmosphere, r, mu_s);
-    let ground_radiance = atmosphere.ground_albedo / ATMOSPHERE_PI
+    let ground_radiance = atmosphere.near_ground_albedo / ATMOSPHERE_PI
         * (sun_irradiance * max(mu_s, 0.0) + sky_irradiance_up);
 
-    // Pass 2: project sky (above) and ground (below) on the SH basis.
+    // Pass 2: project the environment on the SH basis: the sky above, and
+    // below the horizon the ground seen through the air with the air's own
+    // light (the sky-view LUT integrates the air to the ground).
     var sh: array<vec3<f32>, 9>;
     for (var c = 0u; c < 9u; c = c + 1u) {
         sh[c] = vec3<f32>(0.0);
     }
     for (var k = 0u; k < per_thread; k = k + 1u) {
         let d = lighting_direction(thread * per_thread + k);
-        var radiance = ground_radiance;
-        if (d.y > 0.0) {
-            radiance = sky_view_radiance(d);
+        var radiance = sky_view_radiance(d);
+        if (ray_hits_ground(atmosphere, r, d.y)) {
+            radiance += ground_transmittance(r, d.y) * ground_radiance;
         }
         let y = sh_basis(d);
         for (var c = 0u; c < 9u; c = c + 1u) {

@@ -95,8 +95,9 @@ pub struct AtmospherePass {
     aerial_perspective_parts: [wgpu::Texture; 3],
     lighting: wgpu::Buffer,
     steps: [ComputeStep; 5],
-    /// The parameters and the aerial-perspective switch last uploaded.
-    params: Option<(AtmosphereParams, bool)>,
+    /// The parameters, the aerial-perspective switch and the near ground's
+    /// albedo last uploaded.
+    params: Option<(AtmosphereParams, bool, [f64; 3])>,
     view: Option<ViewKey>,
     luts_pending: AtomicBool,
     view_pending: AtomicBool,
@@ -332,18 +333,22 @@ impl AtmospherePass {
     /// Uploads the atmosphere when it changed, and marks what the next
     /// [`Self::encode`] must recompute.
     /// Without `aerial_perspective` the aerial-perspective volume holds no
-    /// air (nothing scattered in, transmittance 1).
+    /// air (nothing scattered in, transmittance 1). `near_ground_albedo`:
+    /// the mean albedo of the ground the scene draws
+    /// ([`crate::frame::atmosphere::ground_albedo`]).
     pub fn prepare(
         &mut self,
         queue: &wgpu::Queue,
         params: &AtmosphereParams,
         aerial_perspective: bool,
+        near_ground_albedo: [f64; 3],
         frame: &crate::frame::FrameUniform,
     ) {
-        let state = (params.clone(), aerial_perspective);
+        let state = (params.clone(), aerial_perspective, near_ground_albedo);
         if self.params.as_ref() != Some(&state) {
             let uniform = AtmosphereUniform {
                 aerial_perspective_scale: if aerial_perspective { 1.0 } else { 0.0 },
+                near_ground_albedo: near_ground_albedo.map(|c| c as f32),
                 ..AtmosphereUniform::from(params)
             };
             queue.write_buffer(&self.uniform, 0, bytemuck::bytes_of(&uniform));

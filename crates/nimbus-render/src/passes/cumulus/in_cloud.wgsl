@@ -1,14 +1,17 @@
 // import passes/cumulus/cumulus.wgsl
 // import shader/cloud_shadow_lookup.wgsl
+// import shader/diffusion.wgsl
 // import shader/fullscreen.wgsl
 // The view from inside a cumulus (or near enough that its mesh hands over):
 // the cloud as the participating medium the mesh stands for, marched from
 // the camera through the variant's extinction (the same grid the path-traced
 // references render, δ-M scaled) to the first opaque surface or out of the
 // cloud's box, lit by the transport model's light: the scattered light
-// inside, precomputed per shape (nimbus_physics::cumulus::interior), and the
-// sun's single scattering through the peak-removed phase function with the
-// shadow map's direct transmittance. Twin of
+// inside, precomputed per shape (nimbus_physics::cumulus::interior), the
+// sun's part of it that still travels near the beam in a forward lobe,
+// and the sun's single scattering
+// through the peak-removed phase function with the direct beam's
+// transmittance marched through the cloud's own grid. Twin of
 // nimbus_physics::cumulus::interior::march_fog. Drawn over everything
 // (premultiplied: dst·(1 − fade·(1 − T)) + fade·L).
 
@@ -42,7 +45,10 @@ struct InCloud {
 // (six vec4, interior.rs VariantInterior::light_forms).
 @group(1) @binding(8) var<storage, read> in_cloud_forms: array<vec4<f32>>;
 
-const IN_CLOUD_SHADOW_SEGMENTS: u32 = 4u;
+// The sun's direct beam is evaluated at this many points of a view ray and
+// held between them, each marched towards the sun in IN_CLOUD_SUN_STEPS.
+const IN_CLOUD_SHADOW_SEGMENTS: u32 = 8u;
+const IN_CLOUD_SUN_STEPS: u32 = 16u;
 
 // The object frame's point of a world point (inverse of cumulus_varying's).
 fn in_cloud_object(world_m: vec3<f32>) -> vec3<f32> {
@@ -78,18 +84,38 @@ fn in_cloud_light_at(object_m: vec3<f32>) -> vec4<f32> {
     return mix(a, b, z - k0);
 }
 
+// The direct beam's transmittance from the sun to an object point through
+// the cloud's own extinction: σ* integrated to where the sun's ray leaves
+// the box, in steps t_j = L (j/N)² (fine near the point, where the beam
+// dims over the ~20 m of its mean free path). Returns e^{−τ} and the world
+// point where the ray leaves the box.
+fn in_cloud_own_transmittance(object_m: vec3<f32>, object_sun: vec3<f32>) -> vec4<f32> {
+    let length_m = max(in_cloud_box(object_m, object_sun).y, 0.0);
+    var optical_depth = 0.0;
+    for (var j = 0u; j < IN_CLOUD_SUN_STEPS; j += 1u) {
+        let a = f32(j) / f32(IN_CLOUD_SUN_STEPS);
+        let b = f32(j + 1u) / f32(IN_CLOUD_SUN_STEPS);
+        let t = length_m * 0.5 * (a * a + b * b);
+        optical_depth += in_cloud_sigma(object_m + object_sun * t) * length_m * (b * b - a * a);
+    }
+    return vec4<f32>(in_cloud_world(object_m + object_sun * length_m), exp(-optical_depth));
+}
+
 // The sun's irradiance at a world point above any layer (rgb) and the
-// direct beam's transmittance there through the shadow map's cores
-// (cumulus_direct_transmittance) and the stratus layer (a).
-fn in_cloud_sun(world_m: vec3<f32>) -> vec4<f32> {
+// direct beam's transmittance there (a): through this cloud by its grid,
+// through the clouds beyond its box by the shadow map's cores
+// (cumulus_direct_transmittance's inversion of the map's two-stream
+// diffuse transmittance T_d = 1/(1 + ¾(1 − g) σ Δ) to e^{−σ* Δ}), and
+// through the stratus layer. The map alone, used before, counts the cores
+// only, each as a slab of α_ρ: inside the sunlit face it gave 0.58× the
+// grid's transmittance (docs/REALISM.md, "In-cloud views").
+fn in_cloud_sun(world_m: vec3<f32>, object_sun: vec3<f32>) -> vec4<f32> {
     var direct = 1.0;
     if (cumulus_term_on(CUMULUS_SHADOW)) {
-        // The two-stream diffuse transmittance T_d = 1/(1 + ¾(1 − g) σ Δ)
-        // the map gives, as the direct beam's e^{−σ* Δ} (draw.wgsl's
-        // cumulus_direct_transmittance, with this pass's 1 − f).
-        let diffuse = cloud_shadow_transmittance(world_m);
+        let own = in_cloud_own_transmittance(in_cloud_object(world_m), object_sun);
+        let diffuse = cloud_shadow_transmittance(own.xyz);
         let optical_depth = (1.0 / max(diffuse, 1e-6) - 1.0) / (0.75 * (1.0 - cloud_shadow.params.z));
-        direct = exp(-optical_depth * in_cloud.extinction_min.w);
+        direct = own.w * exp(-optical_depth * in_cloud.extinction_min.w);
     }
     return vec4<f32>(PI * cumulus_sun_radiance(world_m.y), direct * stratus_sun_transmittance(world_m).g);
 }
@@ -144,6 +170,14 @@ struct InCloudMarch {
     mean_m: vec3<f32>,
 }
 
+// The object frame's direction of a world direction, per world metre (the
+// object frame is the world's turned and divided by the cloud's scale).
+fn in_cloud_object_direction(direction: vec3<f32>) -> vec3<f32> {
+    let c = in_cloud.rotation.x;
+    let s = in_cloud.rotation.y;
+    return vec3<f32>(c * direction.x - s * direction.z, direction.y, s * direction.x + c * direction.z) / in_cloud.offset_scale.w;
+}
+
 // Steps at t_i = t₀ + (t₁ − t₀)(i/N)²: fine near the camera, where the
 // cloud's edge is crossed, long far away.
 fn in_cloud_march(origin_m: vec3<f32>, direction: vec3<f32>, t0: f32, t1: f32) -> InCloudMarch {
@@ -162,13 +196,21 @@ fn in_cloud_march(origin_m: vec3<f32>, direction: vec3<f32>, t0: f32, t1: f32) -
     let luma = vec3<f32>(0.2126, 0.7152, 0.0722);
     let layer_scale = under / max(dot(clear, luma), 1e-6);
     let layer_shadow = in_cloud_layer_shadow();
-    // Evaluated at the middles of four quarters of the ray and held over
-    // each (texture lookups in the loop are what costs on llvmpipe; the
-    // shadow varies over the map's ~10 m texels, the layer's over cells).
+    // δ-M's peak-removed asymmetry g* = (g − f)/(1 − f).
+    let truncation = in_cloud.extinction_min.w;
+    let asymmetry = (cloud_shadow.params.z - (1.0 - truncation)) / truncation;
+    // Evaluated at the middles of segments of the ray and held over each
+    // (texture lookups in the loop are what costs on llvmpipe; the beam
+    // varies over tens of metres, the layer's shadow over cells), with the
+    // forward lobe of the sun's scattered light at the beam's depth there.
+    let object_sun = in_cloud_object_direction(l);
     var sun_segments: array<vec4<f32>, IN_CLOUD_SHADOW_SEGMENTS>;
+    var sun_lobes: array<f32, IN_CLOUD_SHADOW_SEGMENTS>;
     for (var k = 0u; k < IN_CLOUD_SHADOW_SEGMENTS; k += 1u) {
         let f = (f32(k) + 0.5) / f32(IN_CLOUD_SHADOW_SEGMENTS);
-        sun_segments[k] = in_cloud_sun(origin_m + direction * (t0 + (t1 - t0) * f * f));
+        let sun = in_cloud_sun(origin_m + direction * (t0 + (t1 - t0) * f * f), object_sun);
+        sun_segments[k] = sun;
+        sun_lobes[k] = forward_orders_lobe(-log(max(sun.a, 1e-8)), dot(direction, l), asymmetry);
     }
     var out: InCloudMarch;
     out.radiance = vec3<f32>(0.0);
@@ -188,17 +230,23 @@ fn in_cloud_march(origin_m: vec3<f32>, direction: vec3<f32>, t0: f32, t1: f32) -
             continue;
         }
         let light = in_cloud_light_at(object);
-        let sun = sun_segments[min(i * IN_CLOUD_SHADOW_SEGMENTS / steps, IN_CLOUD_SHADOW_SEGMENTS - 1u)];
+        let segment = min(i * IN_CLOUD_SHADOW_SEGMENTS / steps, IN_CLOUD_SHADOW_SEGMENTS - 1u);
+        let sun = sun_segments[segment];
         var environment = light.rgb;
         if (layered) {
             environment = layer_scale * dot(light.rgb, luma);
         }
-        let source = phase * sun.rgb * sun.a + (sun.rgb * layer_shadow * light.a + environment) / (4.0 * PI);
+        // The sun's scattered light: what left the beam, 1 − T, in the
+        // forward lobe, the rest isotropic (cumulus::interior's notes).
+        let sun_fluence = layer_shadow * light.a;
+        let forward = min(vec3<f32>(max(1.0 - sun.a, 0.0)), max(sun_fluence, vec3<f32>(0.0)));
+        let scattered = sun.rgb * (sun_fluence - forward + forward * sun_lobes[segment]) + environment;
+        let source = phase * sun.rgb * sun.a + scattered / (4.0 * PI);
         let opacity = 1.0 - exp(-sigma * dt);
-        let scattered = out.transmittance * opacity;
-        out.radiance += scattered * source;
-        weighted += scattered * p;
-        weight += scattered;
+        let seen = out.transmittance * opacity;
+        out.radiance += seen * source;
+        weighted += seen * p;
+        weight += seen;
         out.transmittance *= 1.0 - opacity;
     }
     out.mean_m = select(origin_m, weighted / max(weight, 1e-6), weight > 0.0);
@@ -225,9 +273,7 @@ fn in_cloud_fragment(in: FullscreenOutput) -> @location(0) vec4<f32> {
         end_m = length(world_at_depth(in.clip_xy, depth) - origin);
     }
     // The ray in the object frame, parametrised by world metres.
-    let c = in_cloud.rotation.x;
-    let s = in_cloud.rotation.y;
-    let object_direction = vec3<f32>(c * direction.x - s * direction.z, direction.y, s * direction.x + c * direction.z) / in_cloud.offset_scale.w;
+    let object_direction = in_cloud_object_direction(direction);
     let span = in_cloud_box(in_cloud_object(origin), object_direction);
     let t1 = min(span.y, end_m);
     if (t1 <= span.x) {

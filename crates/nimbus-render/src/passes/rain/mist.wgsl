@@ -81,7 +81,7 @@ fn mist_ambient_radiance(position_m: vec3<f32>, direction: vec3<f32>) -> vec3<f3
     let from_above = stratus_radiosity_sample(true, position_m.xz);
     let sun_on_ground = sun_irradiance_at(position_m) * max(frame.sun_direction.y, 0.0)
         * mist_sun_shadow(position_m);
-    let from_below = atmosphere.ground_albedo * (from_above + sun_on_ground);
+    let from_below = atmosphere.near_ground_albedo * (from_above + sun_on_ground);
     if (stratus.model.x == 0u) {
         // stratus.model = "bnl2006": the field's mean radiance.
         return (from_above + from_below) / (2.0 * PI);

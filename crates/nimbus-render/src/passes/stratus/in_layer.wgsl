@@ -1,5 +1,6 @@
 // import shader/cloud_layer_lookup.wgsl
 // import shader/cloud_shadow_lookup.wgsl
+// import shader/diffusion.wgsl
 // import shader/fullscreen.wgsl
 // The camera within the stratus layer's height range (or within
 // IN_LAYER_HANDOVER_M of it, where the faces hand over): the layer drawn
@@ -73,12 +74,6 @@ fn in_layer_collimated_gradient(t_in: f32, total_in: f32, mu0: f32) -> f32 {
 // Twin of diffusion::diffuse_fluence_gradient.
 fn in_layer_diffuse_gradient(total_in: f32, top: vec3<f32>, base: vec3<f32>) -> vec3<f32> {
     return 4.0 * (base - top) / (max(total_in, 0.0) + 4.0 / 3.0);
-}
-
-// Twin of diffusion::eddington_radiance: (Φ − μ Φ')/(4π), at least 0, for
-// light travelling at cosine μ to the depth axis.
-fn in_layer_radiance(fluence: vec3<f32>, gradient: vec3<f32>, mu: f32) -> vec3<f32> {
-    return max(fluence - mu * gradient, vec3<f32>(0.0)) / (4.0 * PI);
 }
 
 // Steps of the march towards the sun from a step of the view's march.
@@ -202,7 +197,7 @@ fn in_layer_fragment(in: FullscreenOutput) -> @location(0) vec4<f32> {
         let lit_depth_m = select(above_base, below_top, sun_above);
         // The diffuse part's depth axis points down: the light reaching the
         // camera travels along −direction, at cosine direction.y to it.
-        var diffuse = in_layer_radiance(in_layer_diffuse(kappa_t * below_top, kappa_t * h, sky, light.ground),
+        var diffuse = eddington_radiance(in_layer_diffuse(kappa_t * below_top, kappa_t * h, sky, light.ground),
             in_layer_diffuse_gradient(kappa_t * h, sky, light.ground), direction.y);
         var direct = vec3<f32>(0.0);
         if (l.y > 0.0) {
@@ -227,7 +222,7 @@ fn in_layer_fragment(in: FullscreenOutput) -> @location(0) vec4<f32> {
             }
             let depth = kappa_t * path_m * mu_face;
             let thickness = kappa_t * chord_m * mu_face;
-            diffuse += light.sun * in_layer_radiance(vec3<f32>(in_layer_collimated(depth, thickness, mu_face)),
+            diffuse += light.sun * eddington_radiance(vec3<f32>(in_layer_collimated(depth, thickness, mu_face)),
                 vec3<f32>(in_layer_collimated_gradient(depth, thickness, mu_face)), dot(-direction, axis));
             direct = light.sun * exp(-kappa_s * path_m);
         }

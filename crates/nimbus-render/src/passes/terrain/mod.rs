@@ -137,6 +137,8 @@ struct TerrainMesh {
     ground: Ground,
     /// The CPU terrain, kept to recompute the sun visibility when the sun moves.
     terrain: Arc<Terrain>,
+    /// Its mean albedo ([`Terrain::mean_albedo`]).
+    mean_albedo: [f64; 3],
     triangles: IndexedMesh,
     albedo: wgpu::Texture,
     albedo_view: wgpu::TextureView,
@@ -332,6 +334,7 @@ impl TerrainPass {
         self.generation += 1;
         self.mesh = Some(TerrainMesh {
             ground: built_ground.clone(),
+            mean_albedo: terrain.mean_albedo(),
             terrain,
             triangles: mesh,
             albedo,
@@ -405,6 +408,13 @@ impl TerrainPass {
     /// The CPU terrain, once prepared.
     pub fn terrain(&self) -> Option<&Terrain> {
         self.mesh.as_ref().map(|m| m.terrain.as_ref())
+    }
+
+    /// The mean albedo of the prepared ground (over its vertices, water
+    /// included), once prepared: the near ground that lights the clouds
+    /// from below ([`crate::frame::atmosphere::ground_albedo`]).
+    pub fn mean_albedo(&self) -> Option<[f64; 3]> {
+        self.mesh.as_ref().map(|m| m.mean_albedo)
     }
 
     /// The albedo map (RGB albedo, A water mask), once prepared.

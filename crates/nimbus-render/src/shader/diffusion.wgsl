@@ -1,0 +1,44 @@
+// import shader/common.wgsl
+// The angular distribution of the light scattered inside a cloud (the
+// in-cloud marches of the cumulus and of the stratus layer).
+
+// Eddington's radiance (Φ − μ Φ')/(4π), at least 0: Φ the fluence, Φ' its
+// gradient per unit of transport optical depth along an axis, μ the cosine
+// of the light's travel to that axis (the net flux F = −Φ'/3 along it).
+fn eddington_radiance(fluence: vec3<f32>, gradient: vec3<f32>, mu: f32) -> vec3<f32> {
+    return max(fluence - mu * gradient, vec3<f32>(0.0)) / (4.0 * PI);
+}
+
+// Orders summed by forward_orders_lobe (nimbus_physics::cumulus::interior::
+// FORWARD_ORDERS).
+const FORWARD_ORDERS: u32 = 16u;
+
+// The sun's light scattered towards a direction at cosine `cos_theta` to
+// the beam's travel, at optical depth `optical_depth` along the beam, per
+// unit solid angle relative to isotropic: Σ_{n≥1} w_n 4π HG(g^{n+1}, cos θ),
+// w_n the Poisson orders of the light that left the beam. Twin of
+// nimbus_physics::cumulus::interior::forward_orders_lobe.
+fn forward_orders_lobe(optical_depth: f32, cos_theta: f32, asymmetry: f32) -> f32 {
+    let tau = max(optical_depth, 0.0);
+    // Σ_{n≥1} τⁿ/n! = e^τ − 1: the series itself below τ = 1 (where the
+    // terms beyond the 16th are below 1e-14 and e^τ − 1 cancels in f32).
+    var term = 1.0;
+    var g = asymmetry;
+    var series = 0.0;
+    var sum = 0.0;
+    for (var n = 1u; n <= FORWARD_ORDERS; n += 1u) {
+        term *= tau / f32(n);
+        g *= asymmetry;
+        let d = 1.0 + g * g - 2.0 * g * cos_theta;
+        series += term;
+        sum += term * (1.0 - g * g) / (d * sqrt(d));
+    }
+    if (series <= 0.0) {
+        // τ = 0: the first order alone, HG(g²).
+        let g2 = asymmetry * asymmetry;
+        let d = 1.0 + g2 * g2 - 2.0 * g2 * cos_theta;
+        return (1.0 - g2 * g2) / (d * sqrt(d));
+    }
+    let normalisation = select(exp(tau) - 1.0, series, tau < 1.0);
+    return sum / normalisation + max(1.0 - series / normalisation, 0.0);
+}
