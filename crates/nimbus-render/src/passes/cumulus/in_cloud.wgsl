@@ -101,23 +101,14 @@ fn in_cloud_own_transmittance(object_m: vec3<f32>, object_sun: vec3<f32>) -> vec
     return vec4<f32>(in_cloud_world(object_m + object_sun * length_m), exp(-optical_depth));
 }
 
-// The sun's irradiance at a world point above any layer (rgb) and the
-// direct beam's transmittance there (a): through this cloud by its grid,
-// through the clouds beyond its box by the shadow map's cores
-// (cumulus_direct_transmittance's inversion of the map's two-stream
-// diffuse transmittance T_d = 1/(1 + ¾(1 − g) σ Δ) to e^{−σ* Δ}), and
-// through the stratus layer. The map alone, used before, counts the cores
-// only, each as a slab of α_ρ: inside the sunlit face it gave 0.58× the
-// grid's transmittance (docs/REALISM.md, "In-cloud views").
-fn in_cloud_sun(world_m: vec3<f32>, object_sun: vec3<f32>) -> vec4<f32> {
-    var direct = 1.0;
-    if (cumulus_term_on(CUMULUS_SHADOW)) {
-        let own = in_cloud_own_transmittance(in_cloud_object(world_m), object_sun);
-        let diffuse = cloud_shadow_transmittance(own.xyz);
-        let optical_depth = (1.0 / max(diffuse, 1e-6) - 1.0) / (0.75 * (1.0 - cloud_shadow.params.z));
-        direct = own.w * exp(-optical_depth * in_cloud.extinction_min.w);
-    }
-    return vec4<f32>(PI * cumulus_sun_radiance(world_m.y), direct * stratus_sun_transmittance(world_m).g);
+// The direct beam's transmittance through the clouds beyond this one's box,
+// from the shadow map's cores at the point `exit_m` where the beam leaves
+// the box: cumulus_direct_transmittance's inversion of the map's two-stream
+// diffuse transmittance T_d = 1/(1 + ¾(1 − g) σ Δ) to e^{−σ* Δ}.
+fn in_cloud_beyond_transmittance(exit_m: vec3<f32>) -> f32 {
+    let diffuse = cloud_shadow_transmittance(exit_m);
+    let optical_depth = (1.0 / max(diffuse, 1e-6) - 1.0) / (0.75 * (1.0 - cloud_shadow.params.z));
+    return exp(-optical_depth * in_cloud.extinction_min.w);
 }
 
 // The world point of an object point (cumulus_varying's transform).
@@ -203,14 +194,33 @@ fn in_cloud_march(origin_m: vec3<f32>, direction: vec3<f32>, t0: f32, t1: f32) -
     // (texture lookups in the loop are what costs on llvmpipe; the beam
     // varies over tens of metres, the layer's shadow over cells), with the
     // forward lobe of the sun's scattered light at the beam's depth there.
+    //
+    // The direct beam at each point: through this cloud by its own grid,
+    // through the clouds beyond its box by the shadow map (read at every
+    // other point, its percentage-closer filter being the costly part;
+    // other clouds' shadows vary over their cores, not over this cloud's
+    // faces), and through the stratus layer. The map alone, used before,
+    // counts the cores only, each as a slab of α_ρ: inside the sunlit face
+    // it gave 0.58× the grid's transmittance (docs/REALISM.md, "In-cloud
+    // views").
     let object_sun = in_cloud_object_direction(l);
     var sun_segments: array<vec4<f32>, IN_CLOUD_SHADOW_SEGMENTS>;
     var sun_lobes: array<f32, IN_CLOUD_SHADOW_SEGMENTS>;
+    var beyond = 1.0;
     for (var k = 0u; k < IN_CLOUD_SHADOW_SEGMENTS; k += 1u) {
         let f = (f32(k) + 0.5) / f32(IN_CLOUD_SHADOW_SEGMENTS);
-        let sun = in_cloud_sun(origin_m + direction * (t0 + (t1 - t0) * f * f), object_sun);
-        sun_segments[k] = sun;
-        sun_lobes[k] = forward_orders_lobe(-log(max(sun.a, 1e-8)), dot(direction, l), asymmetry);
+        let p = origin_m + direction * (t0 + (t1 - t0) * f * f);
+        var direct = 1.0;
+        if (cumulus_term_on(CUMULUS_SHADOW)) {
+            let own = in_cloud_own_transmittance(in_cloud_object(p), object_sun);
+            if ((k & 1u) == 0u) {
+                beyond = in_cloud_beyond_transmittance(own.xyz);
+            }
+            direct = own.w * beyond;
+        }
+        direct *= stratus_sun_transmittance(p).g;
+        sun_segments[k] = vec4<f32>(PI * cumulus_sun_radiance(p.y), direct);
+        sun_lobes[k] = forward_orders_lobe(-log(max(direct, 1e-8)), dot(direction, l), asymmetry);
     }
     var out: InCloudMarch;
     out.radiance = vec3<f32>(0.0);
