@@ -60,6 +60,7 @@
 use super::transport::{Medium, Scattering, inside, ray_box, tangents, uniform_direction};
 use super::volume::{ExtinctionGrid, trilinear};
 use crate::sh;
+use crate::transport::phase_model::PhaseModel;
 use crate::transport::rng::Rng;
 use glam::DVec3;
 use rayon::prelude::*;
@@ -334,7 +335,8 @@ pub const FORWARD_ORDERS: u32 = 16;
 /// `forward_orders_lobe` (nimbus-render's `shader/diffusion.wgsl`).
 pub fn forward_orders_lobe(optical_depth: f64, cos_theta: f64, asymmetry: f64) -> f64 {
     let tau = optical_depth.max(0.0);
-    let hg4pi = |g: f64| (1.0 - g * g) / (1.0 + g * g - 2.0 * g * cos_theta).powf(1.5);
+    // HG(g, cos θ) relative to isotropic.
+    let hg4pi = |g: f64| 4.0 * PI * PhaseModel::HenyeyGreenstein { g }.value(cos_theta);
     // w_n ∝ τⁿ/n!, whose sum over n ≥ 1 is e^τ − 1: the series itself
     // below τ = 1 (the terms beyond the 16th are below 1e-14 there, and the
     // shader's e^τ − 1 cancels in f32).

@@ -29,16 +29,19 @@ fn forward_orders_lobe(optical_depth: f32, cos_theta: f32, asymmetry: f32) -> f3
     for (var n = 1u; n <= FORWARD_ORDERS; n += 1u) {
         term *= tau / f32(n);
         g *= asymmetry;
-        let d = 1.0 + g * g - 2.0 * g * cos_theta;
         series += term;
-        sum += term * (1.0 - g * g) / (d * sqrt(d));
+        sum += term * henyey_greenstein_relative(g, cos_theta);
     }
     if (series <= 0.0) {
         // τ = 0: the first order alone, HG(g²).
-        let g2 = asymmetry * asymmetry;
-        let d = 1.0 + g2 * g2 - 2.0 * g2 * cos_theta;
-        return (1.0 - g2 * g2) / (d * sqrt(d));
+        return henyey_greenstein_relative(asymmetry * asymmetry, cos_theta);
     }
     let normalisation = select(exp(tau) - 1.0, series, tau < 1.0);
     return sum / normalisation + max(1.0 - series / normalisation, 0.0);
+}
+
+// Henyey–Greenstein's phase function relative to isotropic, 4π HG(g, cos θ).
+fn henyey_greenstein_relative(g: f32, cos_theta: f32) -> f32 {
+    let d = 1.0 + g * g - 2.0 * g * cos_theta;
+    return (1.0 - g * g) / (d * sqrt(d));
 }

@@ -173,7 +173,7 @@ fn march_of_a_uniform_fog_is_the_closed_form() {
 /// deep in, and grows towards the beam's travel with τ's fall.
 #[test]
 fn forward_orders_lobe_is_normalised_and_spreads_with_depth() {
-    let hg4pi = |g: f64, c: f64| (1.0 - g * g) / (1.0 + g * g - 2.0 * g * c).powf(1.5);
+    let hg4pi = |g: f64, c: f64| 4.0 * PI * PhaseModel::HenyeyGreenstein { g }.value(c);
     for g in [0.3, 0.74, 0.85] {
         for tau in [0.01, 0.5, 2.0, 6.0, 20.0] {
             // ∫ lobe dω/(4π) = ½ ∫ lobe d(cos θ), Simpson over cos θ.
