@@ -58,6 +58,7 @@ fn diffuse_light_leaves_by_the_escape_function() {
         views: Vec::new(),
         zenith_bins: 18,
         azimuth_bins: 6,
+        ..TraceSettings::default()
     };
     let traced = trace(&medium, &settings, &|_| {});
     let escape = model.clone().with_diffuse_exit(DiffuseExit::EscapeFunction);

@@ -21,7 +21,12 @@
 //! - the radiance binned in exit angle (from the normal on the exit side,
 //!   uniform bins in θ) and relative azimuth (0° to 180°, folded by the
 //!   symmetry of the sun's plane): the weight leaving through a bin divided by
-//!   ∫ |μ| dΩ over the bin.
+//!   ∫ |μ| dΩ over the bin;
+//! - optionally, the radiance inside the slab on one plane of depth,
+//!   binned in the cosine of the light's travel to the downward normal
+//!   (uniform bins over −1 to 1, all azimuths): the weight crossing the
+//!   plane in a bin over |μ| (a crossing's contribution to the fluence),
+//!   divided by the bin's solid angle; the unscattered beam is left out.
 //!
 //! Standard errors treat photons as independent samples. Photons run in
 //! batches of [`BATCH_PHOTONS`], each with its own random stream keyed by
@@ -115,6 +120,12 @@ pub struct TraceSettings {
     pub zenith_bins: usize,
     /// Bins of relative azimuth over 0–180°.
     pub azimuth_bins: usize,
+    /// An optical depth inside the slab (0 < z < τ) at which to tally the
+    /// radiance crossing it ([`TraceResult::interior`]); `None`: no tally.
+    pub interior_depth: Option<f64>,
+    /// Bins of the cosine of the light's travel to the downward normal,
+    /// uniform over −1 to 1, of the interior tally.
+    pub interior_cosine_bins: usize,
 }
 
 impl Default for TraceSettings {
@@ -126,6 +137,8 @@ impl Default for TraceSettings {
             views: Vec::new(),
             zenith_bins: 18,
             azimuth_bins: 18,
+            interior_depth: None,
+            interior_cosine_bins: 20,
         }
     }
 }
@@ -187,6 +200,11 @@ pub struct TraceResult {
     pub reflected: BinnedRadiance,
     /// Binned transmitted radiance.
     pub transmitted: BinnedRadiance,
+    /// Radiance inside the slab at [`TraceSettings::interior_depth`], per
+    /// unit incident flux on the top, sr⁻¹, averaged over azimuth, in bins
+    /// of the cosine of the light's travel to the downward normal from −1
+    /// (travelling up) to 1 (down); empty without that depth.
+    pub interior: Vec<Estimate>,
 }
 
 /// Running sums of a batch.
@@ -202,10 +220,13 @@ struct Sums {
     local_total_sq: Vec<f64>,
     /// [side][order][bin] Σ w.
     bins: [[Vec<f64>; ORDER_CLASSES]; 2],
+    /// Per interior cosine bin: Σ x and Σ x² over photons.
+    interior: Vec<f64>,
+    interior_sq: Vec<f64>,
 }
 
 impl Sums {
-    fn new(views: usize, bins: usize) -> Self {
+    fn new(views: usize, bins: usize, interior_bins: usize) -> Self {
         Self {
             events: 0,
             flux: [[0.0; ORDER_CLASSES]; 2],
@@ -214,6 +235,8 @@ impl Sums {
             local_sq: vec![[0.0; ORDER_CLASSES]; views],
             local_total_sq: vec![0.0; views],
             bins: std::array::from_fn(|_| std::array::from_fn(|_| vec![0.0; bins])),
+            interior: vec![0.0; interior_bins],
+            interior_sq: vec![0.0; interior_bins],
         }
     }
 
@@ -234,6 +257,12 @@ impl Sums {
                 self.local_sq[v][k] += other.local_sq[v][k];
             }
             self.local_total_sq[v] += other.local_total_sq[v];
+        }
+        for (a, b) in self.interior.iter_mut().zip(&other.interior) {
+            *a += b;
+        }
+        for (a, b) in self.interior_sq.iter_mut().zip(&other.interior_sq) {
+            *a += b;
         }
     }
 }
@@ -260,23 +289,36 @@ pub fn trace(
     let views: Vec<[f64; 3]> = settings.views.iter().map(|v| v.vector()).collect();
     let incident = incident_direction(settings.sun_zenith_deg);
     let bin_count = settings.zenith_bins * settings.azimuth_bins;
+    let interior_bins = if settings.interior_depth.is_some() {
+        settings.interior_cosine_bins.max(1)
+    } else {
+        0
+    };
     let done = AtomicU64::new(0);
     let batch_sums: Vec<Sums> = (0..batches)
         .into_par_iter()
         .map(|batch| {
             let mut rng = Rng::new(settings.seed, batch);
-            let mut sums = Sums::new(views.len(), bin_count);
+            let mut sums = Sums::new(views.len(), bin_count, interior_bins);
             let mut local = vec![[0.0; ORDER_CLASSES]; views.len()];
+            let mut crossings = vec![0.0; interior_bins];
             for _ in 0..BATCH_PHOTONS {
                 trace_photon(
-                    medium, settings, incident, &views, &mut rng, &mut sums, &mut local,
+                    medium,
+                    settings,
+                    incident,
+                    &views,
+                    &mut rng,
+                    &mut sums,
+                    &mut local,
+                    &mut crossings,
                 );
             }
             progress(done.fetch_add(BATCH_PHOTONS, Ordering::Relaxed) + BATCH_PHOTONS);
             sums
         })
         .collect();
-    let mut total = Sums::new(views.len(), bin_count);
+    let mut total = Sums::new(views.len(), bin_count, interior_bins);
     for sums in &batch_sums {
         total.add(sums);
     }
@@ -285,6 +327,7 @@ pub fn trace(
 
 /// One photon's walk.
 #[inline]
+#[allow(clippy::too_many_arguments)]
 fn trace_photon(
     medium: &SlabMedium,
     settings: &TraceSettings,
@@ -293,6 +336,7 @@ fn trace_photon(
     rng: &mut Rng,
     sums: &mut Sums,
     local: &mut [[f64; ORDER_CLASSES]],
+    crossings: &mut [f64],
 ) {
     let tau = medium.optical_depth;
     let albedo = medium.single_scattering_albedo;
@@ -303,9 +347,20 @@ fn trace_photon(
     for l in local.iter_mut() {
         *l = [0.0; ORDER_CLASSES];
     }
+    crossings.fill(0.0);
     loop {
         let path = -rng.uniform_open0().ln();
         let z_next = z + path * direction[2];
+        if let Some(plane) = settings.interior_depth {
+            // A scattered photon's flight crossing the plane (the exit
+            // flights cross it before they leave).
+            if order > 0 && (z - plane) * (z_next - plane) < 0.0 {
+                let mu = direction[2];
+                let n = crossings.len();
+                let bin = (((mu + 1.0) * 0.5 * n as f64) as usize).min(n - 1);
+                crossings[bin] += weight / mu.abs().max(1e-6);
+            }
+        }
         if z_next <= 0.0 || z_next >= tau {
             let side = usize::from(z_next >= tau);
             let class = order.min(ORDER_CLASSES - 1);
@@ -350,6 +405,15 @@ fn trace_photon(
             photon_total += x;
         }
         sums.local_total_sq[v] += photon_total * photon_total;
+    }
+    for ((sum, sum_sq), x) in sums
+        .interior
+        .iter_mut()
+        .zip(sums.interior_sq.iter_mut())
+        .zip(crossings.iter())
+    {
+        *sum += x;
+        *sum_sq += x * x;
     }
 }
 
@@ -419,6 +483,20 @@ fn finish(total: &Sums, photons: u64, settings: &TraceSettings) -> TraceResult {
             radiance,
         }
     };
+    // Each cosine bin spans 2/n in μ and every azimuth: 4π/n sr.
+    let interior_solid_angle = 4.0 * std::f64::consts::PI / total.interior.len().max(1) as f64;
+    let interior = total
+        .interior
+        .iter()
+        .zip(&total.interior_sq)
+        .map(|(sum, sum_sq)| {
+            let e = estimate(*sum, *sum_sq, n);
+            Estimate {
+                value: e.value / interior_solid_angle,
+                std_error: e.std_error / interior_solid_angle,
+            }
+        })
+        .collect();
     TraceResult {
         photons,
         scattering_events: total.events,
@@ -427,6 +505,7 @@ fn finish(total: &Sums, photons: u64, settings: &TraceSettings) -> TraceResult {
         radiance,
         reflected: binned(0),
         transmitted: binned(1),
+        interior,
     }
 }
 

@@ -210,6 +210,7 @@ pub fn trace_reflected_shape(medium: &SlabMedium, photons: u64, seed: u64) -> (V
             views: views.clone(),
             zenith_bins: 1,
             azimuth_bins: 1,
+            ..TraceSettings::default()
         };
         let traced = trace(medium, &settings, &|_| {});
         let lambertian = traced.reflectance.order3plus.value / std::f64::consts::PI;

@@ -2,11 +2,19 @@
 // The angular distribution of the light scattered inside a cloud (the
 // in-cloud marches of the cumulus and of the stratus layer).
 
-// Eddington's radiance (Φ − μ Φ')/(4π), at least 0: Φ the fluence, Φ' its
-// gradient per unit of transport optical depth along an axis, μ the cosine
-// of the light's travel to that axis (the net flux F = −Φ'/3 along it).
-fn eddington_radiance(fluence: vec3<f32>, gradient: vec3<f32>, mu: f32) -> vec3<f32> {
-    return max(fluence - mu * gradient, vec3<f32>(0.0)) / (4.0 * PI);
+// Eddington's radiance (Φ + 3 μ F)/(4π), at least 0: Φ the fluence, F the
+// net flux along an axis, μ the cosine of the light's travel to that axis.
+// Twin of nimbus_physics::transport::diffusion::eddington_radiance.
+fn eddington_radiance(fluence: vec3<f32>, net_flux: vec3<f32>, mu: f32) -> vec3<f32> {
+    return max(fluence + 3.0 * mu * net_flux, vec3<f32>(0.0)) / (4.0 * PI);
+}
+
+// The light of that P1 field scattered towards a direction at cosine `mu`
+// to the axis by droplets of asymmetry `asymmetry`, per unit scattering
+// optical depth: (Φ + 3 g μ F)/(4π). Twin of nimbus_physics::transport::
+// diffusion::eddington_source.
+fn eddington_source(fluence: vec3<f32>, net_flux: vec3<f32>, mu: f32, asymmetry: f32) -> vec3<f32> {
+    return eddington_radiance(fluence, asymmetry * net_flux, mu);
 }
 
 // Orders summed by forward_orders_lobe (nimbus_physics::cumulus::interior::

@@ -502,23 +502,24 @@ fn diffusion_kernel(@builtin(global_invocation_id) id: vec3<u32>) {
     let a = diffusion_in[2u * i];
     let b = diffusion_in[2u * i + 1u];
     let diffuse = in_layer_diffuse(a.x, a.y, vec3<f32>(b.x), vec3<f32>(b.y));
-    let diffuse_gradient = in_layer_diffuse_gradient(a.y, vec3<f32>(b.x), vec3<f32>(b.y));
-    diffusion_out[3u * i] = in_layer_collimated(a.x, a.y, a.z);
-    diffusion_out[3u * i + 1u] = in_layer_collimated_gradient(a.x, a.y, a.z);
-    diffusion_out[3u * i + 2u] = eddington_radiance(diffuse, diffuse_gradient, b.z).x;
+    let diffuse_net_flux = in_layer_diffuse_net_flux(a.y, vec3<f32>(b.x), vec3<f32>(b.y));
+    diffusion_out[3u * i] = in_layer_collimated(a.x, a.y, a.z, a.w);
+    diffusion_out[3u * i + 1u] = in_layer_collimated_net_flux(a.x, a.y, a.z, a.w);
+    diffusion_out[3u * i + 2u] = eddington_source(diffuse, diffuse_net_flux, b.z, b.w).x;
 }
 ";
 
 /// The in-layer march's light (in_layer.wgsl) against its CPU twin
 /// (`nimbus_physics::transport::diffusion`): the diffuse fluence of a
-/// conservative slab lit by a beam and its gradient, and Eddington's
-/// radiance of one lit by diffuse fluxes, over depths, thicknesses, sun
-/// cosines and view cosines, within 1e-4 relative (f32 against f64).
+/// conservative slab lit by a beam and its net flux (the δ-Eddington beam
+/// and the similarity one), and the P1 source of one lit by diffuse fluxes,
+/// over depths, thicknesses, sun cosines, view cosines and asymmetries,
+/// within 1e-4 relative (f32 against f64).
 #[test]
 fn in_layer_diffusion_matches_the_cpu_twin() {
     use nimbus_physics::transport::diffusion::{
-        collimated_fluence, collimated_fluence_gradient, diffuse_fluence, diffuse_fluence_gradient,
-        eddington_radiance,
+        collimated_fluence, collimated_net_flux, diffuse_fluence, diffuse_net_flux,
+        eddington_source,
     };
     let h = HeadlessRenderer::new(AdapterPreference::Auto)
         .unwrap_or_else(|e| panic!("GPU tests need an adapter: {e}"));
@@ -527,7 +528,13 @@ fn in_layer_diffusion_matches_the_cpu_twin() {
         for f in [0.0f32, 0.1, 0.5, 0.9, 1.0] {
             for mu0 in [0.05f32, 0.3, 0.7, 1.0] {
                 let view_mu = 2.0 * f - 1.0;
-                items.push([[f * total, total, mu0, 0.0], [1.7, 0.4, view_mu, 0.0]]);
+                for rate in [1.0f32, 1.85] {
+                    let asymmetry = if rate > 1.0 { 0.75 } else { 1.0 };
+                    items.push([
+                        [f * total, total, mu0, rate],
+                        [1.7, 0.4, view_mu, asymmetry],
+                    ]);
+                }
             }
         }
     }
@@ -547,19 +554,30 @@ fn in_layer_diffusion_matches_the_cpu_twin() {
     );
     for (item, out) in items.iter().zip(gpu.chunks(3)) {
         let [a, b] = item;
-        let (t, total, mu0) = (f64::from(a[0]), f64::from(a[1]), f64::from(a[2]));
-        let (top, base, view_mu) = (f64::from(b[0]), f64::from(b[1]), f64::from(b[2]));
-        let beam = collimated_fluence(t, total, mu0);
-        let beam_gradient = collimated_fluence_gradient(t, total, mu0);
-        let diffuse = eddington_radiance(
-            diffuse_fluence(t, total, top, base),
-            diffuse_fluence_gradient(total, top, base),
-            view_mu,
+        let (t, total, mu0, rate) = (
+            f64::from(a[0]),
+            f64::from(a[1]),
+            f64::from(a[2]),
+            f64::from(a[3]),
         );
-        for (gpu, cpu) in [(out[0], beam), (out[1], beam_gradient), (out[2], diffuse)] {
+        let (top, base, view_mu, asymmetry) = (
+            f64::from(b[0]),
+            f64::from(b[1]),
+            f64::from(b[2]),
+            f64::from(b[3]),
+        );
+        let beam = collimated_fluence(t, total, mu0, rate);
+        let beam_flux = collimated_net_flux(t, total, mu0, rate);
+        let diffuse = eddington_source(
+            diffuse_fluence(t, total, top, base),
+            diffuse_net_flux(total, top, base),
+            view_mu,
+            asymmetry,
+        );
+        for (gpu, cpu) in [(out[0], beam), (out[1], beam_flux), (out[2], diffuse)] {
             assert!(
                 (f64::from(gpu) - cpu).abs() <= 1e-4 * cpu.abs().max(1.0),
-                "t {t}, T {total}, μ₀ {mu0}: GPU {gpu} vs CPU {cpu}"
+                "t {t}, T {total}, μ₀ {mu0}, ρ {rate}: GPU {gpu} vs CPU {cpu}"
             );
         }
     }

@@ -47,6 +47,7 @@ fn the_table_matches_a_fresh_trace() {
             views: views.clone(),
             zenith_bins: 1,
             azimuth_bins: 1,
+            ..TraceSettings::default()
         };
         let traced = trace(&medium, &settings, &|_| {});
         let lambertian = traced.reflectance.order3plus.value / std::f64::consts::PI;

@@ -15,12 +15,18 @@
 // δ-M extinction the layer model uses; d the depth below the cell's top,
 // or the sun ray's path through cloud times μ₀ where shorter: the cells'
 // sunlit sides), plus the diffuse light of the column as a conservative
-// slab in the diffusion approximation at that depth, lit by the sun's beam,
-// the sky from above and the ground's radiosity from below, as Eddington's
-// radiance (Φ − μ Φ')/(4π): the fluence's isotropic part and the net
-// flux's, so that looking up into an overcast is brighter than looking
-// level (twin: nimbus_physics::transport::diffusion; the same slab and the
-// same inputs as the faces' shading, layer.wgsl).
+// slab in the δ-Eddington approximation at that depth, lit by the sun's
+// beam, the sky from above and the ground's radiosity from below, scattered
+// towards the camera: the P1 field's source (Φ + 3 g* μ F)/(4π), the
+// fluence's isotropic part and the net flux's through the peak-removed
+// phase function's asymmetry g*, so that looking up into an overcast is
+// brighter than looking level. (The march integrates the source along the
+// ray: sending the field's radiance (Φ + 3 μ F)/(4π) instead counted the
+// flux twice and made the view up 9 % too bright.) Plus the light the
+// δ-Eddington beam holds beyond the unscattered one, in the forward orders'
+// lobe (twins: nimbus_physics::transport::diffusion and cumulus::interior::
+// forward_orders_lobe; the same slab and the same inputs as the faces'
+// shading, layer.wgsl).
 
 @group(1) @binding(0) var in_layer_depth: texture_depth_2d;
 
@@ -34,20 +40,27 @@ const IN_LAYER_ASYMMETRY: f32 = 0.85;
 // crosses a face the march and the faces agree.
 const IN_LAYER_DETAIL_M: f32 = 400.0;
 
+// The δ-Eddington beam rate ρ = 1 + g (diffusion::delta_eddington_beam_rate):
+// the droplets' forward peak, f = g², stays in the sun's beam, the rest
+// feeds the diffuse light (a camera inside the layer sees it; ρ = 1, every
+// forward scattering left in the beam, gave 0.80–0.83 of the traced light
+// looking up at an overcast's mid-plane).
+const IN_LAYER_BEAM_RATE: f32 = 1.0 + IN_LAYER_ASYMMETRY;
+
 // Twin of diffusion::collimated_fluence.
-fn in_layer_collimated(t_in: f32, total_in: f32, mu0: f32) -> f32 {
+fn in_layer_collimated(t_in: f32, total_in: f32, mu0: f32, rate: f32) -> f32 {
     if (mu0 <= 0.0) {
         return 0.0;
     }
     let total = max(total_in, 0.0);
     let t = clamp(t_in, 0.0, total);
-    let ab = in_layer_collimated_coefficients(total, mu0);
-    return max(ab.x + ab.y * t - 3.0 * mu0 * mu0 * exp(-t / mu0), 0.0);
+    let ab = in_layer_collimated_coefficients(total, mu0, rate);
+    return max(ab.x + ab.y * t - 3.0 * mu0 * mu0 * exp(-rate * t / mu0), 0.0);
 }
 
 // Twin of diffusion::collimated_coefficients: (A, B) of the beam's solution.
-fn in_layer_collimated_coefficients(total: f32, mu0: f32) -> vec2<f32> {
-    let e = exp(-total / mu0);
+fn in_layer_collimated_coefficients(total: f32, mu0: f32, rate: f32) -> vec2<f32> {
+    let e = exp(-rate * total / mu0);
     let b = -(3.0 * mu0 * mu0 * (1.0 - e) + 2.0 * mu0 * (1.0 + e)) / (total + 4.0 / 3.0);
     return vec2<f32>(3.0 * mu0 * mu0 + 2.0 * mu0 + 2.0 / 3.0 * b, b);
 }
@@ -61,30 +74,45 @@ fn in_layer_diffuse(t_in: f32, total_in: f32, top: vec3<f32>, base: vec3<f32>) -
     return max(a + b * t, vec3<f32>(0.0));
 }
 
-// Twin of diffusion::collimated_fluence_gradient: dΦ/dt per unit irradiance.
-fn in_layer_collimated_gradient(t_in: f32, total_in: f32, mu0: f32) -> f32 {
+// Twin of diffusion::collimated_net_flux: the diffuse net flux into the
+// slab per unit irradiance.
+fn in_layer_collimated_net_flux(t_in: f32, total_in: f32, mu0: f32, rate: f32) -> f32 {
     if (mu0 <= 0.0) {
         return 0.0;
     }
     let total = max(total_in, 0.0);
     let t = clamp(t_in, 0.0, total);
-    return in_layer_collimated_coefficients(total, mu0).y + 3.0 * mu0 * exp(-t / mu0);
+    return -in_layer_collimated_coefficients(total, mu0, rate).y / 3.0 - mu0 * exp(-rate * t / mu0);
 }
 
-// Twin of diffusion::diffuse_fluence_gradient.
-fn in_layer_diffuse_gradient(total_in: f32, top: vec3<f32>, base: vec3<f32>) -> vec3<f32> {
-    return 4.0 * (base - top) / (max(total_in, 0.0) + 4.0 / 3.0);
+// Twin of diffusion::diffuse_net_flux (downwards).
+fn in_layer_diffuse_net_flux(total_in: f32, top: vec3<f32>, base: vec3<f32>) -> vec3<f32> {
+    return 4.0 * (top - base) / (3.0 * max(total_in, 0.0) + 4.0);
 }
 
 // Steps of the march towards the sun from a step of the view's march.
 const IN_LAYER_SUN_STEPS: u32 = 6u;
-// The sun's paths are marched at every this many steps of the view's.
+// The sun's paths are marched at every this many steps of the view's and
+// interpolated between (held, they made facets with straight edges).
 const IN_LAYER_SUN_EVERY: u32 = 4u;
+
+// Distance along the view ray of the middle of step `i` of the march: at
+// t₀ + span (i/N)³ (the first ~0.2 m long over a span of 20 km, so that the
+// camera crossing a face moves a few steps, not the first one; quadratic
+// steps made a one-frame step there).
+fn in_layer_step_m(i: u32, t0: f32, span: f32) -> f32 {
+    let a = f32(i) / f32(IN_LAYER_STEPS);
+    let b = f32(i + 1u) / f32(IN_LAYER_STEPS);
+    return t0 + span * 0.5 * (a * a * a + b * b * b);
+}
 
 // Length of cloud (m) on the ray from `p` along `l` until it leaves the
 // layer's height range (at most two feature sizes): the cells' sides
 // facing a low sun are lit through their sides, not only from their tops.
-// The window's coarse relief; steps growing quadratically.
+// The window's coarse relief; steps growing quadratically, each counted
+// by how deep its middle is in the cloud over a soft band as wide as the
+// step's rise (a step in or out made the path, and the light, jump where
+// a step's middle crossed a face: facets on the image).
 fn in_layer_sun_path_m(p: vec3<f32>, l: vec3<f32>) -> f32 {
     let mid = stratus.window.x;
     let half = 0.5 * stratus.shape.w;
@@ -99,11 +127,25 @@ fn in_layer_sun_path_m(p: vec3<f32>, l: vec3<f32>) -> f32 {
         let b = f32(i + 1u) / f32(IN_LAYER_SUN_STEPS);
         let q = p + l * (range * 0.5 * (a * a + b * b));
         let h = stratus_thickness_at(q.xz);
-        if (abs(q.y - mid) < 0.5 * h) {
-            inside += range * (b * b - a * a);
-        }
+        let step_m = range * (b * b - a * a);
+        let band_m = max(step_m * (abs(l.y) + 0.1), 1.0);
+        inside += step_m * saturate((0.5 * h - abs(q.y - mid)) / band_m + 0.5);
     }
     return inside;
+}
+
+// The sun's diffuse light per unit normal irradiance scattered towards the
+// camera at a point `path` (a transport optical depth along the beam) into
+// a slab across the lit face as thick as the chord `chord` along the beam,
+// the face at cosine `mu_face` to it, the light travelling at cosine
+// `mu_view` to the depth axis: the P1 source (diffusion::eddington_source)
+// of droplets of asymmetry `asymmetry`.
+fn in_layer_beam_source(path: f32, chord: f32, mu_face: f32, mu_view: f32, asymmetry: f32) -> f32 {
+    let depth = path * mu_face;
+    let thickness = chord * mu_face;
+    return eddington_source(vec3<f32>(in_layer_collimated(depth, thickness, mu_face, IN_LAYER_BEAM_RATE)),
+        vec3<f32>(in_layer_collimated_net_flux(depth, thickness, mu_face, IN_LAYER_BEAM_RATE)), mu_view,
+        asymmetry).x;
 }
 
 struct InLayerLight {
@@ -155,7 +197,13 @@ fn in_layer_fragment(in: FullscreenOutput) -> @location(0) vec4<f32> {
     let kappa = stratus.extinction.y;
     let kappa_s = (1.0 - stratus.forward_fraction.y) * kappa;
     let kappa_t = (1.0 - IN_LAYER_ASYMMETRY) * kappa;
-    let phase = stratus_peak_removed(acos(clamp(dot(l, direction), -1.0, 1.0)));
+    let cos_view_sun = clamp(dot(l, direction), -1.0, 1.0);
+    let phase = stratus_peak_removed(acos(cos_view_sun));
+    // δ-M's peak-removed asymmetry g* = (g − f)/(1 − f), f the peak's
+    // fraction: the forward orders' lobe scatters by the phase function
+    // the direct beam's extinction κ_s goes with.
+    let peak = stratus.forward_fraction.y;
+    let asymmetry_star = (IN_LAYER_ASYMMETRY - peak) / max(1.0 - peak, 1e-3);
     let sky = lighting.sky_irradiance_up.xyz;
     let detail_m = layer_thickness_m(stratus, origin.xz) - stratus_thickness_at(origin.xz);
     // The lights, at the middles of four quarters of the ray, held over
@@ -170,17 +218,28 @@ fn in_layer_fragment(in: FullscreenOutput) -> @location(0) vec4<f32> {
     var transmittance = 1.0;
     var weighted = vec3<f32>(0.0);
     var total_weight = 0.0;
-    var sun_paths = vec2<f32>(0.0);
-    var have_sun_paths = false;
+    // The sun's paths at the last and the next step where they are marched.
+    var sun_paths_last = vec2<f32>(0.0);
+    var sun_paths_next = vec2<f32>(0.0);
     for (var i = 0u; i < IN_LAYER_STEPS; i += 1u) {
-        // Steps at t₀ + span (i/N)³: the first ~0.2 m long over a span of
-        // 20 km, so that the camera crossing a face moves a few steps, not
-        // the first one (quadratic steps made a one-frame step there).
         let a = f32(i) / f32(IN_LAYER_STEPS);
         let b = f32(i + 1u) / f32(IN_LAYER_STEPS);
         let dt = span * (b * b * b - a * a * a);
-        let t = t0 + span * 0.5 * (a * a * a + b * b * b);
+        let t = in_layer_step_m(i, t0, span);
         let p = origin + direction * t;
+        // The sun's paths (towards and away from the sun) at every fourth
+        // step, interpolated between (the in-layer pass cost 2.7 s a frame
+        // at 640×360 on llvmpipe marching them at every step, 1.0 s this
+        // way): marched here for the step four ahead, whether this one is
+        // in cloud or not.
+        if (l.y > 0.0 && i % IN_LAYER_SUN_EVERY == 0u) {
+            if (i == 0u) {
+                sun_paths_next = vec2<f32>(in_layer_sun_path_m(p, l), in_layer_sun_path_m(p, -l));
+            }
+            sun_paths_last = sun_paths_next;
+            let q = origin + direction * in_layer_step_m(i + IN_LAYER_SUN_EVERY, t0, span);
+            sun_paths_next = vec2<f32>(in_layer_sun_path_m(q, l), in_layer_sun_path_m(q, -l));
+        }
         let fade = stratus_window_fade(p.xz);
         let h = max(stratus_thickness_at(p.xz) + detail_m * saturate(1.0 - t / IN_LAYER_DETAIL_M), 0.0);
         let below_top = mid + 0.5 * h - p.y;
@@ -197,34 +256,42 @@ fn in_layer_fragment(in: FullscreenOutput) -> @location(0) vec4<f32> {
         let lit_depth_m = select(above_base, below_top, sun_above);
         // The diffuse part's depth axis points down: the light reaching the
         // camera travels along −direction, at cosine direction.y to it.
-        var diffuse = eddington_radiance(in_layer_diffuse(kappa_t * below_top, kappa_t * h, sky, light.ground),
-            in_layer_diffuse_gradient(kappa_t * h, sky, light.ground), direction.y);
+        var diffuse = eddington_source(in_layer_diffuse(kappa_t * below_top, kappa_t * h, sky, light.ground),
+            in_layer_diffuse_net_flux(kappa_t * h, sky, light.ground), direction.y, asymmetry_star);
         var direct = vec3<f32>(0.0);
         if (l.y > 0.0) {
-            // The sun ray's paths (towards and away from the sun), marched
-            // at every fourth step and held over the next three (the
-            // in-layer pass cost 2.7 s a frame at 640×360 on llvmpipe
-            // marching them at every step, 1.0 s this way).
-            if (i % IN_LAYER_SUN_EVERY == 0u || !have_sun_paths) {
-                sun_paths = vec2<f32>(in_layer_sun_path_m(p, l), in_layer_sun_path_m(p, -l));
-                have_sun_paths = true;
-            }
+            let along = f32(i % IN_LAYER_SUN_EVERY) / f32(IN_LAYER_SUN_EVERY);
+            let sun_paths = mix(sun_paths_last, sun_paths_next, along);
             let top_path_m = lit_depth_m / mu0;
             let path_m = min(sun_paths.x, top_path_m);
             let chord_m = path_m + sun_paths.y;
-            let side_lit = path_m < 0.9 * top_path_m;
-            let mu_face = select(mu0, sqrt(max(1.0 - mu0 * mu0, 0.0)), side_lit);
-            // The beam's depth axis: into the lit face, down from the top,
-            // up from the base, or away from the sun through a side.
-            var axis = vec3<f32>(0.0, select(1.0, -1.0, sun_above), 0.0);
-            if (side_lit) {
-                axis = -normalize(vec3<f32>(l.x, 0.0, l.z) + vec3<f32>(1e-6, 0.0, 0.0));
+            // The beam's depth axes: into the lit face, down from the top
+            // (up from the base), or away from the sun through a side; the
+            // side's share grows as the sun's path falls below the top's
+            // (a switch at one ratio made hard edges).
+            let side_share = 1.0 - smoothstep(0.6, 0.95, path_m / max(top_path_m, 1e-3));
+            let top_axis = vec3<f32>(0.0, select(1.0, -1.0, sun_above), 0.0);
+            let side_axis = -normalize(vec3<f32>(l.x, 0.0, l.z) + vec3<f32>(1e-6, 0.0, 0.0));
+            let mu_side = sqrt(max(1.0 - mu0 * mu0, 0.0));
+            let from_top = in_layer_beam_source(kappa_t * path_m, kappa_t * chord_m, mu0, dot(-direction, top_axis),
+                asymmetry_star);
+            let from_side = in_layer_beam_source(kappa_t * path_m, kappa_t * chord_m, mu_side,
+                dot(-direction, side_axis), asymmetry_star);
+            diffuse += light.sun * mix(from_top, from_side, side_share);
+            // The light δ-Eddington's beam still holds beyond the
+            // unscattered beam, scattered a few times within the droplets'
+            // forward lobe: sent in the forward orders' lobe about the sun
+            // (as the cumulus' in-cloud march sends the light its beam has
+            // lost), which brightens the fog towards a low sun near the lit
+            // face (without it, 0.72–0.96 of the traced light near the top
+            // of a thin slab under a high sun; tests/slab_interior.rs).
+            let unscattered = exp(-kappa_s * path_m);
+            let forward = max(exp(-IN_LAYER_BEAM_RATE * kappa_t * path_m) - unscattered, 0.0);
+            if (forward > 1e-4) {
+                diffuse += light.sun * (forward / (4.0 * PI))
+                    * forward_orders_lobe(kappa_s * path_m, cos_view_sun, asymmetry_star);
             }
-            let depth = kappa_t * path_m * mu_face;
-            let thickness = kappa_t * chord_m * mu_face;
-            diffuse += light.sun * eddington_radiance(vec3<f32>(in_layer_collimated(depth, thickness, mu_face)),
-                vec3<f32>(in_layer_collimated_gradient(depth, thickness, mu_face)), dot(-direction, axis));
-            direct = light.sun * exp(-kappa_s * path_m);
+            direct = light.sun * unscattered;
         }
         let source = phase * direct + diffuse;
         let opacity = (1.0 - exp(-kappa_s * dt)) * fade;
