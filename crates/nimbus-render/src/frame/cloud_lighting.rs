@@ -31,7 +31,7 @@ use crate::scene::StratusSettings;
 use bytemuck::{Pod, Zeroable};
 use nimbus_physics::optics::dsd::SizeDistribution;
 use nimbus_physics::optics::tables::{CloudOpticsParams, CloudOpticsTables};
-use nimbus_physics::transport::reflected_exit;
+use nimbus_physics::transport::{interior_source, reflected_exit};
 use std::collections::HashMap;
 use std::path::PathBuf;
 use std::sync::{Arc, Mutex, OnceLock};
@@ -167,6 +167,12 @@ impl CloudLighting {
     /// the same for every layer; written once at creation).
     pub const REFLECTED_SHAPE_TEXELS: usize = reflected_exit::TABLE_VALUES;
 
+    /// Values after the reflected shape: the sun's scattered light inside
+    /// a layer near its lit face (`nimbus_physics::transport::
+    /// interior_source`, the same for every layer; written once at
+    /// creation).
+    pub const INTERIOR_SOURCE_TEXELS: usize = interior_source::TABLE_VALUES;
+
     /// Creates the group with no layer and an empty shadow map.
     pub fn new(device: &wgpu::Device, queue: &wgpu::Queue) -> Self {
         let uniform_size = std::mem::size_of::<StratusUniform>() as u64;
@@ -178,7 +184,10 @@ impl CloudLighting {
         });
         let phase_tables = device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("stratus phase tables"),
-            size: (Self::PHASE_TABLE_TEXELS + Self::REFLECTED_SHAPE_TEXELS) as u64 * VEC4_BYTES,
+            size: (Self::PHASE_TABLE_TEXELS
+                + Self::REFLECTED_SHAPE_TEXELS
+                + Self::INTERIOR_SOURCE_TEXELS) as u64
+                * VEC4_BYTES,
             usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
             mapped_at_creation: false,
         });
@@ -190,6 +199,15 @@ impl CloudLighting {
             &phase_tables,
             Self::PHASE_TABLE_TEXELS as u64 * VEC4_BYTES,
             bytemuck::cast_slice(&shape),
+        );
+        let source: Vec<[f32; 4]> = interior_source::INTERIOR_SOURCE
+            .iter()
+            .map(|&s| [s, s, s, 0.0])
+            .collect();
+        queue.write_buffer(
+            &phase_tables,
+            (Self::PHASE_TABLE_TEXELS + Self::REFLECTED_SHAPE_TEXELS) as u64 * VEC4_BYTES,
+            bytemuck::cast_slice(&source),
         );
         let shadow = CloudShadowMap::new(device, queue);
         let draw = wgpu::ShaderStages::VERTEX_FRAGMENT;

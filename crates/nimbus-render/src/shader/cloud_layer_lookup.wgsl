@@ -223,6 +223,59 @@ fn stratus_reflected_shape(sun_zenith_deg: f32, view_zenith_deg: f32, relative_a
     return value;
 }
 
+// Depths of the interior source's nodes below the lit face, scattering
+// optical depth (nimbus_physics::transport::interior_source::DEPTH_NODES).
+const STRATUS_INTERIOR_DEPTHS = array<f32, 7>(0.1, 0.35, 0.75, 1.25, 2.0, 3.0, 4.5);
+
+// The sun's scattered light S (orders ≥ 1, per unit scattering optical
+// depth and unit normal irradiance, sr⁻¹) scattered towards the direction
+// of travel at cosine `cos_travel` to the inward normal and
+// `relative_azimuth_deg` from the beam's azimuth, at `depth` (scattering
+// optical depth) below a face lit at `sun_zenith_deg`: multilinear between
+// the traced nodes stored after the reflected shape, clamped to their
+// ranges, the azimuth folded into 0–180°. Twin of
+// nimbus_physics::transport::interior_source::interior_source (9 sun
+// nodes 11° apart, 7 depths, 11 cosines from −1 to 1, 13 azimuths 15°
+// apart).
+fn stratus_interior_source(sun_zenith_deg: f32, depth: f32, cos_travel: f32, relative_azimuth_deg: f32) -> f32 {
+    // After the phase tables and the reflected shape's 9 × 9 × 7 values.
+    let offset = 2u * stratus.sizes.x + stratus.sizes.y + 567u;
+    var azimuth = relative_azimuth_deg - 360.0 * floor(relative_azimuth_deg / 360.0);
+    if (azimuth > 180.0) {
+        azimuth = 360.0 - azimuth;
+    }
+    let sun = clamp(sun_zenith_deg / 11.0, 0.0, 8.0);
+    let i = min(u32(sun), 7u);
+    let fi = sun - f32(i);
+    var j = 0u;
+    var fj = 0.0;
+    if (depth >= STRATUS_INTERIOR_DEPTHS[6]) {
+        j = 5u;
+        fj = 1.0;
+    } else if (depth > STRATUS_INTERIOR_DEPTHS[0]) {
+        for (var n = 0u; n < 6u; n += 1u) {
+            if (STRATUS_INTERIOR_DEPTHS[n] <= depth) {
+                j = n;
+            }
+        }
+        fj = (depth - STRATUS_INTERIOR_DEPTHS[j]) / (STRATUS_INTERIOR_DEPTHS[j + 1u] - STRATUS_INTERIOR_DEPTHS[j]);
+    }
+    let cosine = clamp((clamp(cos_travel, -1.0, 1.0) + 1.0) / 0.2, 0.0, 10.0);
+    let k = min(u32(cosine), 9u);
+    let fk = cosine - f32(k);
+    let az = clamp(azimuth / 15.0, 0.0, 12.0);
+    let l = min(u32(az), 11u);
+    let fl = az - f32(l);
+    var value = 0.0;
+    for (var corner = 0u; corner < 16u; corner += 1u) {
+        let d = vec4<u32>(corner & 1u, (corner >> 1u) & 1u, (corner >> 2u) & 1u, (corner >> 3u) & 1u);
+        let w = mix(vec4<f32>(1.0 - fi, 1.0 - fj, 1.0 - fk, 1.0 - fl), vec4<f32>(fi, fj, fk, fl), vec4<f32>(d));
+        let index = (((i + d.x) * 7u + j + d.y) * 11u + k + d.z) * 13u + l + d.w;
+        value += w.x * w.y * w.z * w.w * stratus_phase[offset + index].x;
+    }
+    return value;
+}
+
 // P_S, P² and P_F at scattering angle theta (rad), sr⁻¹.
 fn stratus_peak_removed(theta: f32) -> vec3<f32> {
     return stratus_table(0u, stratus.sizes.x, theta / PI);

@@ -1,36 +1,5 @@
 use super::*;
-use crate::optics::dsd::{SizeDistribution, bulk_optics};
-use crate::optics::phase::PhaseTable;
-use crate::optics::tables::computation_angles;
-use crate::optics::water::water_refractive_index;
-use crate::transport::phase_model::PhaseModel;
-use crate::transport::stratus::StratusOptics;
-
-/// The default droplets' slab of `thickness_m` with the forward peak (5°)
-/// folded into extinction: P_S and κ_S, as the analytic model's orders see them.
-fn default_droplets_slab(thickness_m: f64) -> SlabMedium {
-    let forward_peak_deg = 5.0;
-    let dsd = SizeDistribution::ModifiedGamma {
-        number_density_per_m3: 300e6,
-        gamma: 2.0,
-        effective_radius_m: 7e-6,
-    };
-    let optics = bulk_optics(
-        &dsd,
-        550.0,
-        water_refractive_index(550.0),
-        &computation_angles(forward_peak_deg),
-        1e-3,
-    );
-    let phase = PhaseTable::new(optics.angles_deg.clone(), optics.phase.clone());
-    let modified = StratusOptics::from_phase(&phase, optics.extinction_per_m, forward_peak_deg)
-        .modified_extinction_per_m();
-    SlabMedium {
-        optical_depth: modified * thickness_m,
-        single_scattering_albedo: optics.single_scattering_albedo(),
-        phase: PhaseModel::tabulated(&phase.peak_removed(forward_peak_deg)),
-    }
-}
+use crate::transport::test_media::default_droplets_slab;
 
 /// The table is what the tracer gives now: a fresh trace (other seed, fewer
 /// photons) at two sun nodes agrees with it at every view node within four

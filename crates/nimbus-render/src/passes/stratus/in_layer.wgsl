@@ -26,7 +26,9 @@
 // δ-Eddington beam holds beyond the unscattered one, in the forward orders'
 // lobe (twins: nimbus_physics::transport::diffusion and cumulus::interior::
 // forward_orders_lobe; the same slab and the same inputs as the faces'
-// shading, layer.wgsl).
+// shading, layer.wgsl). Near a lit top, where the sun's light has not
+// diffused, its scattered part is the source traced in a slab instead
+// (stratus_interior_source, twin of transport::interior_source).
 
 @group(1) @binding(0) var in_layer_depth: texture_depth_2d;
 
@@ -89,6 +91,12 @@ fn in_layer_collimated_net_flux(t_in: f32, total_in: f32, mu0: f32, rate: f32) -
 fn in_layer_diffuse_net_flux(total_in: f32, top: vec3<f32>, base: vec3<f32>) -> vec3<f32> {
     return 4.0 * (top - base) / (3.0 * max(total_in, 0.0) + 4.0);
 }
+
+// The scattering optical depths below the top over which the traced source
+// hands over to the P1 field, and the optical depth of the slab it was
+// traced in (nimbus_physics::transport::interior_source::TABLE_OPTICAL_DEPTH).
+const IN_LAYER_TABLE_HANDOVER: vec2<f32> = vec2<f32>(3.0, 4.5);
+const IN_LAYER_TABLE_OPTICAL_DEPTH: f32 = 12.0;
 
 // Steps of the march towards the sun from a step of the view's march.
 const IN_LAYER_SUN_STEPS: u32 = 6u;
@@ -277,20 +285,41 @@ fn in_layer_fragment(in: FullscreenOutput) -> @location(0) vec4<f32> {
                 asymmetry_star);
             let from_side = in_layer_beam_source(kappa_t * path_m, kappa_t * chord_m, mu_side,
                 dot(-direction, side_axis), asymmetry_star);
-            diffuse += light.sun * mix(from_top, from_side, side_share);
             // The light δ-Eddington's beam still holds beyond the
             // unscattered beam, scattered a few times within the droplets'
             // forward lobe: sent in the forward orders' lobe about the sun
             // (as the cumulus' in-cloud march sends the light its beam has
-            // lost), which brightens the fog towards a low sun near the lit
-            // face (without it, 0.72–0.96 of the traced light near the top
+            // lost; without it, 0.72–0.96 of the traced light near the top
             // of a thin slab under a high sun; tests/slab_interior.rs).
             let unscattered = exp(-kappa_s * path_m);
             let forward = max(exp(-IN_LAYER_BEAM_RATE * kappa_t * path_m) - unscattered, 0.0);
+            var lobe = 0.0;
             if (forward > 1e-4) {
-                diffuse += light.sun * (forward / (4.0 * PI))
-                    * forward_orders_lobe(kappa_s * path_m, cos_view_sun, asymmetry_star);
+                lobe = forward / (4.0 * PI) * forward_orders_lobe(kappa_s * path_m, cos_view_sun, asymmetry_star);
             }
+            // Near the top, where the light has not diffused yet (P1 gave a
+            // third of the traced light within 30° of a low sun's beam and
+            // 2–3 × straight down on the far side), the traced source
+            // (transport::interior_source), scaled by the ratio of
+            // δ-Eddington's fluence in this column to the table's slab (a
+            // thinner column keeps less), handing over to P1 between 3 and
+            // 4.5 optical depths down.
+            var top_source = from_top + lobe;
+            let depth_s = kappa_s * lit_depth_m;
+            let table_share = 1.0 - smoothstep(IN_LAYER_TABLE_HANDOVER.x, IN_LAYER_TABLE_HANDOVER.y, depth_s);
+            if (table_share > 0.0) {
+                let travel_xz = direction.xz / max(length(direction.xz), 1e-6);
+                let beam_xz = l.xz / max(length(l.xz), 1e-6);
+                let azimuth_deg = degrees(acos(clamp(dot(travel_xz, beam_xz), -1.0, 1.0)));
+                let traced = stratus_interior_source(degrees(acos(mu0)), depth_s, direction.y, azimuth_deg);
+                let t_depth = kappa_t * lit_depth_m;
+                let table_thickness = IN_LAYER_TABLE_OPTICAL_DEPTH * kappa_t / max(kappa_s, 1e-9);
+                let column = in_layer_collimated(t_depth, kappa_t * chord_m * mu0, mu0, IN_LAYER_BEAM_RATE);
+                let slab = in_layer_collimated(t_depth, table_thickness, mu0, IN_LAYER_BEAM_RATE);
+                let thickness_ratio = select(1.0, clamp(column / slab, 0.0, 1.5), slab > 1e-6);
+                top_source = mix(top_source, traced * thickness_ratio, table_share);
+            }
+            diffuse += light.sun * mix(top_source, from_side + lobe, side_share);
             direct = light.sun * unscattered;
         }
         let source = phase * direct + diffuse;
