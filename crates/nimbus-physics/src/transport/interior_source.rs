@@ -7,10 +7,10 @@
 //! face lit by a low sun it is not: the light there still travels near the
 //! beam, after a few scatterings through the droplets' forward lobe, and
 //! little comes down steeply from the side turned from the sun. In a slab
-//! 262 m thick under a 22° sun, 41 m below the top, the slab tracer gives
-//! 3–6 × the P1 field's light within 30° of the beam and a third of it
-//! straight down on the far side (docs/REALISM.md, "The light inside an
-//! overcast"). So near the face the in-layer march takes the light
+//! 262 m thick under a 22° sun, 41 m below the top, a photon tracer of the
+//! exported droplets gave 3–6 × the P1 field's light within 30° of the
+//! beam and a third of it straight down on the far side (docs/REALISM.md,
+//! "The light inside an overcast"). So near the face the in-layer march takes the light
 //! scattered towards the camera from a table traced here, as the reflected
 //! orders' angular shape is ([`super::reflected_exit`]).
 //!
