@@ -35,7 +35,7 @@
 //! `regenerate_the_interior_source_table` and held to a fresh trace by a
 //! test.
 
-use super::monte_carlo::{BATCH_PHOTONS, SlabMedium};
+use super::monte_carlo::{BATCH_PHOTONS, SlabMedium, roulette, scattered_direction};
 use super::rng::Rng;
 use rayon::prelude::*;
 
@@ -109,17 +109,8 @@ pub fn interior_source(
     cos_travel: f64,
     relative_azimuth_deg: f64,
 ) -> f64 {
-    let uniform = |x: f64, step: f64, nodes: usize| {
-        let p = (x / step).clamp(0.0, (nodes - 1) as f64);
-        let i = (p as usize).min(nodes - 2);
-        (i, p - i as f64)
-    };
-    let azimuth = relative_azimuth_deg.rem_euclid(360.0);
-    let azimuth = if azimuth > 180.0 {
-        360.0 - azimuth
-    } else {
-        azimuth
-    };
+    let uniform = super::reflected_exit::uniform_node;
+    let azimuth = super::reflected_exit::fold_azimuth_deg(relative_azimuth_deg);
     let (i, fi) = uniform(sun_zenith_deg, SUN_STEP_DEG, SUN_NODES);
     let (j, fj) = bracket(depth, &DEPTH_NODES);
     let (k, fk) = uniform(
@@ -242,19 +233,12 @@ fn walk(
             break;
         }
         z = z_next;
-        weight *= medium.single_scattering_albedo;
         scattered = true;
-        if weight < 1e-3 {
-            if rng.uniform() < 0.1 {
-                weight *= 10.0;
-            } else {
-                break;
-            }
-        }
-        let cos_theta = medium.phase.sample_cos(rng.uniform());
-        let sin_theta = (1.0 - cos_theta * cos_theta).max(0.0).sqrt();
-        let phi = std::f64::consts::TAU * rng.uniform();
-        direction = crate::optics::sampling::rotate(direction, cos_theta, sin_theta, phi);
+        let Some(survived) = roulette(weight * medium.single_scattering_albedo, rng) else {
+            break;
+        };
+        weight = survived;
+        direction = scattered_direction(&medium.phase, direction, rng);
     }
 }
 

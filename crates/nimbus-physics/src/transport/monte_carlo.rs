@@ -382,20 +382,12 @@ fn trace_photon(
                 direction[0] * view[0] + direction[1] * view[1] + direction[2] * view[2];
             l[class] += weight * albedo * medium.phase.value(cos_theta) * (-exit / mu).exp() / mu;
         }
-        weight *= albedo;
         order += 1;
-        // Russian roulette once the weight is small (absorbing media only).
-        if weight < 1e-3 {
-            if rng.uniform() < 0.1 {
-                weight *= 10.0;
-            } else {
-                break;
-            }
-        }
-        let cos_theta = medium.phase.sample_cos(rng.uniform());
-        let sin_theta = (1.0 - cos_theta * cos_theta).max(0.0).sqrt();
-        let phi = std::f64::consts::TAU * rng.uniform();
-        direction = crate::optics::sampling::rotate(direction, cos_theta, sin_theta, phi);
+        let Some(survived) = roulette(weight * albedo, rng) else {
+            break;
+        };
+        weight = survived;
+        direction = scattered_direction(&medium.phase, direction, rng);
     }
     for (v, l) in local.iter().enumerate() {
         let mut photon_total = 0.0;
@@ -415,6 +407,32 @@ fn trace_photon(
         *sum += x;
         *sum_sq += x * x;
     }
+}
+
+/// Russian roulette once a photon's weight is small (absorbing media
+/// only): below 10⁻³ it survives one time in ten with ten times the
+/// weight. The weight to carry on with, or `None` when the photon ends.
+pub(crate) fn roulette(weight: f64, rng: &mut Rng) -> Option<f64> {
+    if weight >= 1e-3 {
+        Some(weight)
+    } else if rng.uniform() < 0.1 {
+        Some(weight * 10.0)
+    } else {
+        None
+    }
+}
+
+/// A direction drawn from `phase` about `direction` (the cosine from the
+/// phase function, the azimuth uniform).
+pub(crate) fn scattered_direction(
+    phase: &PhaseModel,
+    direction: [f64; 3],
+    rng: &mut Rng,
+) -> [f64; 3] {
+    let cos_theta = phase.sample_cos(rng.uniform());
+    let sin_theta = (1.0 - cos_theta * cos_theta).max(0.0).sqrt();
+    let phi = std::f64::consts::TAU * rng.uniform();
+    crate::optics::sampling::rotate(direction, cos_theta, sin_theta, phi)
 }
 
 /// The bin of an exit direction: angle from the normal on the exit side and

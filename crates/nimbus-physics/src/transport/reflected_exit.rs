@@ -154,20 +154,10 @@ pub fn reflected_shape(
     view_zenith_deg: f64,
     relative_azimuth_deg: f64,
 ) -> f64 {
-    let node = |x: f64, step: f64, nodes: usize| {
-        let p = (x / step).clamp(0.0, (nodes - 1) as f64);
-        let i = (p as usize).min(nodes - 2);
-        (i, p - i as f64)
-    };
-    let azimuth = relative_azimuth_deg.rem_euclid(360.0);
-    let azimuth = if azimuth > 180.0 {
-        360.0 - azimuth
-    } else {
-        azimuth
-    };
-    let (i, fi) = node(sun_zenith_deg, ZENITH_STEP_DEG, ZENITH_NODES);
-    let (j, fj) = node(view_zenith_deg, ZENITH_STEP_DEG, ZENITH_NODES);
-    let (k, fk) = node(azimuth, AZIMUTH_STEP_DEG, AZIMUTH_NODES);
+    let azimuth = fold_azimuth_deg(relative_azimuth_deg);
+    let (i, fi) = uniform_node(sun_zenith_deg, ZENITH_STEP_DEG, ZENITH_NODES);
+    let (j, fj) = uniform_node(view_zenith_deg, ZENITH_STEP_DEG, ZENITH_NODES);
+    let (k, fk) = uniform_node(azimuth, AZIMUTH_STEP_DEG, AZIMUTH_NODES);
     let mut value = 0.0;
     for (di, wi) in [(0, 1.0 - fi), (1, fi)] {
         for (dj, wj) in [(0, 1.0 - fj), (1, fj)] {
@@ -178,6 +168,25 @@ pub fn reflected_shape(
         }
     }
     value
+}
+
+/// Where `x` falls on `nodes` nodes `step` apart from 0: the lower node and
+/// the weight of the upper one, clamped to the nodes' range.
+pub(crate) fn uniform_node(x: f64, step: f64, nodes: usize) -> (usize, f64) {
+    let p = (x / step).clamp(0.0, (nodes - 1) as f64);
+    let i = (p as usize).min(nodes - 2);
+    (i, p - i as f64)
+}
+
+/// An azimuth (degrees) folded into 0–180°: the slab is symmetric about
+/// the sun's plane.
+pub(crate) fn fold_azimuth_deg(relative_azimuth_deg: f64) -> f64 {
+    let azimuth = relative_azimuth_deg.rem_euclid(360.0);
+    if azimuth > 180.0 {
+        360.0 - azimuth
+    } else {
+        azimuth
+    }
 }
 
 /// The view directions of the table's nodes, view zenith major then
