@@ -330,8 +330,16 @@ pub fn export(
         },
         format!("volumes: extinction and phase function at {PHASE_WAVELENGTH_NM} nm for every channel (droplet extinction varies < 2 % over the visible), albedo per channel; phase function tabulated at {PHASE_SAMPLES} values uniform in cos θ (the diffraction peak is averaged over the first ~0.9°)"),
         "the sun is a directional emitter (no disc seen by the camera); the water has no waves: a rough dielectric coat over its diffuse body, with nimbus's GGX glint lobe (whose shadowing darkens the sky's reflection at grazing views, where nimbus reflects it as a rippled mirror)".to_string(),
-        "the environment map's lower half is the terrain and sea as seen from the camera (for rays that leave the exported terrain)".to_string(),
+        if scene.ground.terrain {
+            "the environment map's lower half is the terrain and sea as seen from the camera (for rays that leave the exported terrain)".to_string()
+        } else {
+            "the ground is not drawn (ground.terrain = false): a flat diffuse plane of the ground's albedo at its height lights the clouds from below, as in nimbus; the environment map's lower half is what nimbus's panorama shows below the horizon (for rays that leave the plane)".to_string()
+        },
     ];
+    if !scene.ground.terrain && scene.ground.albedo_map.is_some() {
+        approximations
+            .push("the flat ground's albedo map is exported as its mean albedo".to_string());
+    }
     // 1. Render once so that the cumulus pass places this frame's clouds.
     headless.render_frame(scene, 16, 16, time_s as f32)?;
     let placed = headless.renderer.cumulus().placed_clouds();
@@ -433,8 +441,12 @@ pub fn export(
         e2 = sun_irradiance[2],
     );
 
-    // 5. Terrain and sea.
-    write_terrain(scene, dir, &mut xml, files)?;
+    // 5. Terrain and sea, or the flat ground of a world nimbus does not draw.
+    if scene.ground.terrain {
+        write_terrain(scene, dir, &mut xml, files)?;
+    } else {
+        xml.push_str(&flat_ground_xml(&scene.ground));
+    }
 
     // 6. Droplets' optics (the stratus layer's size distribution; the
     // cumulus shader has none of its own, so the same droplets).
@@ -847,6 +859,34 @@ fn smoothstep(edge0: f64, edge1: f64, x: f64) -> f64 {
     t * t * (3.0 - 2.0 * t)
 }
 
+/// The flat ground of `ground.terrain = false`: a diffuse plane at its
+/// height, of its albedo (the mean of its albedo map when it has one),
+/// [`SEA_HALF_SIZE_M`] across like the sea. nimbus draws nothing there but
+/// lights the clouds from below with it (the stratus layer's radiosity,
+/// the cumulus's ground light), so the reference must have it too.
+fn flat_ground_xml(ground: &nimbus_render::scene::GroundSettings) -> String {
+    let albedo = ground
+        .albedo_map
+        .as_ref()
+        .map_or(ground.albedo, |map| map.map().mean());
+    let plane = DMat4::from_translation(DVec3::new(0.0, ground.height_m, 0.0))
+        * DMat4::from_rotation_x(-std::f64::consts::FRAC_PI_2)
+        * DMat4::from_scale(DVec3::splat(SEA_HALF_SIZE_M));
+    format!(
+        r#"    <shape type="rectangle">
+        <transform name="to_world"><matrix value="{plane}"/></transform>
+        <bsdf type="diffuse">
+            <rgb name="reflectance" value="{a0:.5}, {a1:.5}, {a2:.5}"/>
+        </bsdf>
+    </shape>
+"#,
+        plane = matrix(&plane),
+        a0 = albedo[0],
+        a1 = albedo[1],
+        a2 = albedo[2],
+    )
+}
+
 /// Terrain mesh (PLY) with its albedo (PNG) and the sea plane.
 fn write_terrain(
     scene: &Scene,
@@ -1107,6 +1147,32 @@ mod tests {
     }
 
     /// An angle of 0 keeps the phase function as it is.
+    /// A scene whose ground nimbus does not draw exports that ground as a
+    /// flat diffuse plane of its albedo at its height, facing up, and no
+    /// terrain (the references of such scenes had the procedural terrain).
+    #[test]
+    fn the_flat_ground_is_a_diffuse_plane_of_its_albedo_at_its_height() {
+        let scene = Scene::from_toml_str(
+            "[ground]\nterrain = false\nalbedo = [0.1, 0.2, 0.3]\nheight_m = 250.0\n",
+            "flat.toml",
+        )
+        .expect("scene");
+        let xml = flat_ground_xml(&scene.ground);
+        assert!(!xml.contains("terrain"), "{xml}");
+        assert!(
+            xml.contains(r#"<rgb name="reflectance" value="0.10000, 0.20000, 0.30000"/>"#),
+            "{xml}"
+        );
+        // The rectangle's z axis (its normal) turned to +y, at the height.
+        let plane = DMat4::from_translation(DVec3::new(0.0, 250.0, 0.0))
+            * DMat4::from_rotation_x(-std::f64::consts::FRAC_PI_2);
+        let normal = plane.transform_vector3(DVec3::Z);
+        assert!((normal - DVec3::Y).length() < 1e-12, "{normal}");
+        assert!(xml.contains(&matrix(
+            &(plane * DMat4::from_scale(DVec3::splat(SEA_HALF_SIZE_M)))
+        )));
+    }
+
     #[test]
     fn no_truncation_at_zero_degrees() {
         let mut values = hg_table(0.9, 1001);
