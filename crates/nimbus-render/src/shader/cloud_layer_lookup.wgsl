@@ -238,6 +238,14 @@ const STRATUS_INTERIOR_DEPTHS = array<f32, 7>(0.1, 0.35, 0.75, 1.25, 2.0, 3.0, 4
 // nodes 11° apart, 7 depths, 11 cosines from −1 to 1, 13 azimuths 15°
 // apart).
 fn stratus_interior_source(sun_zenith_deg: f32, depth: f32, cos_travel: f32, relative_azimuth_deg: f32) -> f32 {
+    return stratus_interior_source_at_depth(
+        stratus_interior_source_depths(sun_zenith_deg, cos_travel, relative_azimuth_deg), depth);
+}
+
+// stratus_interior_source at the seven depth nodes: along a view ray only
+// the depth changes, so a march reads the table once per ray (8 texels
+// per node) and interpolates in depth at each step.
+fn stratus_interior_source_depths(sun_zenith_deg: f32, cos_travel: f32, relative_azimuth_deg: f32) -> array<f32, 7> {
     // After the phase tables and the reflected shape's 9 × 9 × 7 values.
     let offset = 2u * stratus.sizes.x + stratus.sizes.y + 567u;
     var azimuth = relative_azimuth_deg - 360.0 * floor(relative_azimuth_deg / 360.0);
@@ -247,33 +255,43 @@ fn stratus_interior_source(sun_zenith_deg: f32, depth: f32, cos_travel: f32, rel
     let sun = clamp(sun_zenith_deg / 11.0, 0.0, 8.0);
     let i = min(u32(sun), 7u);
     let fi = sun - f32(i);
-    var j = 0u;
-    var fj = 0.0;
-    if (depth >= STRATUS_INTERIOR_DEPTHS[6]) {
-        j = 5u;
-        fj = 1.0;
-    } else if (depth > STRATUS_INTERIOR_DEPTHS[0]) {
-        for (var n = 0u; n < 6u; n += 1u) {
-            if (STRATUS_INTERIOR_DEPTHS[n] <= depth) {
-                j = n;
-            }
-        }
-        fj = (depth - STRATUS_INTERIOR_DEPTHS[j]) / (STRATUS_INTERIOR_DEPTHS[j + 1u] - STRATUS_INTERIOR_DEPTHS[j]);
-    }
     let cosine = clamp((clamp(cos_travel, -1.0, 1.0) + 1.0) / 0.2, 0.0, 10.0);
     let k = min(u32(cosine), 9u);
     let fk = cosine - f32(k);
     let az = clamp(azimuth / 15.0, 0.0, 12.0);
     let l = min(u32(az), 11u);
     let fl = az - f32(l);
-    var value = 0.0;
-    for (var corner = 0u; corner < 16u; corner += 1u) {
-        let d = vec4<u32>(corner & 1u, (corner >> 1u) & 1u, (corner >> 2u) & 1u, (corner >> 3u) & 1u);
-        let w = mix(vec4<f32>(1.0 - fi, 1.0 - fj, 1.0 - fk, 1.0 - fl), vec4<f32>(fi, fj, fk, fl), vec4<f32>(d));
-        let index = (((i + d.x) * 7u + j + d.y) * 11u + k + d.z) * 13u + l + d.w;
-        value += w.x * w.y * w.z * w.w * stratus_phase[offset + index].x;
+    var values: array<f32, 7>;
+    for (var j = 0u; j < 7u; j += 1u) {
+        var value = 0.0;
+        for (var corner = 0u; corner < 8u; corner += 1u) {
+            let d = vec3<u32>(corner & 1u, (corner >> 1u) & 1u, (corner >> 2u) & 1u);
+            let w = mix(vec3<f32>(1.0 - fi, 1.0 - fk, 1.0 - fl), vec3<f32>(fi, fk, fl), vec3<f32>(d));
+            let index = (((i + d.x) * 7u + j) * 11u + k + d.y) * 13u + l + d.z;
+            value += w.x * w.y * w.z * stratus_phase[offset + index].x;
+        }
+        values[j] = value;
     }
-    return value;
+    return values;
+}
+
+// The source at optical depth `depth` from its values at the depth nodes,
+// linear between them, clamped to the first and the last.
+fn stratus_interior_source_at_depth(values: array<f32, 7>, depth: f32) -> f32 {
+    if (depth >= STRATUS_INTERIOR_DEPTHS[6]) {
+        return values[6];
+    }
+    if (depth <= STRATUS_INTERIOR_DEPTHS[0]) {
+        return values[0];
+    }
+    var j = 0u;
+    for (var n = 0u; n < 6u; n += 1u) {
+        if (STRATUS_INTERIOR_DEPTHS[n] <= depth) {
+            j = n;
+        }
+    }
+    let fj = (depth - STRATUS_INTERIOR_DEPTHS[j]) / (STRATUS_INTERIOR_DEPTHS[j + 1u] - STRATUS_INTERIOR_DEPTHS[j]);
+    return mix(values[j], values[j + 1u], fj);
 }
 
 // P_S, P² and P_F at scattering angle theta (rad), sr⁻¹.

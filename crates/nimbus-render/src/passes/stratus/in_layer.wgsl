@@ -226,6 +226,15 @@ fn in_layer_fragment(in: FullscreenOutput) -> @location(0) vec4<f32> {
     var transmittance = 1.0;
     var weighted = vec3<f32>(0.0);
     var total_weight = 0.0;
+    // The traced source at its depth nodes for this ray's sun and
+    // direction, read at the first step that needs it: per step, the
+    // table's lookups were 31 % of the pass on llvmpipe near a lit top
+    // (docs/PERFORMANCE.md).
+    var traced_depths: array<f32, 7>;
+    var traced_read = false;
+    let travel_xz = direction.xz / max(length(direction.xz), 1e-6);
+    let beam_xz = l.xz / max(length(l.xz), 1e-6);
+    let traced_azimuth_deg = degrees(acos(clamp(dot(travel_xz, beam_xz), -1.0, 1.0)));
     // The sun's paths at the last and the next step where they are marched.
     var sun_paths_last = vec2<f32>(0.0);
     var sun_paths_next = vec2<f32>(0.0);
@@ -308,10 +317,11 @@ fn in_layer_fragment(in: FullscreenOutput) -> @location(0) vec4<f32> {
             let depth_s = kappa_s * lit_depth_m;
             let table_share = 1.0 - smoothstep(IN_LAYER_TABLE_HANDOVER.x, IN_LAYER_TABLE_HANDOVER.y, depth_s);
             if (table_share > 0.0) {
-                let travel_xz = direction.xz / max(length(direction.xz), 1e-6);
-                let beam_xz = l.xz / max(length(l.xz), 1e-6);
-                let azimuth_deg = degrees(acos(clamp(dot(travel_xz, beam_xz), -1.0, 1.0)));
-                let traced = stratus_interior_source(degrees(acos(mu0)), depth_s, direction.y, azimuth_deg);
+                if (!traced_read) {
+                    traced_depths = stratus_interior_source_depths(degrees(acos(mu0)), direction.y, traced_azimuth_deg);
+                    traced_read = true;
+                }
+                let traced = stratus_interior_source_at_depth(traced_depths, depth_s);
                 let t_depth = kappa_t * lit_depth_m;
                 let table_thickness = IN_LAYER_TABLE_OPTICAL_DEPTH * kappa_t / max(kappa_s, 1e-9);
                 let column = in_layer_collimated(t_depth, kappa_t * chord_m * mu0, mu0, IN_LAYER_BEAM_RATE);
