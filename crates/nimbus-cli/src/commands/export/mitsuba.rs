@@ -859,6 +859,15 @@ fn smoothstep(edge0: f64, edge1: f64, x: f64) -> f64 {
     t * t * (3.0 - 2.0 * t)
 }
 
+/// Mitsuba's `rectangle` (the unit square in z = 0, facing +z) turned to
+/// face up, [`SEA_HALF_SIZE_M`] across its half, at height `height_m`: the
+/// sea, or the flat ground.
+fn level_plane(height_m: f64) -> DMat4 {
+    DMat4::from_translation(DVec3::new(0.0, height_m, 0.0))
+        * DMat4::from_rotation_x(-std::f64::consts::FRAC_PI_2)
+        * DMat4::from_scale(DVec3::splat(SEA_HALF_SIZE_M))
+}
+
 /// The flat ground of `ground.terrain = false`: a diffuse plane at its
 /// height, of its albedo (the mean of its albedo map when it has one),
 /// [`SEA_HALF_SIZE_M`] across like the sea. nimbus draws nothing there but
@@ -869,9 +878,7 @@ fn flat_ground_xml(ground: &nimbus_render::scene::GroundSettings) -> String {
         .albedo_map
         .as_ref()
         .map_or(ground.albedo, |map| map.map().mean());
-    let plane = DMat4::from_translation(DVec3::new(0.0, ground.height_m, 0.0))
-        * DMat4::from_rotation_x(-std::f64::consts::FRAC_PI_2)
-        * DMat4::from_scale(DVec3::splat(SEA_HALF_SIZE_M));
+    let plane = level_plane(ground.height_m);
     format!(
         r#"    <shape type="rectangle">
         <transform name="to_world"><matrix value="{plane}"/></transform>
@@ -959,9 +966,7 @@ fn write_terrain(
     .context("terrain albedo: PNG encoding failed")?;
     files.write_bytes(&dir.join("terrain_albedo.png"), "--mitsuba", &png)?;
     let water = scene.terrain.albedo.water;
-    let sea = DMat4::from_translation(DVec3::new(0.0, scene.terrain.water_level_m, 0.0))
-        * DMat4::from_rotation_x(-std::f64::consts::FRAC_PI_2)
-        * DMat4::from_scale(DVec3::splat(SEA_HALF_SIZE_M));
+    let sea = level_plane(scene.terrain.water_level_m);
     let _ = write!(
         xml,
         r#"    <shape type="ply">
@@ -1146,7 +1151,6 @@ mod tests {
         assert!(inner > 0 && faded > 0, "inner {inner}, faded {faded}");
     }
 
-    /// An angle of 0 keeps the phase function as it is.
     /// A scene whose ground nimbus does not draw exports that ground as a
     /// flat diffuse plane of its albedo at its height, facing up, and no
     /// terrain (the references of such scenes had the procedural terrain).
@@ -1163,16 +1167,20 @@ mod tests {
             xml.contains(r#"<rgb name="reflectance" value="0.10000, 0.20000, 0.30000"/>"#),
             "{xml}"
         );
-        // The rectangle's z axis (its normal) turned to +y, at the height.
-        let plane = DMat4::from_translation(DVec3::new(0.0, 250.0, 0.0))
-            * DMat4::from_rotation_x(-std::f64::consts::FRAC_PI_2);
-        let normal = plane.transform_vector3(DVec3::Z);
+        // The rectangle's z axis (its normal) turned to +y, its centre at
+        // the height.
+        let plane = level_plane(250.0);
+        let normal = plane.transform_vector3(DVec3::Z).normalize();
         assert!((normal - DVec3::Y).length() < 1e-12, "{normal}");
-        assert!(xml.contains(&matrix(
-            &(plane * DMat4::from_scale(DVec3::splat(SEA_HALF_SIZE_M)))
-        )));
+        let centre = plane.transform_point3(DVec3::ZERO);
+        assert!(
+            (centre - DVec3::new(0.0, 250.0, 0.0)).length() < 1e-9,
+            "{centre}"
+        );
+        assert!(xml.contains(&matrix(&plane)), "{xml}");
     }
 
+    /// An angle of 0 keeps the phase function as it is.
     #[test]
     fn no_truncation_at_zero_degrees() {
         let mut values = hg_table(0.9, 1001);
