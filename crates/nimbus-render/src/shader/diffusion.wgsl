@@ -48,6 +48,46 @@ fn forward_orders_lobe(optical_depth: f32, cos_theta: f32, asymmetry: f32) -> f3
     return sum / normalisation + max(1.0 - series / normalisation, 0.0);
 }
 
+// A value towards `direction` (unit) from its values towards the six axes,
+// +x, +y, +z in `positive` and −x, −y, −z in `negative`: Σ_a Ω_a² D(±a),
+// the ambient cube (McTaggart 2004). Twin of
+// nimbus_physics::cumulus::interior::ambient_cube.
+fn ambient_cube(positive: vec3<f32>, negative: vec3<f32>, direction: vec3<f32>) -> f32 {
+    let side = select(negative, positive, direction >= vec3<f32>(0.0));
+    return dot(direction * direction, side);
+}
+
+// The part of the forward lobe towards `direction` that its own ambient cube
+// does not hold (zero on the axes).
+fn lobe_beyond_cube(direction: vec3<f32>, beam_travel: vec3<f32>, optical_depth: f32, asymmetry: f32) -> f32 {
+    let side = select(vec3<f32>(-1.0), vec3<f32>(1.0), direction >= vec3<f32>(0.0));
+    let on_axes = vec3<f32>(
+        forward_orders_lobe(optical_depth, side.x * beam_travel.x, asymmetry),
+        forward_orders_lobe(optical_depth, side.y * beam_travel.y, asymmetry),
+        forward_orders_lobe(optical_depth, side.z * beam_travel.z, asymmetry));
+    return forward_orders_lobe(optical_depth, dot(direction, beam_travel), asymmetry)
+        - dot(direction * direction, on_axes);
+}
+
+// How the excess of the sun's light along the beam over its cube spreads to
+// `toward`: as the forward lobe's excess over its own cube, relative to its
+// value along the beam. Twin of
+// nimbus_physics::cumulus::interior::sun_cube_excess_shape.
+fn sun_cube_excess_shape(toward: vec3<f32>, beam_travel: vec3<f32>, optical_depth: f32, asymmetry: f32) -> f32 {
+    let at_beam = lobe_beyond_cube(beam_travel, beam_travel, optical_depth, asymmetry);
+    if (abs(at_beam) <= 1e-3) {
+        return 0.0;
+    }
+    return clamp(lobe_beyond_cube(toward, beam_travel, optical_depth, asymmetry) / at_beam, 0.0, 1.0);
+}
+
+// The sun's directional fluence towards `toward` from a sun cube's values
+// and its excess along the beam. Twin of
+// nimbus_physics::cumulus::interior::sun_cube_toward.
+fn sun_cube_toward(positive: vec3<f32>, negative: vec3<f32>, excess: f32, toward: vec3<f32>, shape: f32) -> f32 {
+    return max(ambient_cube(positive, negative, toward) + excess * shape, 0.0);
+}
+
 // Henyey–Greenstein's phase function relative to isotropic, 4π HG(g, cos θ).
 fn henyey_greenstein_relative(g: f32, cos_theta: f32) -> f32 {
     let d = 1.0 + g * g - 2.0 * g * cos_theta;

@@ -643,6 +643,109 @@ fn gpu_transport_matches_the_cpu_twin() {
     );
 }
 
+/// A test kernel around the sun cube's reading: per case four vec4 (the
+/// cube's positive values and the excess, the negative values and the
+/// beam's optical depth, the direction read and the asymmetry, the beam's
+/// travel), the excess's shape and the value read out.
+const SUN_CUBE_KERNEL: &str = r"
+@group(0) @binding(1) var<storage, read> cube_cases: array<vec4<f32>>;
+@group(0) @binding(2) var<storage, read_write> cube_values: array<f32>;
+
+@compute @workgroup_size(64)
+fn sun_cube_kernel(@builtin(global_invocation_id) id: vec3<u32>) {
+    if (4u * id.x >= arrayLength(&cube_cases)) {
+        return;
+    }
+    let a = cube_cases[4u * id.x];
+    let b = cube_cases[4u * id.x + 1u];
+    let c = cube_cases[4u * id.x + 2u];
+    let d = cube_cases[4u * id.x + 3u];
+    let shape = sun_cube_excess_shape(c.xyz, d.xyz, b.w, c.w);
+    cube_values[2u * id.x] = shape;
+    cube_values[2u * id.x + 1u] = sun_cube_toward(a.xyz, b.xyz, a.w, c.xyz, shape);
+}
+";
+
+/// The in-cloud march's reading of the sun cube towards the camera
+/// (`shader/diffusion.wgsl`: the ambient cube and the spread of the excess
+/// along the beam) against its CPU twins
+/// (`nimbus_physics::cumulus::interior::sun_cube_excess_shape` and
+/// `sun_cube_toward`), over directions on and between the axes, beams and
+/// depths, within 1e-4.
+#[test]
+fn gpu_sun_cube_reading_matches_the_cpu_twin() {
+    use glam::DVec3;
+    use nimbus_physics::cumulus::interior::{sun_cube_excess_shape, sun_cube_toward};
+    let h = HeadlessRenderer::new(AdapterPreference::Auto)
+        .unwrap_or_else(|e| panic!("GPU tests need an adapter: {e}"));
+    let cube = [0.7f32, 0.05, 1.3, 0.2, 2.5, 0.4];
+    let excess = 0.9f32;
+    let single = |v: DVec3| v.normalize().as_vec3().as_dvec3();
+    let mut directions: Vec<DVec3> = Vec::new();
+    for x in [-1.0, -0.3, 0.0, 0.6, 1.0] {
+        for y in [-1.0, -0.5, 0.0, 0.8] {
+            for z in [-0.9, 0.0, 0.2, 1.0] {
+                let d = DVec3::new(x, y, z);
+                if d.length() > 0.0 {
+                    directions.push(single(d));
+                }
+            }
+        }
+    }
+    let beams = [
+        single(DVec3::new(0.3, -0.8, 0.52)),
+        single(DVec3::new(-0.7, -0.4, 0.1)),
+        DVec3::NEG_Y,
+    ];
+    let mut cases: Vec<(DVec3, DVec3, f32, f32)> = Vec::new();
+    for &beam in &beams {
+        for &d in directions.iter().chain([beam, -beam].iter()) {
+            for (tau, g) in [(0.3f32, 0.74f32), (2.5, 0.74), (8.0, 0.85)] {
+                cases.push((d, beam, tau, g));
+            }
+        }
+    }
+    let input: Vec<[f32; 4]> = cases
+        .iter()
+        .flat_map(|(d, beam, tau, g)| {
+            [
+                [cube[0], cube[2], cube[4], excess],
+                [cube[1], cube[3], cube[5], *tau],
+                [d.x as f32, d.y as f32, d.z as f32, *g],
+                [beam.x as f32, beam.y as f32, beam.z as f32, 0.0],
+            ]
+        })
+        .collect();
+    let source = shader::compose(&[shader::DIFFUSION]) + SUN_CUBE_KERNEL;
+    let gpu: Vec<f32> = common::run_kernel(
+        &h,
+        &common::Kernel {
+            label: "sun cube test",
+            source: &source,
+            entry: "sun_cube_kernel",
+            input: bytemuck::cast_slice(&input),
+            input_stride: 64,
+            count: cases.len(),
+            outputs_per_item: 2,
+            extra: &[],
+        },
+    );
+    let cpu_cube = cube.map(f64::from);
+    let mut spread = 0;
+    for ((d, beam, tau, g), out) in cases.iter().zip(gpu.chunks(2)) {
+        let shape = sun_cube_excess_shape(*d, *beam, f64::from(*tau), f64::from(*g));
+        let value = sun_cube_toward(&cpu_cube, f64::from(excess), *d, shape);
+        let context = format!("{d} beam {beam} τ {tau} g {g}: GPU {out:?}, CPU {shape} {value}");
+        assert!((f64::from(out[0]) - shape).abs() < 1e-4, "{context}");
+        assert!(
+            (f64::from(out[1]) - value).abs() < 1e-4 * value.max(1.0),
+            "{context}"
+        );
+        spread += usize::from(shape > 0.01 && shape < 0.99);
+    }
+    assert!(spread > 20, "{spread} cases between the axes and the beam");
+}
+
 /// A test kernel around the forward lobe: one (τ, cos θ, g) in, the lobe out.
 const FORWARD_LOBE_KERNEL: &str = r"
 @group(0) @binding(1) var<storage, read> lobe_cases: array<vec4<f32>>;

@@ -155,6 +155,7 @@ fn march_of_a_uniform_fog_is_the_closed_form() {
         environment_fluence: [1.0, 2.0, 3.0],
         sun_fluence: 0.5,
         sun_transmittance: 0.25,
+        sun_toward_camera: None,
     };
     let (l, t) = march_fog(&ray, |_| light);
     let opacity = 1.0 - (-0.04f64 * 50.0).exp();
@@ -217,6 +218,7 @@ fn march_keeps_the_sun_light_beyond_the_beams_loss_isotropic() {
         environment_fluence: [0.0; 3],
         sun_fluence: phi,
         sun_transmittance: t_sun,
+        sun_toward_camera: None,
     };
     let fog = |cos_view_sun: f64| {
         let ray = FogRay {
@@ -235,6 +237,153 @@ fn march_keeps_the_sun_light_beyond_the_beams_loss_isotropic() {
         assert!((fog(c) - expected).abs() < 1e-9 * expected, "{c}");
     }
     assert!(fog(1.0) > 3.0 * fog(-1.0));
+}
+
+/// With the sun's own cube ready, the march sends the sun's scattered light
+/// towards the camera by it, whatever Φ_sun and the forward lobe say.
+#[test]
+fn march_takes_the_sun_light_towards_the_camera_from_the_cube() {
+    let ray = FogRay {
+        sun_irradiance: [2.0, 3.0, 4.0],
+        phase: [0.0; 3],
+        span_m: [0.0, 50.0],
+        steps: 5,
+        cos_view_sun: -0.8,
+        asymmetry: 0.74,
+    };
+    let light = FogLight {
+        extinction_per_m: 0.03,
+        environment_fluence: [0.5, 0.25, 0.125],
+        sun_fluence: 0.9,
+        sun_transmittance: 0.1,
+        sun_toward_camera: Some(0.3),
+    };
+    let (l, _) = march_fog(&ray, |_| light);
+    let opacity = 1.0 - (-0.03f64 * 50.0).exp();
+    for (c, l) in l.iter().enumerate() {
+        let s = (ray.sun_irradiance[c] * 0.3 + light.environment_fluence[c]) / (4.0 * PI);
+        assert!((l - s * opacity).abs() < 1e-12 * s, "{c}");
+    }
+}
+
+/// The ambient cube is exact along its axes and for a value the same in
+/// every direction, blends between the axes with weights that sum to 1,
+/// and never goes below its smallest value.
+#[test]
+fn ambient_cube_is_exact_on_its_axes_and_a_convex_blend_between() {
+    let values = [3.0, 0.5, 2.0, 1.0, 0.25, 4.0];
+    for (a, axis) in CUBE_AXES.iter().enumerate() {
+        assert_eq!(ambient_cube(&values, DVec3::from_array(*axis)), values[a]);
+    }
+    assert!((ambient_cube(&[1.5; 6], DVec3::new(0.36, -0.48, 0.8)) - 1.5).abs() < 1e-12);
+    let mut rng = Rng::new(3, 0);
+    for _ in 0..1000 {
+        let d = super::super::transport::uniform_direction(&mut rng);
+        let v = ambient_cube(&values, d);
+        assert!((0.25..=4.0).contains(&v), "{d}: {v}");
+    }
+}
+
+/// The sun's cube in a uniform sphere (τ = 30 across, HG g = 0.85: 4.5
+/// transport mean free paths) lit from +z: the light flows down the beam
+/// (D towards −z above D towards +z everywhere the sun's light has
+/// diffused), the sphere's symmetry about the beam holds (±x and ±y alike,
+/// summed over the cells), and the mean of the six directions is the
+/// fluence where the light has diffused, within 1.5 transport mean free
+/// paths of the centre (the six axes integrate every harmonic of order ≤ 3
+/// exactly, and D = 4π ∫ p L is normalised like Φ = ∫ L; near the faces
+/// the light's sharper lobes break that): each within noise.
+#[test]
+fn sun_cube_of_a_sphere_flows_down_the_beam_and_averages_to_the_fluence() {
+    let sphere = Sphere {
+        extinction_per_m: 0.15,
+        radius_m: 100.0,
+    };
+    let scattering = Scattering {
+        single_scattering_albedo: 1.0,
+        phase: PhaseModel::HenyeyGreenstein { g: 0.85 },
+        max_orders: 100_000,
+    };
+    let cube = trace_sun_cube(
+        &sphere,
+        &scattering,
+        &InteriorSettings {
+            photons: 1 << 18,
+            cells_longest: 6,
+            seed: 9,
+        },
+        DVec3::Z,
+    );
+    assert_eq!(cube.dims, [6, 6, 6]);
+    let mut checked = 0;
+    let mut sides = [0.0; 2];
+    for k in 1..5 {
+        for j in 1..5 {
+            for i in 1..5 {
+                let p =
+                    cube.origin_m + (DVec3::new(i as f64, j as f64, k as f64) + 0.5) * 100.0 / 3.0;
+                if p.length() > 60.0 {
+                    continue;
+                }
+                let v = cube.at(p);
+                let mean = v[..6].iter().sum::<f64>() / 6.0;
+                if p.length() < 35.0 {
+                    assert!(
+                        (mean / v[7] - 1.0).abs() < 0.06,
+                        "{p}: mean {mean}, Φ {}",
+                        v[7]
+                    );
+                }
+                assert!(v[5] > 1.2 * v[4], "{p}: down {} up {}", v[5], v[4]);
+                // D along the beam (here −z) is the cube's −z, traced twice.
+                assert!((v[6] / v[5] - 1.0).abs() < 1e-9, "{p}: {} {}", v[6], v[5]);
+                sides[0] += v[0] + v[1];
+                sides[1] += v[2] + v[3];
+                checked += 1;
+            }
+        }
+    }
+    assert!(checked >= 8, "{checked}");
+    assert!((sides[0] / sides[1] - 1.0).abs() < 0.05, "{sides:?}");
+}
+
+/// The cube read with the beam's excess: the cube on the axes, the cube
+/// plus the whole excess along the beam, the excess fading away from it,
+/// and no excess to spread when the beam runs along an axis.
+#[test]
+fn sun_cube_toward_is_exact_on_the_axes_and_along_the_beam() {
+    let cube = [0.4, 0.2, 0.9, 0.3, 1.1, 0.5];
+    let beam = DVec3::new(0.3, -0.8, 0.52).normalize();
+    let (tau, g) = (2.5, 0.74);
+    for (a, axis) in CUBE_AXES.iter().enumerate() {
+        let d = DVec3::from_array(*axis);
+        let shape = sun_cube_excess_shape(d, beam, tau, g);
+        assert!(shape.abs() < 1e-12, "{d}: {shape}");
+        assert!((sun_cube_toward(&cube, 0.7, d, shape) - cube[a]).abs() < 1e-12);
+    }
+    let along = sun_cube_excess_shape(beam, beam, tau, g);
+    assert!((along - 1.0).abs() < 1e-12);
+    let expected = ambient_cube(&cube, beam) + 0.7;
+    assert!((sun_cube_toward(&cube, 0.7, beam, along) - expected).abs() < 1e-12);
+    let rotate = |deg: f64| {
+        let (t, _) = super::super::transport::tangents(beam);
+        let (s, c) = deg.to_radians().sin_cos();
+        (beam * c + t * s).normalize()
+    };
+    assert!(
+        sun_cube_excess_shape(rotate(10.0), beam, tau, g)
+            > sun_cube_excess_shape(rotate(40.0), beam, tau, g)
+    );
+    assert!(sun_cube_excess_shape(rotate(10.0), beam, tau, g) > 0.5);
+    assert_eq!(
+        sun_cube_excess_shape(rotate(30.0), DVec3::NEG_Y, tau, g),
+        0.0
+    );
+    for deg in [0.0, 5.0, 20.0, 60.0, 90.0, 150.0, 180.0] {
+        let shape = sun_cube_excess_shape(rotate(deg), beam, tau, g);
+        assert!((0.0..=1.0).contains(&shape), "{deg}°: {shape}");
+    }
+    assert_eq!(sun_cube_toward(&cube, -10.0, beam, 1.0), 0.0);
 }
 
 /// Block averages keep the mean extinction and the box.

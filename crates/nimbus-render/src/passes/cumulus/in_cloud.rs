@@ -18,8 +18,15 @@
 //! an atlas of its cells; `cumulus_in_cloud` marches every pixel from the
 //! camera to the first opaque depth or out of the box and blends the
 //! fog's light over the frame, attenuating everything behind it.
+//!
+//! The sun's scattered light towards the camera comes from the active
+//! instance's sun cube ([`interior::SunCubeKey`]), traced on a worker thread
+//! for its variant, scale and the sun's direction in its frame. Until the
+//! first is ready (a real-time caller's first frames near a cloud), the
+//! march takes that light as isotropic with a forward lobe; while the sun
+//! turns, the cube of the previous direction serves until the next is.
 
-use super::interior::{self, InteriorParams, VariantInterior};
+use super::interior::{self, InteriorParams, SunCubeKey, VariantInterior, VariantSunCube};
 use super::variants::{CumulusVariant, VariantError};
 use super::{FieldCloud, SHADING};
 use crate::core::background::{Deferred, Precompute};
@@ -48,6 +55,11 @@ pub fn in_cloud_shader_source() -> String {
 pub const HANDOVER_M: f64 = 150.0;
 /// Steps of the march per pixel.
 pub const MARCH_STEPS: u32 = 48;
+/// How far the sun (in the cloud's frame) may be from the direction the
+/// cube on the GPU was traced for while the next is traced, degrees: a
+/// sun turning in real time keeps its cube, one that jumps (a new scene,
+/// another cloud's yaw) falls back to the isotropic light until its own.
+const MAX_SUN_CUBE_LAG_DEG: f64 = 10.0;
 /// Format of the light atlas.
 const LIGHT_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba16Float;
 
@@ -69,6 +81,9 @@ pub struct InCloudUniform {
     pub light_size: [f32; 4],
     /// The light's cells along x, y, z, unused.
     pub light_dims: [u32; 4],
+    /// The sun cube's cells along x, y, z (over the light's box), and 1
+    /// when it is this instance's, else 0.
+    pub sun_cube_dims: [u32; 4],
 }
 
 /// What the interiors are computed for.
@@ -79,6 +94,7 @@ pub(super) struct InteriorKey {
 }
 
 type InteriorsResult = Result<Vec<Arc<VariantInterior>>, VariantError>;
+type SunCubeResult = Result<Arc<VariantSunCube>, VariantError>;
 
 #[derive(Debug)]
 struct GpuInterior {
@@ -98,6 +114,14 @@ pub(super) struct Active {
     pub fade: f32,
 }
 
+/// Bind groups and what they were made for: (depth view, variant, sun
+/// cube), light group, march group.
+type GroupsCache = (
+    (wgpu::TextureView, usize, Option<[wgpu::TextureView; 2]>),
+    wgpu::BindGroup,
+    wgpu::BindGroup,
+);
+
 /// The in-cloud passes' state.
 #[derive(Debug)]
 pub struct InCloud {
@@ -113,9 +137,16 @@ pub struct InCloud {
     phase: wgpu::TextureView,
     interiors: Deferred<InteriorKey, InteriorsResult>,
     uploaded: Option<(InteriorKey, Vec<GpuInterior>)>,
+    sun_cubes: Deferred<SunCubeKey, SunCubeResult>,
+    /// The sun cube on the GPU, its key, and whether the active instance
+    /// reads it this frame.
+    sun_cube: Option<(SunCubeKey, [wgpu::TextureView; 2], [u32; 3])>,
+    sun_cube_active: bool,
+    /// A texel of zeros bound while no sun cube is.
+    no_sun_cube: wgpu::TextureView,
     active: Option<Active>,
-    /// The groups of the last (depth view, variant) drawn.
-    groups: Mutex<Option<(wgpu::TextureView, usize, wgpu::BindGroup, wgpu::BindGroup)>>,
+    /// The groups of the last (depth view, variant, sun cube) drawn.
+    groups: Mutex<Option<GroupsCache>>,
 }
 
 impl InCloud {
@@ -145,6 +176,8 @@ impl InCloud {
             binding::texture_entry(5, wgpu::TextureViewDimension::D2, true, fragment),
             binding::sampler_entry(6, fragment),
             binding::depth_texture_entry(7, wgpu::TextureViewDimension::D2, fragment),
+            binding::texture_entry(9, wgpu::TextureViewDimension::D3, true, fragment),
+            binding::texture_entry(10, wgpu::TextureViewDimension::D3, true, fragment),
         ]);
         let march_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("cumulus in-cloud march"),
@@ -223,6 +256,25 @@ impl InCloud {
             phase,
             interiors: Deferred::new("cumulus interior light"),
             uploaded: None,
+            sun_cubes: Deferred::new("cumulus sun cube"),
+            sun_cube: None,
+            sun_cube_active: false,
+            no_sun_cube: device
+                .create_texture(&wgpu::TextureDescriptor {
+                    label: Some("cumulus in-cloud no sun cube"),
+                    size: wgpu::Extent3d {
+                        width: 1,
+                        height: 1,
+                        depth_or_array_layers: 1,
+                    },
+                    mip_level_count: 1,
+                    sample_count: 1,
+                    dimension: wgpu::TextureDimension::D3,
+                    format: LIGHT_FORMAT,
+                    usage: wgpu::TextureUsages::TEXTURE_BINDING,
+                    view_formats: &[],
+                })
+                .create_view(&Default::default()),
             active: None,
             groups: Mutex::new(None),
         }
@@ -230,12 +282,13 @@ impl InCloud {
 
     /// The work under way on a worker thread.
     pub fn pending(&self) -> Option<&'static str> {
-        self.interiors.pending()
+        self.interiors.pending().or(self.sun_cubes.pending())
     }
 
     /// Blocks until the work under way has finished.
     pub fn wait(&mut self) {
         self.interiors.wait();
+        self.sun_cubes.wait();
     }
 
     /// No instance drawn by the march (until the next [`Self::prepare`]).
@@ -250,8 +303,9 @@ impl InCloud {
 
     /// Chooses the instance the march draws this frame (the cloud whose
     /// box is nearest the camera, within [`HANDOVER_M`]), computing the
-    /// interiors when the camera first comes near a cloud, and writes the
-    /// uniform. `truncation`: δ-M's 1 − f of the droplets.
+    /// interiors when the camera first comes near a cloud and its sun cube
+    /// for `to_sun` (world, towards the sun), and writes the uniform.
+    /// `truncation`: δ-M's 1 − f of the droplets.
     #[allow(clippy::too_many_arguments)]
     pub(super) fn prepare(
         &mut self,
@@ -260,10 +314,12 @@ impl InCloud {
         clouds: &[FieldCloud],
         shapes: &[Arc<CumulusVariant>],
         key: InteriorKey,
+        to_sun: DVec3,
         truncation: f32,
         precompute: Precompute,
     ) -> Result<(), VariantError> {
         self.active = None;
+        self.sun_cube_active = false;
         let near = clouds
             .iter()
             .any(|c| c.centre_m.distance(camera_m) < c.radius_m + HANDOVER_M);
@@ -311,7 +367,6 @@ impl InCloud {
             return Ok(());
         };
         let cloud = &clouds[index];
-        let g = &gpu[cloud.variant];
         let x = (1.0 - distance_m / HANDOVER_M).clamp(0.0, 1.0);
         let fade = (x * x * (3.0 - 2.0 * x)) as f32;
         if fade <= 0.0 {
@@ -325,10 +380,22 @@ impl InCloud {
         } else {
             0.0
         };
+        let rotation = cloud.instance.rotation_noise;
+        let cube_key = SunCubeKey::new(
+            key.params.clone(),
+            cloud.variant as u32,
+            cloud.instance.offset_scale[3],
+            object_direction(rotation, to_sun),
+        );
+        let optics = key.optics.clone();
+        let sun_cube_active = self.update_sun_cube(queue, cube_key, shapes, &optics, precompute)?;
+        let Some((_, gpu)) = &self.uploaded else {
+            return Ok(());
+        };
+        let g = &gpu[cloud.variant];
         let i = &g.interior;
         let e = &i.extinction;
         let size = e.max_corner_m() - e.origin_m;
-        let rotation = cloud.instance.rotation_noise;
         let uniform = InCloudUniform {
             offset_scale: cloud.instance.offset_scale,
             rotation: [rotation[0], rotation[1], fade, MARCH_STEPS as f32],
@@ -357,6 +424,10 @@ impl InCloud {
                 0.0,
             ],
             light_dims: [i.light_dims[0], i.light_dims[1], i.light_dims[2], 0],
+            sun_cube_dims: match (&self.sun_cube, sun_cube_active) {
+                (Some((_, _, [x, y, z])), true) => [*x, *y, *z, 1],
+                _ => [0; 4],
+            },
         };
         queue.write_buffer(&self.uniform, 0, bytemuck::bytes_of(&uniform));
         self.active = Some(Active {
@@ -364,7 +435,55 @@ impl InCloud {
             variant: cloud.variant,
             fade,
         });
+        self.sun_cube_active = sun_cube_active;
         Ok(())
+    }
+
+    /// Requests the sun cube of `key` and uploads it once traced; whether
+    /// the cube on the GPU serves this frame: `key`'s, or, while that is
+    /// under way, one of the same variant and scale for a sun a few degrees
+    /// off.
+    fn update_sun_cube(
+        &mut self,
+        queue: &wgpu::Queue,
+        key: SunCubeKey,
+        shapes: &[Arc<CumulusVariant>],
+        optics: &CloudOpticsParams,
+        precompute: Precompute,
+    ) -> Result<bool, VariantError> {
+        let Some(shape) = shapes.get(key.variant as usize) else {
+            return Ok(false);
+        };
+        let ready = self.sun_cubes.request(key.clone(), precompute, || {
+            let shape = shape.clone();
+            let job = key.clone();
+            let optics = optics.clone();
+            move || {
+                let optics = crate::frame::cloud_lighting::load_optics(&optics);
+                interior::load_or_compute_sun_cube(
+                    &crate::core::cache::cache_dir(),
+                    &job,
+                    &shape,
+                    &optics,
+                )
+                .map(Arc::new)
+            }
+        });
+        let Some((ready_key, result)) = ready else {
+            return Ok(false);
+        };
+        if self.sun_cube.as_ref().map(|(k, ..)| k) != Some(ready_key) {
+            let (ready_key, cube) = (ready_key.clone(), result.clone()?);
+            let views = upload_sun_cube(&self.device, queue, &cube);
+            self.sun_cube = Some((ready_key, views, cube.dims));
+        }
+        let serves = |k: &SunCubeKey| {
+            k.variant == key.variant
+                && k.scale() == key.scale()
+                && k.params == key.params
+                && k.to_sun().angle_between(key.to_sun()).to_degrees() < MAX_SUN_CUBE_LAG_DEG
+        };
+        Ok(self.sun_cube.as_ref().is_some_and(|(k, ..)| serves(k)))
     }
 
     fn upload(&self, queue: &wgpu::Queue, interior: Arc<VariantInterior>) -> GpuInterior {
@@ -448,23 +567,24 @@ impl InCloud {
         let Some(g) = gpu.get(active.variant) else {
             return;
         };
+        let sun_cube = self
+            .sun_cube
+            .as_ref()
+            .filter(|_| self.sun_cube_active)
+            .map(|(_, views, _)| views.clone());
+        let made_for = (depth.clone(), active.variant, sun_cube);
         let (light_group, march_group) = {
             let mut cached = self
                 .groups
                 .lock()
                 .unwrap_or_else(std::sync::PoisonError::into_inner);
             match &*cached {
-                Some((view, variant, l, m)) if view == depth && *variant == active.variant => {
-                    (l.clone(), m.clone())
-                }
+                Some((key, l, m)) if *key == made_for => (l.clone(), m.clone()),
                 _ => {
-                    let groups = self.make_groups(g, depth, cumulus_uniform);
-                    *cached = Some((
-                        depth.clone(),
-                        active.variant,
-                        groups.0.clone(),
-                        groups.1.clone(),
-                    ));
+                    let none = [&self.no_sun_cube, &self.no_sun_cube];
+                    let cube = made_for.2.as_ref().map_or(none, |[p, n]| [p, n]);
+                    let groups = self.make_groups(g, depth, cube, cumulus_uniform);
+                    *cached = Some((made_for.clone(), groups.0.clone(), groups.1.clone()));
                     groups
                 }
             }
@@ -506,6 +626,7 @@ impl InCloud {
         &self,
         g: &GpuInterior,
         depth: &wgpu::TextureView,
+        sun_cube: [&wgpu::TextureView; 2],
         cumulus_uniform: &wgpu::Buffer,
     ) -> (wgpu::BindGroup, wgpu::BindGroup) {
         let entry = |binding, resource| wgpu::BindGroupEntry { binding, resource };
@@ -525,6 +646,8 @@ impl InCloud {
             entry(5, wgpu::BindingResource::TextureView(&g.light)),
             entry(6, wgpu::BindingResource::Sampler(&self.sampler)),
             entry(7, wgpu::BindingResource::TextureView(depth)),
+            entry(9, wgpu::BindingResource::TextureView(sun_cube[0])),
+            entry(10, wgpu::BindingResource::TextureView(sun_cube[1])),
         ]);
         let group = |label, layout, entries: &[wgpu::BindGroupEntry<'_>]| {
             self.device.create_bind_group(&wgpu::BindGroupDescriptor {
@@ -540,12 +663,65 @@ impl InCloud {
     }
 }
 
+/// The sun cube on the GPU: two 3D textures of f16 (as the light's), the
+/// values towards +x, +y, +z with the excess along the beam and towards
+/// −x, −y, −z with Φ, filtered trilinearly by the sampler.
+fn upload_sun_cube(
+    device: &wgpu::Device,
+    queue: &wgpu::Queue,
+    cube: &VariantSunCube,
+) -> [wgpu::TextureView; 2] {
+    use wgpu::util::DeviceExt;
+    let [nx, ny, nz] = cube.dims;
+    let cells = (nx * ny * nz) as usize;
+    std::array::from_fn(|half| {
+        let texels: Vec<half::f16> = cube.texels[half * cells..(half + 1) * cells]
+            .iter()
+            .flatten()
+            .map(|&v| half::f16::from_f32(v))
+            .collect();
+        device
+            .create_texture_with_data(
+                queue,
+                &wgpu::TextureDescriptor {
+                    label: Some("cumulus in-cloud sun cube"),
+                    size: wgpu::Extent3d {
+                        width: nx,
+                        height: ny,
+                        depth_or_array_layers: nz,
+                    },
+                    mip_level_count: 1,
+                    sample_count: 1,
+                    dimension: wgpu::TextureDimension::D3,
+                    format: LIGHT_FORMAT,
+                    usage: wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
+                    view_formats: &[],
+                },
+                wgpu::util::TextureDataOrder::LayerMajor,
+                bytemuck::cast_slice(&texels),
+            )
+            .create_view(&Default::default())
+    })
+}
+
+/// A world direction in a cloud's object frame (turned by its yaw, as
+/// WGSL `in_cloud_object_direction`, unscaled).
+fn object_direction(rotation_noise: [f32; 4], world: DVec3) -> DVec3 {
+    let [c, s, ..] = rotation_noise.map(f64::from);
+    DVec3::new(
+        c * world.x - s * world.z,
+        world.y,
+        s * world.x + c * world.z,
+    )
+}
+
 /// Distance from the camera to a cloud's extinction box, world m (0 inside).
 fn box_distance_m(cloud: &FieldCloud, interior: &VariantInterior, camera_m: DVec3) -> f64 {
     let [ox, oy, oz, scale] = cloud.instance.offset_scale.map(f64::from);
-    let [c, s, ..] = cloud.instance.rotation_noise.map(f64::from);
-    let d = camera_m - DVec3::new(ox, oy, oz);
-    let object = DVec3::new(c * d.x - s * d.z, d.y, s * d.x + c * d.z) / scale.max(1e-9);
+    let object = object_direction(
+        cloud.instance.rotation_noise,
+        camera_m - DVec3::new(ox, oy, oz),
+    ) / scale.max(1e-9);
     let e = &interior.extinction;
     let outside = (e.origin_m - object)
         .max(object - e.max_corner_m())

@@ -6,10 +6,11 @@
 // the cloud as the participating medium the mesh stands for, marched from
 // the camera through the variant's extinction (the same grid the path-traced
 // references render, δ-M scaled) to the first opaque surface or out of the
-// cloud's box, lit by the transport model's light: the scattered light
+// cloud's box, lit by the transport model's light: the sky's scattered light
 // inside, precomputed per shape (nimbus_physics::cumulus::interior), the
-// sun's part of it that still travels near the beam in a forward lobe,
-// and the sun's single scattering
+// sun's scattered light towards the camera from the sun cube traced for this
+// cloud and sun (isotropic with a forward lobe until it is ready), and the
+// sun's single scattering
 // through the peak-removed phase function with the direct beam's
 // transmittance marched through the cloud's own grid. Twin of
 // nimbus_physics::cumulus::interior::march_fog. Drawn over everything
@@ -30,6 +31,9 @@ struct InCloud {
     light_size: vec4<f32>,
     // The light's cells along x, y, z, unused.
     light_dims: vec4<u32>,
+    // The sun cube's cells along x, y, z (over the light's box), and 1 when
+    // it is this instance's.
+    sun_cube_dims: vec4<u32>,
 }
 
 @group(1) @binding(3) var<uniform> in_cloud: InCloud;
@@ -44,6 +48,13 @@ struct InCloud {
 // The light pass's input: per cell, the quadratic forms at the two scales
 // (six vec4, interior.rs VariantInterior::light_forms).
 @group(1) @binding(8) var<storage, read> in_cloud_forms: array<vec4<f32>>;
+// The sun cube (interior.rs VariantSunCube) over the light's box, on
+// `sun_cube_dims` cells: rgb the sun's directional fluence per unit
+// irradiance towards +x, +y, +z and a its excess along the beam over the
+// cube's reading there; then towards −x, −y, −z and a the fluence (object
+// frame).
+@group(1) @binding(9) var in_cloud_sun_cube_positive: texture_3d<f32>;
+@group(1) @binding(10) var in_cloud_sun_cube_negative: texture_3d<f32>;
 
 // The sun's direct beam is evaluated at this many points of a view ray and
 // held between them, each marched towards the sun in IN_CLOUD_SUN_STEPS.
@@ -82,6 +93,17 @@ fn in_cloud_light_at(object_m: vec3<f32>) -> vec4<f32> {
     let a = textureSampleLevel(in_cloud_light, in_cloud_sampler, vec2<f32>(x, (y + k0 * dims.y) / height), 0.0);
     let b = textureSampleLevel(in_cloud_light, in_cloud_sampler, vec2<f32>(x, (y + k1 * dims.y) / height), 0.0);
     return mix(a, b, z - k0);
+}
+
+// The sun's directional fluence per unit irradiance at an object point
+// towards `toward` (unit, object frame), from the sun cube (trilinear
+// between cell centres, clamped to the edge cells), its excess along the
+// beam spread by `shape`.
+fn in_cloud_sun_toward(object_m: vec3<f32>, toward: vec3<f32>, shape: f32) -> f32 {
+    let uvw = (object_m - in_cloud.light_min.xyz) / in_cloud.light_size.xyz;
+    let positive = textureSampleLevel(in_cloud_sun_cube_positive, in_cloud_sampler, uvw, 0.0);
+    let negative = textureSampleLevel(in_cloud_sun_cube_negative, in_cloud_sampler, uvw, 0.0);
+    return sun_cube_toward(positive.rgb, negative.rgb, positive.a, toward, shape);
 }
 
 // The direct beam's transmittance from the sun to an object point through
@@ -204,6 +226,10 @@ fn in_cloud_march(origin_m: vec3<f32>, direction: vec3<f32>, t0: f32, t1: f32) -
     // it gave 0.58× the grid's transmittance (docs/REALISM.md, "In-cloud
     // views").
     let object_sun = in_cloud_object_direction(l);
+    let object_sun_unit = normalize(object_sun);
+    // The light towards the camera, in the object frame (the sun cube's).
+    let toward_camera = -normalize(in_cloud_object_direction(direction));
+    let sun_cube = in_cloud.sun_cube_dims.w != 0u;
     var sun_segments: array<vec4<f32>, IN_CLOUD_SHADOW_SEGMENTS>;
     var sun_lobes: array<f32, IN_CLOUD_SHADOW_SEGMENTS>;
     var beyond = 1.0;
@@ -220,7 +246,20 @@ fn in_cloud_march(origin_m: vec3<f32>, direction: vec3<f32>, t0: f32, t1: f32) -
         }
         direct *= stratus_sun_transmittance(p).g;
         sun_segments[k] = vec4<f32>(PI * cumulus_sun_radiance(p.y), direct);
-        sun_lobes[k] = forward_orders_lobe(-log(max(direct, 1e-8)), dot(direction, l), asymmetry);
+        let depth = -log(max(direct, 1e-8));
+        if (sun_cube) {
+            // How the sun cube's excess along the beam spreads towards the
+            // camera here (cumulus::interior::sun_cube_excess_shape), at
+            // every other point (eight lobes each; the beam's depth varies
+            // slowly along the ray).
+            if ((k & 1u) == 0u) {
+                sun_lobes[k] = sun_cube_excess_shape(toward_camera, -object_sun_unit, depth, asymmetry);
+            } else {
+                sun_lobes[k] = sun_lobes[k - 1u];
+            }
+        } else {
+            sun_lobes[k] = forward_orders_lobe(depth, dot(direction, l), asymmetry);
+        }
     }
     var out: InCloudMarch;
     out.radiance = vec3<f32>(0.0);
@@ -246,11 +285,19 @@ fn in_cloud_march(origin_m: vec3<f32>, direction: vec3<f32>, t0: f32, t1: f32) -
         if (layered) {
             environment = layer_scale * dot(light.rgb, luma);
         }
-        // The sun's scattered light: what left the beam, 1 − T, in the
-        // forward lobe, the rest isotropic (cumulus::interior's notes).
-        let sun_fluence = layer_shadow * light.a;
-        let forward = min(vec3<f32>(max(1.0 - sun.a, 0.0)), max(sun_fluence, vec3<f32>(0.0)));
-        let scattered = sun.rgb * (sun_fluence - forward + forward * sun_lobes[segment]) + environment;
+        // The sun's scattered light towards the camera: from the sun cube
+        // and its excess along the beam; until it is ready, what left the
+        // beam, 1 − T, in the forward lobe, the rest isotropic
+        // (cumulus::interior's notes).
+        var sun_toward = vec3<f32>(0.0);
+        if (sun_cube) {
+            sun_toward = layer_shadow * in_cloud_sun_toward(object, toward_camera, sun_lobes[segment]);
+        } else {
+            let sun_fluence = layer_shadow * light.a;
+            let forward = min(vec3<f32>(max(1.0 - sun.a, 0.0)), max(sun_fluence, vec3<f32>(0.0)));
+            sun_toward = sun_fluence - forward + forward * sun_lobes[segment];
+        }
+        let scattered = sun.rgb * sun_toward + environment;
         let source = phase * sun.rgb * sun.a + scattered / (4.0 * PI);
         let opacity = 1.0 - exp(-sigma * dt);
         let seen = out.transmittance * opacity;

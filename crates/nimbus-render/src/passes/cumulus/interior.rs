@@ -6,11 +6,18 @@
 //! ([`nimbus_physics::cumulus::interior::trace_interior`]) at the field's
 //! smallest and largest scale, as quadratic forms the shader turns with the
 //! cloud (like the surface transfer, [`super::transfer`]).
+//!
+//! Per cloud the camera is in, and per direction of the sun in that cloud's
+//! frame: the sun's scattered light resolved in the direction it is sent
+//! ([`nimbus_physics::cumulus::interior::trace_sun_cube`]), which the
+//! projection over sun directions smooths away ([`SunCubeKey`]).
 
 use super::transfer::{pack_form, tracer_scattering, variant_extinction_grid};
 use super::variants::{CumulusVariant, VariantError, VariantParams};
 use glam::DVec3;
-use nimbus_physics::cumulus::interior::{InteriorSettings, downsample, trace_interior};
+use nimbus_physics::cumulus::interior::{
+    InteriorSettings, ambient_cube, downsample, trace_interior, trace_sun_cube,
+};
 use nimbus_physics::cumulus::transport::{GridMedium, SphericalQuadratic};
 use nimbus_physics::cumulus::volume::ExtinctionGrid;
 use nimbus_physics::optics::tables::CloudOpticsTables;
@@ -130,6 +137,202 @@ pub fn compute_interior(
         light_dims: light.dims.map(|n| n as u32),
         light_forms: forms,
     })
+}
+
+/// Photons of the sun's cube per cloud and sun direction: ~7 s for the
+/// paper's cloud on the 2-core reference machine, on a worker thread.
+pub const SUN_CUBE_PHOTONS: u64 = 1 << 21;
+/// Cells of the sun's cube along the cloud's longest side (~34 m for a
+/// 2.2 km cloud). Finer than the sky's light ([`INTERIOR_CELLS`]): the sun's
+/// light varies over its mean free path (~25 m) inside a sunlit face, and
+/// 32 cells (~66 m) took 12 % of it from the fog 50 m inside one
+/// (docs/REALISM.md, "The sun's light towards the camera").
+pub const SUN_CUBE_CELLS: usize = 64;
+/// The sun's direction in the cloud's frame is snapped to a grid of this
+/// many steps per unit of each component (1/32: under 2°) before a cube is
+/// traced for it, so that a turning sun asks for a new one every few
+/// degrees and not every frame.
+pub const SUN_CUBE_STEPS: f64 = 32.0;
+const SUN_CUBE_MAGIC: &[u8; 8] = b"NIMBUSSC";
+const SUN_CUBE_VERSION: u32 = 1;
+
+/// What a sun cube is traced for: one variant at one scale, lit from one
+/// (snapped) direction in its frame.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SunCubeKey {
+    /// The shapes, droplets and density.
+    pub params: InteriorParams,
+    /// The variant.
+    pub variant: u32,
+    /// The cloud's scale, bits of its f32.
+    scale_bits: u32,
+    /// The direction towards the sun in the variant's frame, snapped
+    /// (components × [`SUN_CUBE_STEPS`], rounded).
+    sun_steps: [i32; 3],
+}
+
+impl SunCubeKey {
+    /// The key of `variant` at `scale` lit from `to_sun_object` (towards
+    /// the sun, the variant's frame: the world's turned by the cloud's yaw).
+    pub fn new(params: InteriorParams, variant: u32, scale: f32, to_sun_object: DVec3) -> Self {
+        let d = to_sun_object.normalize_or(DVec3::Y);
+        Self {
+            params,
+            variant,
+            scale_bits: scale.to_bits(),
+            sun_steps: d.to_array().map(|c| (c * SUN_CUBE_STEPS).round() as i32),
+        }
+    }
+
+    /// The cloud's scale.
+    pub fn scale(&self) -> f32 {
+        f32::from_bits(self.scale_bits)
+    }
+
+    /// The snapped direction towards the sun the cube is traced for (unit).
+    pub fn to_sun(&self) -> DVec3 {
+        DVec3::from_array(self.sun_steps.map(f64::from)).normalize_or(DVec3::Y)
+    }
+
+    fn cache_key(&self) -> u64 {
+        let text = format!(
+            "{SUN_CUBE_VERSION} {} {} {:?} {SUN_CUBE_PHOTONS} {SUN_CUBE_CELLS}",
+            self.params.cache_key(self.variant),
+            self.scale_bits,
+            self.sun_steps,
+        );
+        text.bytes().fold(0xcbf2_9ce4_8422_2325u64, |h, b| {
+            (h ^ u64::from(b)).wrapping_mul(0x0100_0000_01b3)
+        })
+    }
+}
+
+/// A variant's sun cube, ready for the GPU, in its object frame (the
+/// field's frame minus the variant's origin, unscaled).
+#[derive(Clone, Debug, PartialEq)]
+pub struct VariantSunCube {
+    /// Minimum corner of the cells' box, object frame, m.
+    pub origin_m: [f32; 3],
+    /// Size of the box, m.
+    pub extent_m: [f32; 3],
+    /// Cells along x, y, z.
+    pub dims: [u32; 3],
+    /// The cells (x fastest, then y, then z) twice over: the first holds D
+    /// towards +x, +y, +z and the excess of D along the beam over the
+    /// cube's reading there, the second D towards −x, −y, −z and the
+    /// fluence Φ (per unit normal irradiance of the sun; see
+    /// [`nimbus_physics::cumulus::interior::SunCube`]).
+    pub texels: Vec<[f32; 4]>,
+}
+
+/// Traces the sun cube of `key` (seconds).
+pub fn compute_sun_cube(
+    key: &SunCubeKey,
+    shape: &CumulusVariant,
+    optics: &CloudOpticsTables,
+) -> Result<VariantSunCube, VariantError> {
+    let grid = variant_extinction_grid(
+        &key.params.variants,
+        key.variant,
+        key.params.density_per_m,
+        key.params.corona_thickness_m,
+    )?;
+    let origin = DVec3::from_array(shape.origin_m.map(f64::from));
+    let (scattering, truncated) = tracer_scattering(optics);
+    let cube = trace_sun_cube(
+        &GridMedium::new(&grid, truncated * f64::from(key.scale())),
+        &scattering,
+        &InteriorSettings {
+            photons: SUN_CUBE_PHOTONS,
+            cells_longest: SUN_CUBE_CELLS,
+            seed: 0x5c_u64 + u64::from(key.variant),
+        },
+        key.to_sun(),
+    );
+    // Cell by cell, so that the excess is the cell's own (the shader
+    // interpolates it with the cube).
+    let cells: Vec<([f64; 6], f64, f64)> = cube
+        .cells
+        .iter()
+        .map(|c| {
+            let six = [c[0], c[1], c[2], c[3], c[4], c[5]];
+            let excess = c[6] - ambient_cube(&six, -cube.to_sun);
+            (six, excess, c[7])
+        })
+        .collect();
+    let positive = cells
+        .iter()
+        .map(|(c, excess, _)| [c[0], c[2], c[4], *excess]);
+    let negative = cells.iter().map(|(c, _, phi)| [c[1], c[3], c[5], *phi]);
+    let texels = positive
+        .chain(negative)
+        .map(|t| t.map(|v| v as f32))
+        .collect();
+    Ok(VariantSunCube {
+        origin_m: (cube.origin_m - origin).as_vec3().to_array(),
+        extent_m: cube.extent_m.as_vec3().to_array(),
+        dims: cube.dims.map(|n| n as u32),
+        texels,
+    })
+}
+
+fn sun_cube_to_bytes(v: &VariantSunCube) -> Vec<u8> {
+    let mut out = Vec::new();
+    out.extend_from_slice(SUN_CUBE_MAGIC);
+    out.extend_from_slice(&SUN_CUBE_VERSION.to_le_bytes());
+    for x in v.origin_m.iter().chain(&v.extent_m) {
+        out.extend_from_slice(&x.to_le_bytes());
+    }
+    for n in v.dims {
+        out.extend_from_slice(&n.to_le_bytes());
+    }
+    out.extend_from_slice(bytemuck::cast_slice(&v.texels));
+    out
+}
+
+/// Reads [`sun_cube_to_bytes`]' format: `None` unless it holds a whole cube
+/// of this version.
+fn sun_cube_from_bytes(bytes: &[u8]) -> Option<VariantSunCube> {
+    let head = 8 + 4 + 24 + 12;
+    if bytes.len() < head
+        || &bytes[..8] != SUN_CUBE_MAGIC
+        || bytes[8..12] != SUN_CUBE_VERSION.to_le_bytes()
+    {
+        return None;
+    }
+    let word = |i: usize| -> [u8; 4] { bytes[12 + 4 * i..16 + 4 * i].try_into().unwrap_or([0; 4]) };
+    let f: [f32; 6] = std::array::from_fn(|i| f32::from_le_bytes(word(i)));
+    let dims: [u32; 3] = std::array::from_fn(|i| u32::from_le_bytes(word(6 + i)));
+    let cells = dims
+        .iter()
+        .try_fold(1usize, |a, &n| a.checked_mul(n as usize))?;
+    let body = &bytes[head..];
+    if cells == 0 || Some(body.len()) != cells.checked_mul(32) {
+        return None;
+    }
+    Some(VariantSunCube {
+        origin_m: [f[0], f[1], f[2]],
+        extent_m: [f[3], f[4], f[5]],
+        dims,
+        texels: bytemuck::pod_collect_to_vec(body),
+    })
+}
+
+/// The sun cube of `key`: from the disk cache in `dir`, else traced and
+/// cached (a cache that cannot be written is skipped).
+pub fn load_or_compute_sun_cube(
+    dir: &Path,
+    key: &SunCubeKey,
+    shape: &CumulusVariant,
+    optics: &CloudOpticsTables,
+) -> Result<VariantSunCube, VariantError> {
+    super::variants::read_or_compute(
+        &dir.join(format!("cumulus-sun-cube-{:016x}.bin", key.cache_key())),
+        MAX_CACHE_FILE_BYTES,
+        sun_cube_from_bytes,
+        || compute_sun_cube(key, shape, optics),
+        sun_cube_to_bytes,
+    )
 }
 
 fn to_bytes(v: &VariantInterior) -> Vec<u8> {
@@ -264,5 +467,61 @@ mod tests {
         let mut longer = bytes.clone();
         longer.push(0);
         assert_eq!(from_bytes(&longer), None);
+    }
+
+    #[test]
+    fn sun_cube_cache_format_round_trips_and_rejects_truncation() {
+        let cube = VariantSunCube {
+            origin_m: [1.0, -2.0, 3.0],
+            extent_m: [4.0, 5.0, 6.5],
+            dims: [2, 1, 3],
+            texels: (0..12).map(|i| [i as f32, 0.5, 2.0, -1.0]).collect(),
+        };
+        let bytes = sun_cube_to_bytes(&cube);
+        assert_eq!(sun_cube_from_bytes(&bytes), Some(cube));
+        assert_eq!(sun_cube_from_bytes(&bytes[..bytes.len() - 1]), None);
+        let mut longer = bytes.clone();
+        longer.push(0);
+        assert_eq!(sun_cube_from_bytes(&longer), None);
+        assert_eq!(sun_cube_from_bytes(&bytes[..20]), None);
+    }
+
+    /// The sun's direction is snapped to under 2°, so that directions a
+    /// fraction of a degree apart share a cube and the cube's sun is within
+    /// 1.6° of the true one (√3/64 rad at most).
+    #[test]
+    fn sun_cube_keys_snap_the_sun_direction() {
+        let params = InteriorParams {
+            variants: VariantParams::from(&crate::scene::CumulusSettings::default()),
+            density_per_m: 0.08,
+            corona_thickness_m: 30.0,
+            scales: [1.0, 1.0],
+            optics_hash: 7,
+        };
+        let sun = DVec3::new(0.3, 0.6, -0.74).normalize();
+        let turned = |deg: f64| {
+            let (s, c) = deg.to_radians().sin_cos();
+            DVec3::new(c * sun.x - s * sun.z, sun.y, s * sun.x + c * sun.z)
+        };
+        let key = SunCubeKey::new(params.clone(), 1, 1.2, sun);
+        assert!(key.to_sun().angle_between(sun).to_degrees() < 1.6);
+        assert_eq!(key.scale(), 1.2);
+        let mut same = 0;
+        for step in 1..=20 {
+            let k = SunCubeKey::new(params.clone(), 1, 1.2, turned(0.01 * f64::from(step)));
+            same += usize::from(k == key);
+            assert!(
+                k.to_sun()
+                    .angle_between(turned(0.01 * f64::from(step)))
+                    .to_degrees()
+                    < 1.6
+            );
+        }
+        assert!(
+            same >= 10,
+            "{same} of 20 directions within 0.2° share the cube"
+        );
+        assert_ne!(SunCubeKey::new(params.clone(), 1, 1.2, turned(5.0)), key);
+        assert_ne!(SunCubeKey::new(params, 2, 1.2, sun), key);
     }
 }

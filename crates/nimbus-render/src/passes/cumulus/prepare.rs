@@ -415,6 +415,7 @@ impl CumulusPass {
                 clouds,
                 &shapes,
                 key,
+                DVec3::from_array(frame.sun_direction.map(f64::from)),
                 self.transport_truncation,
                 precompute,
             )?;
