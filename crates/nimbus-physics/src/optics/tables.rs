@@ -58,9 +58,7 @@ impl CloudOpticsParams {
 
     /// FNV-1a hash of the key: stable across builds and platforms.
     pub fn cache_hash(&self) -> u64 {
-        self.key().bytes().fold(0xcbf2_9ce4_8422_2325u64, |h, b| {
-            (h ^ b as u64).wrapping_mul(0x0100_0000_01b3)
-        })
+        crate::io::fnv1a(&self.key())
     }
 }
 

@@ -52,6 +52,32 @@ impl Target {
     }
 }
 
+/// A single texel of zeros (wgpu zero-initialises textures) to bind where a
+/// pass's input is absent: a shader that reads it gets 0.
+pub fn zero_texel(
+    device: &wgpu::Device,
+    label: &str,
+    dimension: wgpu::TextureDimension,
+    format: wgpu::TextureFormat,
+) -> wgpu::TextureView {
+    device
+        .create_texture(&wgpu::TextureDescriptor {
+            label: Some(label),
+            size: wgpu::Extent3d {
+                width: 1,
+                height: 1,
+                depth_or_array_layers: 1,
+            },
+            mip_level_count: 1,
+            sample_count: 1,
+            dimension,
+            format,
+            usage: wgpu::TextureUsages::TEXTURE_BINDING,
+            view_formats: &[],
+        })
+        .create_view(&Default::default())
+}
+
 /// A pass drawing over `view` as it is (colour loaded and kept), with a
 /// depth attached read-only when given.
 pub fn colour_pass<'e>(

@@ -237,22 +237,12 @@ impl CloudLighting {
             })
         };
         let placeholders = Placeholders {
-            thickness: device
-                .create_texture(&wgpu::TextureDescriptor {
-                    label: Some("no stratus thickness"),
-                    size: wgpu::Extent3d {
-                        width: 1,
-                        height: 1,
-                        depth_or_array_layers: 1,
-                    },
-                    mip_level_count: 1,
-                    sample_count: 1,
-                    dimension: wgpu::TextureDimension::D2,
-                    format: wgpu::TextureFormat::R32Float,
-                    usage: wgpu::TextureUsages::TEXTURE_BINDING,
-                    view_formats: &[],
-                })
-                .create_view(&Default::default()),
+            thickness: crate::core::targets::zero_texel(
+                device,
+                "no stratus thickness",
+                wgpu::TextureDimension::D2,
+                wgpu::TextureFormat::R32Float,
+            ),
             ground_received: radiosity_texel("no radiosity (ground)"),
             cloud_received: radiosity_texel("no radiosity (cloud)"),
         };

@@ -26,6 +26,16 @@ impl Medium for Sphere {
     }
 }
 
+/// Conservative scattering by a Henyey–Greenstein phase function of
+/// asymmetry `g` (0.85: a cumulus' droplets, peak kept).
+fn conservative_hg(g: f64) -> Scattering {
+    Scattering {
+        single_scattering_albedo: 1.0,
+        phase: PhaseModel::HenyeyGreenstein { g },
+        max_orders: 100_000,
+    }
+}
+
 /// ∫ e^{−σ ℓ(x, s)} ds over the sphere of directions, ℓ the chord from x
 /// to the sphere's surface along s: the direct (unscattered) fluence of a
 /// uniform isotropic illumination of unit radiance.
@@ -61,11 +71,7 @@ fn scattered_plus_direct_fluence_is_four_pi_inside_a_conservative_sphere() {
         extinction_per_m: 0.02,
         radius_m: 100.0,
     };
-    let scattering = Scattering {
-        single_scattering_albedo: 1.0,
-        phase: PhaseModel::HenyeyGreenstein { g: 0.85 },
-        max_orders: 100_000,
-    };
+    let scattering = conservative_hg(0.85);
     let interior = trace_interior(
         &sphere,
         &scattering,
@@ -118,11 +124,7 @@ fn the_scattered_fluence_is_higher_on_the_side_of_the_light() {
         extinction_per_m: 0.05,
         radius_m: 100.0,
     };
-    let scattering = Scattering {
-        single_scattering_albedo: 1.0,
-        phase: PhaseModel::HenyeyGreenstein { g: 0.85 },
-        max_orders: 100_000,
-    };
+    let scattering = conservative_hg(0.85);
     let interior = trace_interior(
         &sphere,
         &scattering,
@@ -299,11 +301,7 @@ fn sun_cube_of_a_sphere_flows_down_the_beam_and_averages_to_the_fluence() {
         extinction_per_m: 0.15,
         radius_m: 100.0,
     };
-    let scattering = Scattering {
-        single_scattering_albedo: 1.0,
-        phase: PhaseModel::HenyeyGreenstein { g: 0.85 },
-        max_orders: 100_000,
-    };
+    let scattering = conservative_hg(0.85);
     let cube = trace_sun_cube(
         &sphere,
         &scattering,

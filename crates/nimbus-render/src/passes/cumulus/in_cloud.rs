@@ -259,22 +259,12 @@ impl InCloud {
             sun_cubes: Deferred::new("cumulus sun cube"),
             sun_cube: None,
             sun_cube_active: false,
-            no_sun_cube: device
-                .create_texture(&wgpu::TextureDescriptor {
-                    label: Some("cumulus in-cloud no sun cube"),
-                    size: wgpu::Extent3d {
-                        width: 1,
-                        height: 1,
-                        depth_or_array_layers: 1,
-                    },
-                    mip_level_count: 1,
-                    sample_count: 1,
-                    dimension: wgpu::TextureDimension::D3,
-                    format: LIGHT_FORMAT,
-                    usage: wgpu::TextureUsages::TEXTURE_BINDING,
-                    view_formats: &[],
-                })
-                .create_view(&Default::default()),
+            no_sun_cube: crate::core::targets::zero_texel(
+                device,
+                "cumulus in-cloud no sun cube",
+                wgpu::TextureDimension::D3,
+                LIGHT_FORMAT,
+            ),
             active: None,
             groups: Mutex::new(None),
         }

@@ -64,9 +64,7 @@ impl InteriorParams {
             self.scales,
             self.optics_hash,
         );
-        text.bytes().fold(0xcbf2_9ce4_8422_2325u64, |h, b| {
-            (h ^ u64::from(b)).wrapping_mul(0x0100_0000_01b3)
-        })
+        nimbus_physics::io::fnv1a(&text)
     }
 }
 
@@ -201,9 +199,7 @@ impl SunCubeKey {
             self.scale_bits,
             self.sun_steps,
         );
-        text.bytes().fold(0xcbf2_9ce4_8422_2325u64, |h, b| {
-            (h ^ u64::from(b)).wrapping_mul(0x0100_0000_01b3)
-        })
+        nimbus_physics::io::fnv1a(&text)
     }
 }
 

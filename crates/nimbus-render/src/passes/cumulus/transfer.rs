@@ -102,9 +102,7 @@ impl TransferParams {
             self.optics_hash,
             self.photons
         );
-        text.bytes().fold(0xcbf2_9ce4_8422_2325u64, |h, b| {
-            (h ^ u64::from(b)).wrapping_mul(0x0100_0000_01b3)
-        })
+        nimbus_physics::io::fnv1a(&text)
     }
 }
 

@@ -117,9 +117,7 @@ impl VariantParams {
             self.hierarchy(index),
             self.levels_of_detail
         );
-        text.bytes().fold(0xcbf2_9ce4_8422_2325u64, |h, b| {
-            (h ^ u64::from(b)).wrapping_mul(0x0100_0000_01b3)
-        })
+        nimbus_physics::io::fnv1a(&text)
     }
 }
 
