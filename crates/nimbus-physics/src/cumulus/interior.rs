@@ -107,12 +107,7 @@ impl InteriorTransfer {
 
     /// Side of a cell along each axis, m.
     pub fn cell_m(&self) -> DVec3 {
-        self.extent_m
-            / DVec3::new(
-                self.dims[0] as f64,
-                self.dims[1] as f64,
-                self.dims[2] as f64,
-            )
+        cell_size_m(self.extent_m, self.dims)
     }
 
     /// Φ_k of cell (i, j, k).
@@ -129,13 +124,17 @@ impl InteriorTransfer {
     }
 }
 
-/// Where the photons of [`trace_cells`] come from.
+/// Where the photons of [`trace_cells`] come from, and what their tally
+/// is weighed by.
 #[derive(Clone, Copy, Debug, PartialEq)]
 enum Launch {
     /// Uniform over the directions towards the source: the light of every
-    /// sun direction at once, for a projection over them.
+    /// sun direction at once, for a projection over them. The weight is a
+    /// function of the photon's source direction s, taken once per photon.
     Uniform,
     /// One collimated beam from the direction towards its source (unit).
+    /// The weight is a function of the photon's direction of travel d,
+    /// taken at each scattering.
     Beam(DVec3),
 }
 
@@ -147,15 +146,18 @@ fn cell_grid((lo, hi): (DVec3, DVec3), cells_longest: usize) -> (DVec3, [usize; 
     let n = cells_longest.max(2) as f64;
     let dims: [usize; 3] =
         std::array::from_fn(|a| ((extent[a] / longest * n).ceil() as usize).max(2));
-    let cell = extent / DVec3::new(dims[0] as f64, dims[1] as f64, dims[2] as f64);
-    (extent, dims, cell)
+    (extent, dims, cell_size_m(extent, dims))
+}
+
+/// The size of a cell of a box of `extent_m` split into `dims` cells, m.
+fn cell_size_m(extent_m: DVec3, dims: [usize; 3]) -> DVec3 {
+    extent_m / DVec3::new(dims[0] as f64, dims[1] as f64, dims[2] as f64)
 }
 
 /// The scattered light's path length per cell, weighted: photons launched
 /// by `launch` cross the medium by delta tracking, and every tentative
-/// collision after the first real one adds `contribution(s, d)` (s towards
-/// the photon's source, d its direction of travel) times its weight to its
-/// cell (see the module notes). Returns the sums scaled to per unit volume
+/// collision after the first real one adds `weigh(s)` or `weigh(d)` (see
+/// [`Launch`]) times its weight to its cell (see the module notes). Returns the sums scaled to per unit volume
 /// and unit irradiance of the source (times 4π for [`Launch::Uniform`],
 /// whose sources' directions have density 1/4π), the cells' grid and the
 /// photons traced. Parallel (rayon); the result does not depend on the
@@ -165,7 +167,7 @@ fn trace_cells<const N: usize>(
     scattering: &Scattering,
     settings: &InteriorSettings,
     launch: Launch,
-    contribution: impl Fn(DVec3, DVec3) -> [f64; N] + Sync,
+    weigh: impl Fn(DVec3) -> [f64; N] + Sync,
 ) -> (Vec<[f64; N]>, DVec3, [usize; 3], u64) {
     let bounds = medium.bounds_m();
     let (lo, hi) = bounds;
@@ -243,7 +245,13 @@ fn trace_cells<const N: usize>(
                                 phi,
                             ))
                             .normalize();
-                            per_unit_weight = contribution(to_light, d);
+                            match launch {
+                                Launch::Uniform if order == 1 => {
+                                    per_unit_weight = weigh(to_light);
+                                }
+                                Launch::Uniform => {}
+                                Launch::Beam(_) => per_unit_weight = weigh(d),
+                            }
                         }
                     }
                 }
@@ -275,7 +283,7 @@ pub fn trace_interior(
     settings: &InteriorSettings,
 ) -> InteriorTransfer {
     let (coefficients, extent_m, dims, photons) =
-        trace_cells(medium, scattering, settings, Launch::Uniform, |s, _| {
+        trace_cells(medium, scattering, settings, Launch::Uniform, |s| {
             sh::basis(s.to_array())
         });
     InteriorTransfer {
@@ -308,7 +316,7 @@ pub fn trace_beam_cells<const N: usize>(
         scattering,
         settings,
         Launch::Beam(to_light.normalize()),
-        |_, d| weigh(d),
+        weigh,
     );
     (cells, extent, dims)
 }
@@ -380,23 +388,21 @@ impl SunCube {
     /// The cell values at `p_m`, trilinear between cell centres and clamped
     /// to the edge cells.
     pub fn at(&self, p_m: DVec3) -> [f64; 8] {
-        let cell = self.extent_m
-            / DVec3::new(
-                self.dims[0] as f64,
-                self.dims[1] as f64,
-                self.dims[2] as f64,
-            );
+        let cell = cell_size_m(self.extent_m, self.dims);
         trilinear(self.dims, (p_m - self.origin_m) / cell, |[i, j, k]| {
             self.cells[(k * self.dims[1] + j) * self.dims[0] + i]
         })
     }
 
     /// The cube's six values and the excess of D along the beam over the
-    /// cube's reading there, at `p_m`: what [`sun_cube_toward`] reads.
-    pub fn cube_and_excess(&self, p_m: DVec3) -> ([f64; 6], f64) {
-        let v = self.at(p_m);
-        let cube = [v[0], v[1], v[2], v[3], v[4], v[5]];
-        (cube, v[6] - ambient_cube(&cube, -self.to_sun))
+    /// cube's reading there, from a cell's values (one of [`Self::cells`],
+    /// or [`Self::at`] a point: the excess is linear in them): what
+    /// [`sun_cube_toward`] reads.
+    pub fn cube_and_excess(&self, values: &[f64; 8]) -> ([f64; 6], f64) {
+        let cube = [
+            values[0], values[1], values[2], values[3], values[4], values[5],
+        ];
+        (cube, values[6] - ambient_cube(&cube, -self.to_sun))
     }
 }
 

@@ -240,7 +240,6 @@ fn pass_uniforms_match_wgsl_layout() {
             light_min,
             light_size,
             light_dims,
-            sun_cube_dims,
         ]
     );
     assert_layout!(

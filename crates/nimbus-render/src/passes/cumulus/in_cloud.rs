@@ -79,11 +79,9 @@ pub struct InCloudUniform {
     pub light_min: [f32; 4],
     /// Its size, m, unused.
     pub light_size: [f32; 4],
-    /// The light's cells along x, y, z, unused.
+    /// The light's cells along x, y, z, and 1 when the sun cube (over the
+    /// light's box) is this instance's, else 0.
     pub light_dims: [u32; 4],
-    /// The sun cube's cells along x, y, z (over the light's box), and 1
-    /// when it is this instance's, else 0.
-    pub sun_cube_dims: [u32; 4],
 }
 
 /// What the interiors are computed for.
@@ -140,7 +138,7 @@ pub struct InCloud {
     sun_cubes: Deferred<SunCubeKey, SunCubeResult>,
     /// The sun cube on the GPU, its key, and whether the active instance
     /// reads it this frame.
-    sun_cube: Option<(SunCubeKey, [wgpu::TextureView; 2], [u32; 3])>,
+    sun_cube: Option<(SunCubeKey, [wgpu::TextureView; 2])>,
     sun_cube_active: bool,
     /// A texel of zeros bound while no sun cube is.
     no_sun_cube: wgpu::TextureView,
@@ -413,11 +411,12 @@ impl InCloud {
                 i.light_extent_m[2],
                 0.0,
             ],
-            light_dims: [i.light_dims[0], i.light_dims[1], i.light_dims[2], 0],
-            sun_cube_dims: match (&self.sun_cube, sun_cube_active) {
-                (Some((_, _, [x, y, z])), true) => [*x, *y, *z, 1],
-                _ => [0; 4],
-            },
+            light_dims: [
+                i.light_dims[0],
+                i.light_dims[1],
+                i.light_dims[2],
+                u32::from(sun_cube_active),
+            ],
         };
         queue.write_buffer(&self.uniform, 0, bytemuck::bytes_of(&uniform));
         self.active = Some(Active {
@@ -465,7 +464,7 @@ impl InCloud {
         if self.sun_cube.as_ref().map(|(k, ..)| k) != Some(ready_key) {
             let (ready_key, cube) = (ready_key.clone(), result.clone()?);
             let views = upload_sun_cube(&self.device, queue, &cube);
-            self.sun_cube = Some((ready_key, views, cube.dims));
+            self.sun_cube = Some((ready_key, views));
         }
         let serves = |k: &SunCubeKey| {
             k.variant == key.variant
@@ -561,7 +560,7 @@ impl InCloud {
             .sun_cube
             .as_ref()
             .filter(|_| self.sun_cube_active)
-            .map(|(_, views, _)| views.clone());
+            .map(|(_, views)| views.clone());
         let made_for = (depth.clone(), active.variant, sun_cube);
         let (light_group, march_group) = {
             let mut cached = self

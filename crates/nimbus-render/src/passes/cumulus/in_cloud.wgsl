@@ -29,11 +29,9 @@ struct InCloud {
     light_min: vec4<f32>,
     // Its size, m, unused.
     light_size: vec4<f32>,
-    // The light's cells along x, y, z, unused.
+    // The light's cells along x, y, z, and 1 when the sun cube (over the
+    // light's box) is this instance's.
     light_dims: vec4<u32>,
-    // The sun cube's cells along x, y, z (over the light's box), and 1 when
-    // it is this instance's.
-    sun_cube_dims: vec4<u32>,
 }
 
 @group(1) @binding(3) var<uniform> in_cloud: InCloud;
@@ -48,11 +46,10 @@ struct InCloud {
 // The light pass's input: per cell, the quadratic forms at the two scales
 // (six vec4, interior.rs VariantInterior::light_forms).
 @group(1) @binding(8) var<storage, read> in_cloud_forms: array<vec4<f32>>;
-// The sun cube (interior.rs VariantSunCube) over the light's box, on
-// `sun_cube_dims` cells: rgb the sun's directional fluence per unit
-// irradiance towards +x, +y, +z and a its excess along the beam over the
-// cube's reading there; then towards −x, −y, −z and a the fluence (object
-// frame).
+// The sun cube (interior.rs VariantSunCube) over the light's box: rgb the
+// sun's directional fluence per unit irradiance towards +x, +y, +z and a its
+// excess along the beam over the cube's reading there; then towards −x, −y,
+// −z and a the fluence (object frame).
 @group(1) @binding(9) var in_cloud_sun_cube_positive: texture_3d<f32>;
 @group(1) @binding(10) var in_cloud_sun_cube_negative: texture_3d<f32>;
 
@@ -229,7 +226,7 @@ fn in_cloud_march(origin_m: vec3<f32>, direction: vec3<f32>, t0: f32, t1: f32) -
     let object_sun_unit = normalize(object_sun);
     // The light towards the camera, in the object frame (the sun cube's).
     let toward_camera = -normalize(in_cloud_object_direction(direction));
-    let sun_cube = in_cloud.sun_cube_dims.w != 0u;
+    let sun_cube = in_cloud.light_dims.w != 0u;
     var sun_segments: array<vec4<f32>, IN_CLOUD_SHADOW_SEGMENTS>;
     var sun_lobes: array<f32, IN_CLOUD_SHADOW_SEGMENTS>;
     var beyond = 1.0;

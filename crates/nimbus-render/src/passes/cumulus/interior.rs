@@ -16,7 +16,7 @@ use super::transfer::{pack_form, tracer_scattering, variant_extinction_grid};
 use super::variants::{CumulusVariant, VariantError, VariantParams};
 use glam::DVec3;
 use nimbus_physics::cumulus::interior::{
-    InteriorSettings, ambient_cube, downsample, trace_interior, trace_sun_cube,
+    InteriorSettings, downsample, trace_interior, trace_sun_cube,
 };
 use nimbus_physics::cumulus::transport::{GridMedium, SphericalQuadratic};
 use nimbus_physics::cumulus::volume::ExtinctionGrid;
@@ -245,14 +245,12 @@ pub fn compute_sun_cube(
         },
         key.to_sun(),
     );
-    // Cell by cell, so that the excess is the cell's own (the shader
-    // interpolates it with the cube).
+    // Cell by cell (the shader interpolates the excess with the cube).
     let cells: Vec<([f64; 6], f64, f64)> = cube
         .cells
         .iter()
         .map(|c| {
-            let six = [c[0], c[1], c[2], c[3], c[4], c[5]];
-            let excess = c[6] - ambient_cube(&six, -cube.to_sun);
+            let (six, excess) = cube.cube_and_excess(c);
             (six, excess, c[7])
         })
         .collect();
