@@ -12,6 +12,14 @@
 //! Σ_k Φ_k L_k. Same tracer, same medium (the extinction grid the
 //! path-traced references render, σ scaled by δ-M's 1 − f), same droplets.
 //!
+//! Beside it, Φ^d_k: the same projection of the *direct* (unscattered)
+//! fluence, ∫ T(x, s) Y_k(s) ds. The sky's single scattering towards a
+//! camera is σ p L_sky T along every direction; taken as isotropic it is
+//! Σ_k Φ^d_k L_k /(4π) per unit σ, and near a face — all a camera outside
+//! the cloud sees — it is as large as the scattered light (half the sky
+//! is open there; docs/REALISM.md, "The volume model"). The sun's direct
+//! beam stays analytic (below), so the sun reads Φ_k alone.
+//!
 //! **Estimator.** Photons arrive as in [`super::transport::trace_transfer`]
 //! (uniform directions, uniform over the disk facing each across the
 //! bounding sphere) and cross the medium by delta tracking. The tentative
@@ -96,6 +104,8 @@ pub struct InteriorTransfer {
     pub dims: [usize; 3],
     /// Φ_0 … Φ_8 per cell, dimensionless: x fastest, then y, then z.
     pub coefficients: Vec<[f64; 9]>,
+    /// Φ^d_0 … Φ^d_8, the direct fluence's, per cell (the same order).
+    pub direct: Vec<[f64; 9]>,
     /// Photons traced.
     pub photons: u64,
 }
@@ -121,6 +131,11 @@ impl InteriorTransfer {
         trilinear(self.dims, (p_m - self.origin_m) / self.cell_m(), |c| {
             self.cell(c)
         })
+    }
+
+    /// Φ^d_k of cell (i, j, k).
+    pub fn direct_cell(&self, cell: [usize; 3]) -> [f64; 9] {
+        self.direct[self.index(cell)]
     }
 }
 
@@ -167,7 +182,7 @@ fn trace_cells<const N: usize>(
     scattering: &Scattering,
     settings: &InteriorSettings,
     launch: Launch,
-    weigh: impl Fn(DVec3) -> [f64; N] + Sync,
+    weigh: impl Fn(DVec3, u32) -> [f64; N] + Sync,
 ) -> (Vec<[f64; N]>, DVec3, [usize; 3], u64) {
     let bounds = medium.bounds_m();
     let (lo, hi) = bounds;
@@ -217,13 +232,20 @@ fn trace_cells<const N: usize>(
                     let mut d = -to_light;
                     let mut order = 0u32;
                     let mut weight = 1.0;
-                    let mut per_unit_weight = [0.0; N];
+                    // The unscattered light's weight: the uniform launch
+                    // may tally it (the direct fluence), a beam's is the
+                    // analytic direct beam's and is not tallied.
+                    let mut per_unit_weight = match launch {
+                        Launch::Uniform => weigh(to_light, 0),
+                        Launch::Beam(_) => [0.0; N],
+                    };
+                    let tally_direct = matches!(launch, Launch::Uniform);
                     loop {
                         x += d * (-rng.uniform_open0().ln() / majorant);
                         if !inside(x, bounds) {
                             break;
                         }
-                        if order >= 1 {
+                        if order >= 1 || tally_direct {
                             let sum = &mut sums[cell_of(x)];
                             for k in 0..N {
                                 sum[k] += weight * per_unit_weight[k];
@@ -247,10 +269,10 @@ fn trace_cells<const N: usize>(
                             .normalize();
                             match launch {
                                 Launch::Uniform if order == 1 => {
-                                    per_unit_weight = weigh(to_light);
+                                    per_unit_weight = weigh(to_light, 1);
                                 }
                                 Launch::Uniform => {}
-                                Launch::Beam(_) => per_unit_weight = weigh(d),
+                                Launch::Beam(_) => per_unit_weight = weigh(d, order),
                             }
                         }
                     }
@@ -274,23 +296,35 @@ fn trace_cells<const N: usize>(
     (scaled, extent, dims, photons)
 }
 
-/// Traces Φ_k of `medium` on a grid of cells over its box (see the module
-/// notes). Parallel (rayon); the result does not depend on the thread
-/// count. Memory: 72 bytes per cell per worker.
+/// Traces Φ_k and Φ^d_k of `medium` on a grid of cells over its box (see
+/// the module notes). Parallel (rayon); the result does not depend on the
+/// thread count. Memory: 144 bytes per cell per worker.
 pub fn trace_interior(
     medium: &impl Medium,
     scattering: &Scattering,
     settings: &InteriorSettings,
 ) -> InteriorTransfer {
-    let (coefficients, extent_m, dims, photons) =
-        trace_cells(medium, scattering, settings, Launch::Uniform, |s| {
-            sh::basis(s.to_array())
+    // The first nine: the scattered light's; the last nine: the direct's.
+    let (cells, extent_m, dims, photons) =
+        trace_cells(medium, scattering, settings, Launch::Uniform, |s, order| {
+            let y = sh::basis(s.to_array());
+            let mut weights = [0.0; 18];
+            let half = if order == 0 { 9 } else { 0 };
+            weights[half..half + 9].copy_from_slice(&y);
+            weights
         });
+    let split = |from: usize| -> Vec<[f64; 9]> {
+        cells
+            .iter()
+            .map(|c| std::array::from_fn(|k| c[from + k]))
+            .collect()
+    };
     InteriorTransfer {
         origin_m: medium.bounds_m().0,
         extent_m,
         dims,
-        coefficients,
+        coefficients: split(0),
+        direct: split(9),
         photons,
     }
 }
@@ -316,7 +350,7 @@ pub fn trace_beam_cells<const N: usize>(
         scattering,
         settings,
         Launch::Beam(to_light.normalize()),
-        weigh,
+        |d, _| weigh(d),
     );
     (cells, extent, dims)
 }

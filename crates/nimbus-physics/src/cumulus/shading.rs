@@ -126,7 +126,24 @@ pub enum CumulusShadingModel {
     /// fitted model's and shade the clouds only until the transfer is
     /// computed (seconds, on a worker thread).
     Transport,
+    /// The cloud as the participating medium its mesh stands for: each
+    /// cumulus in view (the nearest [`MAX_MARCHED_CLOUDS`]) marched through
+    /// its extinction grid and lit by the light precomputed inside it — the
+    /// sky's scattered fluence per shape ([`super::interior`]) and the sun's
+    /// directional fluence traced for the cloud and the sun's direction
+    /// (the sun cube), with single scattering through the shadowed beam —
+    /// the march the camera uses inside a cloud, from outside too. Clouds
+    /// beyond the nearest are shaded as by [`Self::Transport`]; until a
+    /// cloud's sun cube is traced (seconds, on a worker thread) its sun
+    /// light is taken isotropic.
+    Volume,
 }
+
+/// How many cumulus the [`CumulusShadingModel::Volume`] model marches
+/// (the nearest to the camera in view); the others are shaded as by the
+/// transport model. Each holds a light atlas and a sun cube (~3 MB) on the
+/// GPU and costs a march over the pixels its box covers.
+pub const MAX_MARCHED_CLOUDS: usize = 12;
 
 /// The shader's parameters. Each model has its own defaults
 /// ([`CumulusShading::bouthors2004`], [`CumulusShading::fitted`]); a scene
@@ -203,8 +220,8 @@ impl CumulusShading {
         match model {
             CumulusShadingModel::Fitted => Self::fitted(),
             CumulusShadingModel::Bouthors2004 => Self::bouthors2004(),
-            CumulusShadingModel::Transport => Self {
-                model: CumulusShadingModel::Transport,
+            CumulusShadingModel::Transport | CumulusShadingModel::Volume => Self {
+                model,
                 forward_peak: 1.0,
                 ..Self::fitted()
             },

@@ -72,7 +72,8 @@ impl Renderer {
             run.remove(PassId::StratusInLayer);
         }
         let in_cloud = self.cumulus.in_cloud_active();
-        if !in_cloud {
+        let volume = self.cumulus.volume_active();
+        if !in_cloud && !volume {
             run.remove(PassId::CumulusInCloudLight);
             run.remove(PassId::CumulusInCloud);
         }
@@ -187,6 +188,19 @@ impl Renderer {
                 self.timer
                     .as_ref()
                     .map(|t| t.pass_writes(PassId::CumulusFringes.timer_index())),
+            );
+        }
+        // 6b. The volume model: the clouds in view marched as volumes over
+        // what is behind them, writing the depth of their bodies.
+        if volume {
+            let writes = |id: PassId| self.timer.as_ref().map(|t| t.pass_writes(id.timer_index()));
+            self.cumulus.encode_in_cloud(
+                encoder,
+                &hdr.view,
+                depth,
+                &frame,
+                writes(PassId::CumulusInCloudLight),
+                writes(PassId::CumulusInCloud),
             );
         }
         // 7. The stratus layer, blended over sky, terrain and cumulus bodies, depth-tested.

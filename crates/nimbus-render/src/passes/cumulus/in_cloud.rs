@@ -19,7 +19,14 @@
 //! camera to the first opaque depth or out of the box and blends the
 //! fog's light over the frame, attenuating everything behind it.
 //!
-//! The sun's scattered light towards the camera comes from the active
+//! With `cumulus.shading.model = "volume"` every cloud in view (the
+//! nearest [`MAX_MARCHED_CLOUDS`]) is drawn so, from outside too, farthest
+//! first, right after the meshes of the others and before the stratus
+//! layer: each march writes the depth where the cloud becomes opaque
+//! (its transmittance crosses ½), so that what is drawn after it (the
+//! layer, the rain) is hidden behind its body as behind a mesh.
+//!
+//! The sun's scattered light towards the camera comes from each marched
 //! instance's sun cube ([`interior::SunCubeKey`]), traced on a worker thread
 //! for its variant, scale and the sun's direction in its frame. Until the
 //! first is ready (a real-time caller's first frames near a cloud), the
@@ -28,15 +35,17 @@
 
 use super::interior::{self, InteriorParams, SunCubeKey, VariantInterior, VariantSunCube};
 use super::variants::{CumulusVariant, VariantError};
-use super::{FieldCloud, SHADING};
+use super::{FieldCloud, SHADING, field::sphere_in_frustum};
 use crate::core::background::{Deferred, Precompute};
 use crate::core::binding;
 use crate::core::pipeline::{DrawPipeline, PREMULTIPLIED_OVER};
 use crate::frame::{FrameBindings, FrameLayouts};
 use crate::shader::{self, WgslFile};
 use bytemuck::{Pod, Zeroable};
-use glam::DVec3;
+use glam::{DVec3, Mat4, Vec4};
+pub use nimbus_physics::cumulus::shading::MAX_MARCHED_CLOUDS;
 use nimbus_physics::optics::tables::CloudOpticsParams;
+use std::collections::HashMap;
 use std::sync::{Arc, Mutex};
 
 /// The march's shader.
@@ -62,6 +71,9 @@ pub const MARCH_STEPS: u32 = 48;
 const MAX_SUN_CUBE_LAG_DEG: f64 = 10.0;
 /// Format of the light atlas.
 const LIGHT_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba16Float;
+/// Format of the depth each march reads (a copy of the depth buffer's,
+/// taken just before it: the volume marches write the depth they read).
+const SCENE_DEPTH_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::R32Float;
 
 /// GPU layout of WGSL `InCloud`.
 #[repr(C)]
@@ -75,7 +87,8 @@ pub struct InCloudUniform {
     pub extinction_min: [f32; 4],
     /// Its size, m, and the light's weight between its two scales.
     pub extinction_size: [f32; 4],
-    /// The light's box, object frame (min, m), unused.
+    /// The light's box, object frame (min, m), and the weight of the sky's
+    /// direct fluence (1 in the volume model, else 0).
     pub light_min: [f32; 4],
     /// Its size, m, unused.
     pub light_size: [f32; 4],
@@ -98,11 +111,10 @@ type SunCubeResult = Result<Arc<VariantSunCube>, VariantError>;
 struct GpuInterior {
     interior: Arc<VariantInterior>,
     extinction: wgpu::TextureView,
-    light: wgpu::TextureView,
     forms: wgpu::Buffer,
 }
 
-/// The instance the march draws this frame.
+/// An instance the march draws this frame.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub(super) struct Active {
     /// Index of the cloud in the frame's field.
@@ -110,41 +122,77 @@ pub(super) struct Active {
     variant: usize,
     /// The march's weight (1 − the mesh's opacity factor).
     pub fade: f32,
+    /// The pixels its box may cover: x, y, width, height.
+    scissor: [u32; 4],
 }
 
-/// Bind groups and what they were made for: (depth view, variant, sun
-/// cube), light group, march group.
+/// What the instances are chosen for: the model and the camera's view.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct MarchView {
+    /// `cumulus.shading.model = "volume"`: every cloud in view is marched.
+    pub volume: bool,
+    /// The camera's clip space from the world's.
+    pub clip_from_world: Mat4,
+    /// The target's size, pixels.
+    pub size: (u32, u32),
+}
+
+/// Bind groups and what they were made for: (scene depth view, variant,
+/// sun cube), light group, march group.
 type GroupsCache = (
     (wgpu::TextureView, usize, Option<[wgpu::TextureView; 2]>),
     wgpu::BindGroup,
     wgpu::BindGroup,
 );
 
+/// What one marched instance holds on the GPU: its uniform, the light
+/// atlas of its cells (its scale and yaw), its sun cube.
+#[derive(Debug)]
+struct Slot {
+    uniform: wgpu::Buffer,
+    /// The light atlas and the variant it was made for.
+    light: Option<(usize, wgpu::TextureView)>,
+    sun_cubes: Deferred<SunCubeKey, SunCubeResult>,
+    /// The sun cube on the GPU and its key.
+    sun_cube: Option<(SunCubeKey, [wgpu::TextureView; 2])>,
+    /// Whether the instance reads it this frame.
+    sun_cube_active: bool,
+    /// The groups of the last (scene depth, variant, sun cube) drawn.
+    groups: Mutex<Option<GroupsCache>>,
+}
+
 /// The in-cloud passes' state.
 #[derive(Debug)]
 pub struct InCloud {
     device: wgpu::Device,
-    uniform: wgpu::Buffer,
     march_layout: wgpu::BindGroupLayout,
     light_layout: wgpu::BindGroupLayout,
     march_pipeline: wgpu::RenderPipeline,
+    /// The volume model's march: the same, writing the depth.
+    volume_pipeline: wgpu::RenderPipeline,
     light_pipeline: wgpu::RenderPipeline,
+    /// The copy of the depth buffer each march reads, its pipeline and
+    /// the group reading the depth buffer (made for that view).
+    scene_depth: Option<((u32, u32), wgpu::TextureView)>,
+    scene_depth_layout: wgpu::BindGroupLayout,
+    scene_depth_pipeline: wgpu::RenderPipeline,
+    scene_depth_group: Mutex<Option<(wgpu::TextureView, wgpu::BindGroup)>>,
     sampler: wgpu::Sampler,
     /// The cumulus group's textures (bindings 1 and 2).
     forward_peak: wgpu::TextureView,
     phase: wgpu::TextureView,
     interiors: Deferred<InteriorKey, InteriorsResult>,
     uploaded: Option<(InteriorKey, Vec<GpuInterior>)>,
-    sun_cubes: Deferred<SunCubeKey, SunCubeResult>,
-    /// The sun cube on the GPU, its key, and whether the active instance
-    /// reads it this frame.
-    sun_cube: Option<(SunCubeKey, [wgpu::TextureView; 2])>,
-    sun_cube_active: bool,
+    /// Per marched cloud (its index in the field).
+    slots: HashMap<usize, Slot>,
     /// A texel of zeros bound while no sun cube is.
     no_sun_cube: wgpu::TextureView,
-    active: Option<Active>,
-    /// The groups of the last (depth view, variant, sun cube) drawn.
-    groups: Mutex<Option<GroupsCache>>,
+    /// This frame's instances, farthest first.
+    active: Vec<Active>,
+    /// Whether they are the volume model's (drawn before the stratus
+    /// layer, writing depth) or the one the camera is in or near (drawn
+    /// over everything).
+    volume: bool,
 }
 
 impl InCloud {
@@ -173,9 +221,9 @@ impl InCloud {
             binding::texture_entry(4, wgpu::TextureViewDimension::D3, true, fragment),
             binding::texture_entry(5, wgpu::TextureViewDimension::D2, true, fragment),
             binding::sampler_entry(6, fragment),
-            binding::depth_texture_entry(7, wgpu::TextureViewDimension::D2, fragment),
             binding::texture_entry(9, wgpu::TextureViewDimension::D3, true, fragment),
             binding::texture_entry(10, wgpu::TextureViewDimension::D3, true, fragment),
+            binding::texture_entry(11, wgpu::TextureViewDimension::D2, false, fragment),
         ]);
         let march_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("cumulus in-cloud march"),
@@ -185,18 +233,28 @@ impl InCloud {
         light_entries.push(binding::buffer_entry(
             8,
             wgpu::BufferBindingType::Storage { read_only: true },
-            96,
+            192,
             fragment,
         ));
         let light_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("cumulus in-cloud light"),
             entries: &light_entries,
         });
+        let scene_depth_layout =
+            device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+                label: Some("cumulus in-cloud scene depth"),
+                entries: &[binding::depth_texture_entry(
+                    7,
+                    wgpu::TextureViewDimension::D2,
+                    fragment,
+                )],
+            });
         let module = shader::create_module(device, "cumulus in-cloud", &in_cloud_shader_source());
         let pipeline = |label: &str,
                         layout: &wgpu::BindGroupLayout,
                         entry: &str,
-                        target: wgpu::ColorTargetState| {
+                        target: wgpu::ColorTargetState,
+                        depth: Option<wgpu::DepthStencilState>| {
             let layout = frame.pipeline_layout(device, label, Some(layout));
             DrawPipeline {
                 label,
@@ -206,20 +264,34 @@ impl InCloud {
                 fragment_entry: Some(entry),
                 vertex_buffers: &[],
                 cull_mode: None,
-                depth: None,
+                depth,
                 targets: &[Some(target)],
             }
             .create(device)
+        };
+        let over_hdr = wgpu::ColorTargetState {
+            format: crate::core::targets::HDR_FORMAT,
+            blend: Some(PREMULTIPLIED_OVER),
+            write_mask: wgpu::ColorWrites::ALL,
         };
         let march_pipeline = pipeline(
             "cumulus in-cloud",
             &march_layout,
             "in_cloud_fragment",
-            wgpu::ColorTargetState {
-                format: crate::core::targets::HDR_FORMAT,
-                blend: Some(PREMULTIPLIED_OVER),
-                write_mask: wgpu::ColorWrites::ALL,
-            },
+            over_hdr.clone(),
+            None,
+        );
+        // Every fragment writes a depth: the body's where the cloud is
+        // opaque, else the one read (the march's own input).
+        let volume_pipeline = pipeline(
+            "cumulus volume",
+            &march_layout,
+            "in_cloud_volume_fragment",
+            over_hdr,
+            Some(crate::core::pipeline::depth_state(
+                true,
+                wgpu::CompareFunction::Always,
+            )),
         );
         let light_pipeline = pipeline(
             "cumulus in-cloud light",
@@ -230,6 +302,18 @@ impl InCloud {
                 blend: None,
                 write_mask: wgpu::ColorWrites::ALL,
             },
+            None,
+        );
+        let scene_depth_pipeline = pipeline(
+            "cumulus in-cloud scene depth",
+            &scene_depth_layout,
+            "in_cloud_scene_depth_fragment",
+            wgpu::ColorTargetState {
+                format: SCENE_DEPTH_FORMAT,
+                blend: None,
+                write_mask: wgpu::ColorWrites::ALL,
+            },
+            None,
         );
         let sampler = device.create_sampler(&wgpu::SamplerDescriptor {
             label: Some("cumulus in-cloud"),
@@ -239,61 +323,69 @@ impl InCloud {
         });
         Self {
             device: device.clone(),
-            uniform: device.create_buffer(&wgpu::BufferDescriptor {
-                label: Some("cumulus in-cloud"),
-                size: uniform_size,
-                usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
-                mapped_at_creation: false,
-            }),
             march_layout,
             light_layout,
             march_pipeline,
+            volume_pipeline,
             light_pipeline,
+            scene_depth: None,
+            scene_depth_layout,
+            scene_depth_pipeline,
+            scene_depth_group: Mutex::new(None),
             sampler,
             forward_peak,
             phase,
             interiors: Deferred::new("cumulus interior light"),
             uploaded: None,
-            sun_cubes: Deferred::new("cumulus sun cube"),
-            sun_cube: None,
-            sun_cube_active: false,
+            slots: HashMap::new(),
             no_sun_cube: crate::core::targets::zero_texel(
                 device,
                 "cumulus in-cloud no sun cube",
                 wgpu::TextureDimension::D3,
                 LIGHT_FORMAT,
             ),
-            active: None,
-            groups: Mutex::new(None),
+            active: Vec::new(),
+            volume: false,
         }
     }
 
     /// The work under way on a worker thread.
     pub fn pending(&self) -> Option<&'static str> {
-        self.interiors.pending().or(self.sun_cubes.pending())
+        self.interiors
+            .pending()
+            .or_else(|| self.slots.values().find_map(|s| s.sun_cubes.pending()))
     }
 
     /// Blocks until the work under way has finished.
     pub fn wait(&mut self) {
         self.interiors.wait();
-        self.sun_cubes.wait();
+        for slot in self.slots.values_mut() {
+            slot.sun_cubes.wait();
+        }
     }
 
     /// No instance drawn by the march (until the next [`Self::prepare`]).
     pub(super) fn clear(&mut self) {
-        self.active = None;
+        self.active.clear();
     }
 
-    /// The instance drawn by the march this frame, if any.
-    pub(super) fn active(&self) -> Option<Active> {
-        self.active
+    /// The instances drawn by the march this frame.
+    pub(super) fn active(&self) -> &[Active] {
+        &self.active
     }
 
-    /// Chooses the instance the march draws this frame (the cloud whose
-    /// box is nearest the camera, within [`HANDOVER_M`]), computing the
-    /// interiors when the camera first comes near a cloud and its sun cube
-    /// for `to_sun` (world, towards the sun), and writes the uniform.
-    /// `truncation`: δ-M's 1 − f of the droplets.
+    /// Whether this frame's marches are the volume model's (drawn with
+    /// the cloud bodies) rather than the camera's cloud (over everything).
+    pub(super) fn volume(&self) -> bool {
+        self.volume
+    }
+
+    /// Chooses the instances the march draws this frame — with `view.volume`
+    /// every cloud in view (the nearest [`MAX_MARCHED_CLOUDS`]), else the
+    /// cloud whose box is nearest the camera within [`HANDOVER_M`] —
+    /// computing the interiors when first needed and each instance's sun
+    /// cube for `to_sun` (world, towards the sun), and writes their
+    /// uniforms. `truncation`: δ-M's 1 − f of the droplets.
     #[allow(clippy::too_many_arguments)]
     pub(super) fn prepare(
         &mut self,
@@ -305,13 +397,16 @@ impl InCloud {
         to_sun: DVec3,
         truncation: f32,
         precompute: Precompute,
+        view: &MarchView,
     ) -> Result<(), VariantError> {
-        self.active = None;
-        self.sun_cube_active = false;
-        let near = clouds
-            .iter()
-            .any(|c| c.centre_m.distance(camera_m) < c.radius_m + HANDOVER_M);
+        self.active.clear();
+        self.volume = view.volume;
+        let near = view.volume
+            || clouds
+                .iter()
+                .any(|c| c.centre_m.distance(camera_m) < c.radius_m + HANDOVER_M);
         if !near {
+            self.slots.clear();
             return Ok(());
         }
         if self.uploaded.as_ref().map(|u| &u.0) != Some(&key) {
@@ -340,139 +435,115 @@ impl InCloud {
         let Some((key, gpu)) = &self.uploaded else {
             return Ok(());
         };
-        // The nearest box within the handover distance.
-        let mut best: Option<(usize, f64)> = None;
+        // The instances: (cloud, distance to its box, the march's weight).
+        let mut chosen: Vec<(usize, f64, f32)> = Vec::new();
         for (index, cloud) in clouds.iter().enumerate() {
             let Some(g) = gpu.get(cloud.variant) else {
                 continue;
             };
             let d = box_distance_m(cloud, &g.interior, camera_m);
-            if d < HANDOVER_M && best.is_none_or(|(_, b)| d < b) {
-                best = Some((index, d));
+            if view.volume {
+                let in_view = sphere_in_frustum(
+                    &view.clip_from_world,
+                    cloud.centre_m.as_vec3(),
+                    cloud.radius_m as f32,
+                );
+                if in_view {
+                    chosen.push((index, d, 1.0));
+                }
+            } else if d < HANDOVER_M && chosen.first().is_none_or(|&(_, b, _)| d < b) {
+                let x = (1.0 - d / HANDOVER_M).clamp(0.0, 1.0);
+                let fade = (x * x * (3.0 - 2.0 * x)) as f32;
+                chosen = vec![(index, d, fade)];
             }
         }
-        let Some((index, distance_m)) = best else {
-            return Ok(());
-        };
-        let cloud = &clouds[index];
-        let x = (1.0 - distance_m / HANDOVER_M).clamp(0.0, 1.0);
-        let fade = (x * x * (3.0 - 2.0 * x)) as f32;
-        if fade <= 0.0 {
-            return Ok(());
+        chosen.retain(|&(.., fade)| fade > 0.0);
+        chosen.sort_by(|a, b| a.1.total_cmp(&b.1));
+        chosen.truncate(MAX_MARCHED_CLOUDS);
+        // Farthest first: each march is blended over the ones behind it.
+        chosen.reverse();
+        let (key, gpu) = (
+            key.clone(),
+            gpu.iter().map(|g| g.interior.clone()).collect::<Vec<_>>(),
+        );
+        self.slots
+            .retain(|index, _| chosen.iter().any(|&(c, ..)| c == *index));
+        for (index, _, fade) in chosen {
+            let cloud = &clouds[index];
+            let interior = &gpu[cloud.variant];
+            let sun_cube_active = self.prepare_slot(
+                queue, index, cloud, interior, &key, to_sun, shapes, precompute,
+            )?;
+            let uniform = instance_uniform(
+                cloud,
+                interior,
+                &key,
+                fade,
+                truncation,
+                sun_cube_active,
+                view.volume,
+            );
+            let slot = &self.slots[&index];
+            queue.write_buffer(&slot.uniform, 0, bytemuck::bytes_of(&uniform));
+            self.active.push(Active {
+                cloud: index,
+                variant: cloud.variant,
+                fade,
+                scissor: box_scissor(cloud, interior, &view.clip_from_world, view.size),
+            });
         }
-        let scales = key.params.scales;
-        let scale = f64::from(cloud.instance.offset_scale[3]);
-        let span = (scales[1] / scales[0]).ln();
-        let scale_weight = if span > 1e-9 {
-            ((scale / scales[0]).ln() / span).clamp(0.0, 1.0)
-        } else {
-            0.0
-        };
-        let rotation = cloud.instance.rotation_noise;
+        Ok(())
+    }
+
+    /// Makes sure the marched cloud `index` has its slot (uniform, light
+    /// atlas for its variant) and requests its sun cube; whether the cube
+    /// on the GPU serves this frame.
+    #[allow(clippy::too_many_arguments)]
+    fn prepare_slot(
+        &mut self,
+        queue: &wgpu::Queue,
+        index: usize,
+        cloud: &FieldCloud,
+        interior: &VariantInterior,
+        key: &InteriorKey,
+        to_sun: DVec3,
+        shapes: &[Arc<CumulusVariant>],
+        precompute: Precompute,
+    ) -> Result<bool, VariantError> {
+        let device = &self.device;
+        let slot = self.slots.entry(index).or_insert_with(|| Slot {
+            uniform: device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("cumulus in-cloud"),
+                size: std::mem::size_of::<InCloudUniform>() as u64,
+                usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+                mapped_at_creation: false,
+            }),
+            light: None,
+            sun_cubes: Deferred::new("cumulus sun cube"),
+            sun_cube: None,
+            sun_cube_active: false,
+            groups: Mutex::new(None),
+        });
+        if slot.light.as_ref().map(|l| l.0) != Some(cloud.variant) {
+            slot.light = Some((cloud.variant, light_atlas(device, interior.light_dims)));
+        }
         let cube_key = SunCubeKey::new(
             key.params.clone(),
             cloud.variant as u32,
             cloud.instance.offset_scale[3],
-            object_direction(rotation, to_sun),
+            object_direction(cloud.instance.rotation_noise, to_sun),
         );
-        let optics = key.optics.clone();
-        let sun_cube_active = self.update_sun_cube(queue, cube_key, shapes, &optics, precompute)?;
-        let Some((_, gpu)) = &self.uploaded else {
-            return Ok(());
-        };
-        let g = &gpu[cloud.variant];
-        let i = &g.interior;
-        let e = &i.extinction;
-        let size = e.max_corner_m() - e.origin_m;
-        let uniform = InCloudUniform {
-            offset_scale: cloud.instance.offset_scale,
-            rotation: [rotation[0], rotation[1], fade, MARCH_STEPS as f32],
-            extinction_min: [
-                e.origin_m.x as f32,
-                e.origin_m.y as f32,
-                e.origin_m.z as f32,
-                truncation,
-            ],
-            extinction_size: [
-                size.x as f32,
-                size.y as f32,
-                size.z as f32,
-                scale_weight as f32,
-            ],
-            light_min: [
-                i.light_origin_m[0],
-                i.light_origin_m[1],
-                i.light_origin_m[2],
-                0.0,
-            ],
-            light_size: [
-                i.light_extent_m[0],
-                i.light_extent_m[1],
-                i.light_extent_m[2],
-                0.0,
-            ],
-            light_dims: [
-                i.light_dims[0],
-                i.light_dims[1],
-                i.light_dims[2],
-                u32::from(sun_cube_active),
-            ],
-        };
-        queue.write_buffer(&self.uniform, 0, bytemuck::bytes_of(&uniform));
-        self.active = Some(Active {
-            cloud: index,
-            variant: cloud.variant,
-            fade,
-        });
-        self.sun_cube_active = sun_cube_active;
-        Ok(())
-    }
-
-    /// Requests the sun cube of `key` and uploads it once traced; whether
-    /// the cube on the GPU serves this frame: `key`'s, or, while that is
-    /// under way, one of the same variant and scale for a sun a few degrees
-    /// off.
-    fn update_sun_cube(
-        &mut self,
-        queue: &wgpu::Queue,
-        key: SunCubeKey,
-        shapes: &[Arc<CumulusVariant>],
-        optics: &CloudOpticsParams,
-        precompute: Precompute,
-    ) -> Result<bool, VariantError> {
-        let Some(shape) = shapes.get(key.variant as usize) else {
-            return Ok(false);
-        };
-        let ready = self.sun_cubes.request(key.clone(), precompute, || {
-            let shape = shape.clone();
-            let job = key.clone();
-            let optics = optics.clone();
-            move || {
-                let optics = crate::frame::cloud_lighting::load_optics(&optics);
-                interior::load_or_compute_sun_cube(
-                    &crate::core::cache::cache_dir(),
-                    &job,
-                    &shape,
-                    &optics,
-                )
-                .map(Arc::new)
-            }
-        });
-        let Some((ready_key, result)) = ready else {
-            return Ok(false);
-        };
-        if self.sun_cube.as_ref().map(|(k, ..)| k) != Some(ready_key) {
-            let (ready_key, cube) = (ready_key.clone(), result.clone()?);
-            let views = upload_sun_cube(&self.device, queue, &cube);
-            self.sun_cube = Some((ready_key, views));
-        }
-        let serves = |k: &SunCubeKey| {
-            k.variant == key.variant
-                && k.scale() == key.scale()
-                && k.params == key.params
-                && k.to_sun().angle_between(key.to_sun()).to_degrees() < MAX_SUN_CUBE_LAG_DEG
-        };
-        Ok(self.sun_cube.as_ref().is_some_and(|(k, ..)| serves(k)))
+        let active = update_sun_cube(
+            device,
+            slot,
+            queue,
+            cube_key,
+            shapes,
+            &key.optics,
+            precompute,
+        )?;
+        slot.sun_cube_active = active;
+        Ok(active)
     }
 
     fn upload(&self, queue: &wgpu::Queue, interior: Arc<VariantInterior>) -> GpuInterior {
@@ -505,24 +576,6 @@ impl InCloud {
                 bytemuck::cast_slice(&halves),
             )
             .create_view(&Default::default());
-        let [nx, ny, nz] = interior.light_dims;
-        let light = device
-            .create_texture(&wgpu::TextureDescriptor {
-                label: Some("cumulus in-cloud light"),
-                size: wgpu::Extent3d {
-                    width: nx,
-                    height: ny * nz,
-                    depth_or_array_layers: 1,
-                },
-                mip_level_count: 1,
-                sample_count: 1,
-                dimension: wgpu::TextureDimension::D2,
-                format: LIGHT_FORMAT,
-                usage: wgpu::TextureUsages::TEXTURE_BINDING
-                    | wgpu::TextureUsages::RENDER_ATTACHMENT,
-                view_formats: &[],
-            })
-            .create_view(&Default::default());
         let forms = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
             label: Some("cumulus in-cloud light forms"),
             contents: bytemuck::cast_slice(&interior.light_forms),
@@ -531,14 +584,32 @@ impl InCloud {
         GpuInterior {
             interior,
             extinction,
-            light,
             forms,
         }
     }
 
-    /// Records the light atlas of the active instance and the march over
-    /// `hdr` (nothing when none is active). `cumulus_uniform`: the cumulus
-    /// group's binding 0.
+    /// Makes sure the copy of the depth buffer the marches read is of the
+    /// target's size.
+    pub(super) fn ensure_scene_depth(&mut self, (width, height): (u32, u32)) {
+        if self.scene_depth.as_ref().map(|d| d.0) == Some((width, height)) {
+            return;
+        }
+        let view = crate::core::targets::Target::new(
+            &self.device,
+            "cumulus in-cloud scene depth",
+            SCENE_DEPTH_FORMAT,
+            width,
+            height,
+            wgpu::TextureUsages::TEXTURE_BINDING,
+        )
+        .view;
+        self.scene_depth = Some(((width, height), view));
+    }
+
+    /// Records, for each instance of this frame (farthest first), its light
+    /// atlas, a copy of the depth over its box's pixels and its march over
+    /// `hdr` — in the volume model writing `depth` where the cloud is
+    /// opaque. `cumulus_uniform`: the cumulus group's binding 0.
     #[allow(clippy::too_many_arguments)]
     pub fn encode(
         &self,
@@ -550,39 +621,90 @@ impl InCloud {
         light_timestamps: Option<wgpu::RenderPassTimestampWrites<'_>>,
         march_timestamps: Option<wgpu::RenderPassTimestampWrites<'_>>,
     ) {
-        let (Some(active), Some((_, gpu))) = (self.active, &self.uploaded) else {
+        let (Some((_, gpu)), Some((_, scene_depth))) = (&self.uploaded, &self.scene_depth) else {
             return;
         };
-        let Some(g) = gpu.get(active.variant) else {
-            return;
-        };
-        let sun_cube = self
-            .sun_cube
-            .as_ref()
-            .filter(|_| self.sun_cube_active)
-            .map(|(_, views)| views.clone());
-        let made_for = (depth.clone(), active.variant, sun_cube);
-        let (light_group, march_group) = {
+        let depth_group = {
             let mut cached = self
-                .groups
+                .scene_depth_group
                 .lock()
                 .unwrap_or_else(std::sync::PoisonError::into_inner);
             match &*cached {
+                Some((view, group)) if view == depth => group.clone(),
+                _ => {
+                    let group = self.device.create_bind_group(&wgpu::BindGroupDescriptor {
+                        label: Some("cumulus in-cloud scene depth"),
+                        layout: &self.scene_depth_layout,
+                        entries: &[wgpu::BindGroupEntry {
+                            binding: 7,
+                            resource: wgpu::BindingResource::TextureView(depth),
+                        }],
+                    });
+                    *cached = Some((depth.clone(), group.clone()));
+                    group
+                }
+            }
+        };
+        // The timestamps span every instance's passes: the first's start,
+        // the last's end.
+        fn span<'q>(
+            writes: &Option<wgpu::RenderPassTimestampWrites<'q>>,
+            k: usize,
+            count: usize,
+        ) -> Option<wgpu::RenderPassTimestampWrites<'q>> {
+            let w = writes.as_ref()?;
+            let beginning = w.beginning_of_pass_write_index.filter(|_| k == 0);
+            let end = w.end_of_pass_write_index.filter(|_| k + 1 == count);
+            (beginning.is_some() || end.is_some()).then_some(wgpu::RenderPassTimestampWrites {
+                query_set: w.query_set,
+                beginning_of_pass_write_index: beginning,
+                end_of_pass_write_index: end,
+            })
+        }
+        // Each instance's light atlas, groups and pixels.
+        let mut drawn = Vec::with_capacity(self.active.len());
+        for active in &self.active {
+            let (Some(g), Some(slot)) = (gpu.get(active.variant), self.slots.get(&active.cloud))
+            else {
+                continue;
+            };
+            let Some((_, light)) = &slot.light else {
+                continue;
+            };
+            if active.scissor[2] == 0 || active.scissor[3] == 0 {
+                continue;
+            }
+            let sun_cube = slot
+                .sun_cube
+                .as_ref()
+                .filter(|_| slot.sun_cube_active)
+                .map(|(_, views)| views.clone());
+            let made_for = (scene_depth.clone(), active.variant, sun_cube);
+            let mut cached = slot
+                .groups
+                .lock()
+                .unwrap_or_else(std::sync::PoisonError::into_inner);
+            let groups = match &*cached {
                 Some((key, l, m)) if *key == made_for => (l.clone(), m.clone()),
                 _ => {
                     let none = [&self.no_sun_cube, &self.no_sun_cube];
                     let cube = made_for.2.as_ref().map_or(none, |[p, n]| [p, n]);
-                    let groups = self.make_groups(g, depth, cube, cumulus_uniform);
+                    let groups =
+                        self.make_groups(g, slot, light, scene_depth, cube, cumulus_uniform);
                     *cached = Some((made_for.clone(), groups.0.clone(), groups.1.clone()));
                     groups
                 }
-            }
-        };
-        {
+            };
+            drawn.push((light, groups, active.scissor));
+        }
+        let count = drawn.len();
+        // The light atlases first, then the marches (farthest first), so
+        // that each timer spans its own passes.
+        for (k, (light, (light_group, _), _)) in drawn.iter().enumerate() {
             let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
                 label: Some("cumulus in-cloud light"),
                 color_attachments: &[Some(wgpu::RenderPassColorAttachment {
-                    view: &g.light,
+                    view: light,
                     depth_slice: None,
                     resolve_target: None,
                     ops: wgpu::Operations {
@@ -591,30 +713,90 @@ impl InCloud {
                     },
                 })],
                 depth_stencil_attachment: None,
-                timestamp_writes: light_timestamps,
+                timestamp_writes: span(&light_timestamps, k, count),
                 occlusion_query_set: None,
                 multiview_mask: None,
             });
             pass.set_pipeline(&self.light_pipeline);
-            frame.set_on(&mut pass, Some(&light_group));
+            frame.set_on(&mut pass, Some(light_group));
             pass.draw(0..3, 0..1);
         }
-        let mut pass = crate::core::targets::colour_pass(
-            encoder,
-            "cumulus in-cloud",
-            hdr,
-            None,
-            march_timestamps,
-        );
-        pass.set_pipeline(&self.march_pipeline);
-        frame.set_on(&mut pass, Some(&march_group));
-        pass.draw(0..3, 0..1);
+        for (k, (_, (_, march_group), [x, y, w, h])) in drawn.iter().enumerate() {
+            let (x, y, w, h) = (*x, *y, *w, *h);
+            // The march's timer starts with its first copy of the depth.
+            let start = span(&march_timestamps, k, count).and_then(|t| {
+                t.beginning_of_pass_write_index
+                    .map(|index| wgpu::RenderPassTimestampWrites {
+                        query_set: t.query_set,
+                        beginning_of_pass_write_index: Some(index),
+                        end_of_pass_write_index: None,
+                    })
+            });
+            let end = span(&march_timestamps, k, count).and_then(|t| {
+                t.end_of_pass_write_index
+                    .map(|index| wgpu::RenderPassTimestampWrites {
+                        query_set: t.query_set,
+                        beginning_of_pass_write_index: None,
+                        end_of_pass_write_index: Some(index),
+                    })
+            });
+            {
+                let mut pass = crate::core::targets::colour_pass(
+                    encoder,
+                    "cumulus in-cloud scene depth",
+                    scene_depth,
+                    None,
+                    start,
+                );
+                pass.set_pipeline(&self.scene_depth_pipeline);
+                frame.set_on(&mut pass, Some(&depth_group));
+                pass.set_scissor_rect(x, y, w, h);
+                pass.draw(0..3, 0..1);
+            }
+            let mut pass = if self.volume {
+                encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+                    label: Some("cumulus volume"),
+                    color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+                        view: hdr,
+                        depth_slice: None,
+                        resolve_target: None,
+                        ops: wgpu::Operations {
+                            load: wgpu::LoadOp::Load,
+                            store: wgpu::StoreOp::Store,
+                        },
+                    })],
+                    depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
+                        view: depth,
+                        depth_ops: Some(wgpu::Operations {
+                            load: wgpu::LoadOp::Load,
+                            store: wgpu::StoreOp::Store,
+                        }),
+                        stencil_ops: None,
+                    }),
+                    timestamp_writes: end,
+                    occlusion_query_set: None,
+                    multiview_mask: None,
+                })
+            } else {
+                crate::core::targets::colour_pass(encoder, "cumulus in-cloud", hdr, None, end)
+            };
+            pass.set_pipeline(if self.volume {
+                &self.volume_pipeline
+            } else {
+                &self.march_pipeline
+            });
+            frame.set_on(&mut pass, Some(march_group));
+            pass.set_scissor_rect(x, y, w, h);
+            pass.draw(0..3, 0..1);
+        }
     }
 
     fn make_groups(
         &self,
         g: &GpuInterior,
-        depth: &wgpu::TextureView,
+        slot: &Slot,
+        light: &wgpu::TextureView,
+        scene_depth: &wgpu::TextureView,
         sun_cube: [&wgpu::TextureView; 2],
         cumulus_uniform: &wgpu::Buffer,
     ) -> (wgpu::BindGroup, wgpu::BindGroup) {
@@ -624,19 +806,19 @@ impl InCloud {
                 entry(0, cumulus_uniform.as_entire_binding()),
                 entry(1, wgpu::BindingResource::TextureView(&self.forward_peak)),
                 entry(2, wgpu::BindingResource::TextureView(&self.phase)),
-                entry(3, self.uniform.as_entire_binding()),
+                entry(3, slot.uniform.as_entire_binding()),
             ]
         };
-        let mut light = common();
-        light.push(entry(8, g.forms.as_entire_binding()));
+        let mut light_entries = common();
+        light_entries.push(entry(8, g.forms.as_entire_binding()));
         let mut march = common();
         march.extend([
             entry(4, wgpu::BindingResource::TextureView(&g.extinction)),
-            entry(5, wgpu::BindingResource::TextureView(&g.light)),
+            entry(5, wgpu::BindingResource::TextureView(light)),
             entry(6, wgpu::BindingResource::Sampler(&self.sampler)),
-            entry(7, wgpu::BindingResource::TextureView(depth)),
             entry(9, wgpu::BindingResource::TextureView(sun_cube[0])),
             entry(10, wgpu::BindingResource::TextureView(sun_cube[1])),
+            entry(11, wgpu::BindingResource::TextureView(scene_depth)),
         ]);
         let group = |label, layout, entries: &[wgpu::BindGroupEntry<'_>]| {
             self.device.create_bind_group(&wgpu::BindGroupDescriptor {
@@ -646,10 +828,181 @@ impl InCloud {
             })
         };
         (
-            group("cumulus in-cloud light", &self.light_layout, &light),
+            group("cumulus in-cloud light", &self.light_layout, &light_entries),
             group("cumulus in-cloud march", &self.march_layout, &march),
         )
     }
+}
+
+/// Requests the sun cube of `key` for a slot and uploads it once traced;
+/// whether the cube on the GPU serves this frame: `key`'s, or, while that
+/// is under way, one of the same variant and scale for a sun a few degrees
+/// off.
+fn update_sun_cube(
+    device: &wgpu::Device,
+    slot: &mut Slot,
+    queue: &wgpu::Queue,
+    key: SunCubeKey,
+    shapes: &[Arc<CumulusVariant>],
+    optics: &CloudOpticsParams,
+    precompute: Precompute,
+) -> Result<bool, VariantError> {
+    let Some(shape) = shapes.get(key.variant as usize) else {
+        return Ok(false);
+    };
+    let ready = slot.sun_cubes.request(key.clone(), precompute, || {
+        let shape = shape.clone();
+        let job = key.clone();
+        let optics = optics.clone();
+        move || {
+            let optics = crate::frame::cloud_lighting::load_optics(&optics);
+            interior::load_or_compute_sun_cube(
+                &crate::core::cache::cache_dir(),
+                &job,
+                &shape,
+                &optics,
+            )
+            .map(Arc::new)
+        }
+    });
+    let Some((ready_key, result)) = ready else {
+        return Ok(false);
+    };
+    if slot.sun_cube.as_ref().map(|(k, ..)| k) != Some(ready_key) {
+        let (ready_key, cube) = (ready_key.clone(), result.clone()?);
+        let views = upload_sun_cube(device, queue, &cube);
+        slot.sun_cube = Some((ready_key, views));
+    }
+    let serves = |k: &SunCubeKey| {
+        k.variant == key.variant
+            && k.scale() == key.scale()
+            && k.params == key.params
+            && k.to_sun().angle_between(key.to_sun()).to_degrees() < MAX_SUN_CUBE_LAG_DEG
+    };
+    Ok(slot.sun_cube.as_ref().is_some_and(|(k, ..)| serves(k)))
+}
+
+/// An instance's uniform: its transform, the variant's boxes, the light's
+/// weight between the interiors' two scales.
+fn instance_uniform(
+    cloud: &FieldCloud,
+    interior: &VariantInterior,
+    key: &InteriorKey,
+    fade: f32,
+    truncation: f32,
+    sun_cube_active: bool,
+    sky_direct: bool,
+) -> InCloudUniform {
+    let scales = key.params.scales;
+    let scale = f64::from(cloud.instance.offset_scale[3]);
+    let span = (scales[1] / scales[0]).ln();
+    let scale_weight = if span > 1e-9 {
+        ((scale / scales[0]).ln() / span).clamp(0.0, 1.0)
+    } else {
+        0.0
+    };
+    let rotation = cloud.instance.rotation_noise;
+    let i = interior;
+    let e = &i.extinction;
+    let size = e.max_corner_m() - e.origin_m;
+    InCloudUniform {
+        offset_scale: cloud.instance.offset_scale,
+        rotation: [rotation[0], rotation[1], fade, MARCH_STEPS as f32],
+        extinction_min: [
+            e.origin_m.x as f32,
+            e.origin_m.y as f32,
+            e.origin_m.z as f32,
+            truncation,
+        ],
+        extinction_size: [
+            size.x as f32,
+            size.y as f32,
+            size.z as f32,
+            scale_weight as f32,
+        ],
+        light_min: [
+            i.light_origin_m[0],
+            i.light_origin_m[1],
+            i.light_origin_m[2],
+            f32::from(u8::from(sky_direct)),
+        ],
+        light_size: [
+            i.light_extent_m[0],
+            i.light_extent_m[1],
+            i.light_extent_m[2],
+            0.0,
+        ],
+        light_dims: [
+            i.light_dims[0],
+            i.light_dims[1],
+            i.light_dims[2],
+            u32::from(sun_cube_active),
+        ],
+    }
+}
+
+/// The light atlas of an instance: its cells as z slices stacked in y.
+fn light_atlas(device: &wgpu::Device, [nx, ny, nz]: [u32; 3]) -> wgpu::TextureView {
+    device
+        .create_texture(&wgpu::TextureDescriptor {
+            label: Some("cumulus in-cloud light"),
+            size: wgpu::Extent3d {
+                width: nx,
+                height: ny * nz,
+                depth_or_array_layers: 1,
+            },
+            mip_level_count: 1,
+            sample_count: 1,
+            dimension: wgpu::TextureDimension::D2,
+            format: LIGHT_FORMAT,
+            usage: wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::RENDER_ATTACHMENT,
+            view_formats: &[],
+        })
+        .create_view(&Default::default())
+}
+
+/// The pixels (x, y, width, height) a cloud's extinction box may cover:
+/// its corners projected; the whole target when one is behind the camera.
+fn box_scissor(
+    cloud: &FieldCloud,
+    interior: &VariantInterior,
+    clip_from_world: &Mat4,
+    (width, height): (u32, u32),
+) -> [u32; 4] {
+    let whole = [0, 0, width, height];
+    let e = &interior.extinction;
+    let (lo, hi) = (e.origin_m, e.max_corner_m());
+    let [ox, oy, oz, scale] = cloud.instance.offset_scale.map(f64::from);
+    let [c, s, ..] = cloud.instance.rotation_noise.map(f64::from);
+    let (mut min, mut max) = (glam::Vec2::splat(f32::MAX), glam::Vec2::splat(f32::MIN));
+    for corner in 0..8 {
+        let pick = |bit: usize, a: f64, b: f64| if corner & bit == 0 { a } else { b };
+        let o = DVec3::new(
+            pick(1, lo.x, hi.x),
+            pick(2, lo.y, hi.y),
+            pick(4, lo.z, hi.z),
+        ) * scale;
+        // cumulus_rotate: the inverse of `object_direction`'s turn.
+        let world = DVec3::new(c * o.x + s * o.z + ox, o.y + oy, -s * o.x + c * o.z + oz);
+        let clip =
+            *clip_from_world * Vec4::new(world.x as f32, world.y as f32, world.z as f32, 1.0);
+        if clip.w <= 1e-3 {
+            return whole;
+        }
+        let ndc = glam::Vec2::new(clip.x, clip.y) / clip.w;
+        min = min.min(ndc);
+        max = max.max(ndc);
+    }
+    // NDC y up, pixels y down; a pixel of margin for the rasteriser.
+    let to_px = |x: f32, size: u32| ((x * 0.5 + 0.5) * size as f32).clamp(0.0, size as f32);
+    let x0 = to_px(min.x, width).floor().max(1.0) - 1.0;
+    let x1 = (to_px(max.x, width).ceil() + 1.0).min(width as f32);
+    let y0 = to_px(-max.y, height).floor().max(1.0) - 1.0;
+    let y1 = (to_px(-min.y, height).ceil() + 1.0).min(height as f32);
+    if x1 <= x0 || y1 <= y0 {
+        return [0, 0, 0, 0];
+    }
+    [x0 as u32, y0 as u32, (x1 - x0) as u32, (y1 - y0) as u32]
 }
 
 /// The sun cube on the GPU: two 3D textures of f16 (as the light's), the

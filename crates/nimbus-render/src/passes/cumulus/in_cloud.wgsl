@@ -25,7 +25,8 @@ struct InCloud {
     extinction_min: vec4<f32>,
     // Its size (m) and the light's weight between its two scales.
     extinction_size: vec4<f32>,
-    // The light's box in the object frame (min xyz, m), unused.
+    // The light's box in the object frame (min xyz, m), and the weight of
+    // the sky's direct fluence (1 in the volume model, else 0).
     light_min: vec4<f32>,
     // Its size, m, unused.
     light_size: vec4<f32>,
@@ -42,9 +43,12 @@ struct InCloud {
 // sun's per unit irradiance Σ Φ_k Y_k(l).
 @group(1) @binding(5) var in_cloud_light: texture_2d<f32>;
 @group(1) @binding(6) var in_cloud_sampler: sampler;
+// The depth buffer, read only by the copy each march reads (binding 11):
+// the volume marches write the depth buffer.
 @group(1) @binding(7) var in_cloud_depth: texture_depth_2d;
-// The light pass's input: per cell, the quadratic forms at the two scales
-// (six vec4, interior.rs VariantInterior::light_forms).
+// The light pass's input: per cell, the quadratic forms of the scattered
+// fluence at the two scales, then of the direct fluence (twelve vec4,
+// interior.rs VariantInterior::light_forms).
 @group(1) @binding(8) var<storage, read> in_cloud_forms: array<vec4<f32>>;
 // The sun cube (interior.rs VariantSunCube) over the light's box: rgb the
 // sun's directional fluence per unit irradiance towards +x, +y, +z and a its
@@ -52,11 +56,15 @@ struct InCloud {
 // −z and a the fluence (object frame).
 @group(1) @binding(9) var in_cloud_sun_cube_positive: texture_3d<f32>;
 @group(1) @binding(10) var in_cloud_sun_cube_negative: texture_3d<f32>;
+// The depth buffer as it was before this march (reverse-Z).
+@group(1) @binding(11) var in_cloud_scene_depth: texture_2d<f32>;
 
 // The sun's direct beam is evaluated at this many points of a view ray and
 // held between them, each marched towards the sun in IN_CLOUD_SUN_STEPS.
 const IN_CLOUD_SHADOW_SEGMENTS: u32 = 8u;
 const IN_CLOUD_SUN_STEPS: u32 = 16u;
+// Strides of the search for the cloud along a view ray through its box.
+const IN_CLOUD_SKIP_STEPS: u32 = 64u;
 
 // The object frame's point of a world point (inverse of cumulus_varying's).
 fn in_cloud_object(world_m: vec3<f32>) -> vec3<f32> {
@@ -162,11 +170,23 @@ fn in_cloud_light_fragment(in: FullscreenOutput) -> @location(0) vec4<f32> {
     let texel = vec2<u32>(in.position.xy);
     let cell = (texel.y / dims.y) * dims.y * dims.x + (texel.y % dims.y) * dims.x + texel.x;
     let w = in_cloud.extinction_size.w;
-    let c_b = mix(in_cloud_forms[6u * cell], in_cloud_forms[6u * cell + 3u], w);
-    let d = mix(in_cloud_forms[6u * cell + 1u], in_cloud_forms[6u * cell + 4u], w);
-    let o = mix(in_cloud_forms[6u * cell + 2u], in_cloud_forms[6u * cell + 5u], w);
+    let at = 12u * cell;
+    let c_b = mix(in_cloud_forms[at], in_cloud_forms[at + 3u], w);
+    let d = mix(in_cloud_forms[at + 1u], in_cloud_forms[at + 4u], w);
+    let o = mix(in_cloud_forms[at + 2u], in_cloud_forms[at + 5u], w);
     let f = cumulus_turned_transfer(c_b, d, o, in_cloud.rotation.xy);
-    let environment = max(cumulus_transfer_environment(f, lighting), vec3<f32>(0.0));
+    // The sky's direct fluence: its single scattering, taken as isotropic
+    // as its scattered light is (cumulus::interior's notes), in the volume
+    // model only: right on the faces a camera outside sees, too bright
+    // under a base seen from just below it, where the sky's light arrives
+    // sideways and the droplets send little of it down (docs/REALISM.md,
+    // "The volume model"). The sun's direct beam is the march's own.
+    let direct_c_b = mix(in_cloud_forms[at + 6u], in_cloud_forms[at + 9u], w);
+    let direct_d = mix(in_cloud_forms[at + 7u], in_cloud_forms[at + 10u], w);
+    let direct_o = mix(in_cloud_forms[at + 8u], in_cloud_forms[at + 11u], w);
+    let direct = cumulus_turned_transfer(direct_c_b, direct_d, direct_o, in_cloud.rotation.xy);
+    let environment = max(cumulus_transfer_environment(f, lighting), vec3<f32>(0.0))
+        + in_cloud.light_min.w * max(cumulus_transfer_environment(direct, lighting), vec3<f32>(0.0));
     let sun = max(cumulus_transfer_value(f, frame.sun_direction), 0.0);
     return vec4<f32>(environment, sun);
 }
@@ -178,6 +198,9 @@ struct InCloudMarch {
     // The point of the ray where its light was scattered, on average (for
     // the air in front of it), m.
     mean_m: vec3<f32>,
+    // Where the transmittance first fell below ½ (the body's depth), m
+    // along the ray; negative if it did not.
+    opaque_t: f32,
 }
 
 // The object frame's direction of a world direction, per world metre (the
@@ -261,8 +284,10 @@ fn in_cloud_march(origin_m: vec3<f32>, direction: vec3<f32>, t0: f32, t1: f32) -
     var out: InCloudMarch;
     out.radiance = vec3<f32>(0.0);
     out.transmittance = 1.0;
+    out.opaque_t = -1.0;
     var weighted = vec3<f32>(0.0);
     var weight = 0.0;
+    var optical_depth = 0.0;
     let span = t1 - t0;
     for (var i = 0u; i < steps; i += 1u) {
         let a = f32(i) / f32(steps);
@@ -297,13 +322,41 @@ fn in_cloud_march(origin_m: vec3<f32>, direction: vec3<f32>, t0: f32, t1: f32) -
         let scattered = sun.rgb * sun_toward + environment;
         let source = phase * sun.rgb * sun.a + scattered / (4.0 * PI);
         let opacity = 1.0 - exp(-sigma * dt);
+        optical_depth += sigma * dt;
         let seen = out.transmittance * opacity;
         out.radiance += seen * source;
         weighted += seen * p;
         weight += seen;
+        let before = out.transmittance;
         out.transmittance *= 1.0 - opacity;
+        if (before >= 0.5 && out.transmittance < 0.5) {
+            out.opaque_t = t;
+        }
+        // Nothing farther is seen.
+        if (out.transmittance < 1e-4) {
+            out.transmittance = 0.0;
+            break;
+        }
     }
     out.mean_m = select(origin_m, weighted / max(weight, 1e-6), weight > 0.0);
+    // The sun's light scattered only within the droplets' forward peak,
+    // which δ-M keeps in the beam and so the march above never sees: the
+    // silver lining of a cloud seen near the sun. The mesh's term P,
+    // F(θ, τ) through the ray's whole chord at the full optical depth
+    // (nimbus_physics::cumulus::forward_peak), lit where the chord's far
+    // end meets the beam (towards the sun from there this cloud has no
+    // more of its body; the clouds beyond and the layer may).
+    let angle = acos(clamp(dot(direction, l), -1.0, 1.0));
+    if (angle < cumulus.peak_grid.x && optical_depth > 0.0) {
+        let far = origin_m + direction * t1;
+        var shadow = stratus_sun_transmittance(far).g;
+        if (cumulus_term_on(CUMULUS_SHADOW)) {
+            let own = in_cloud_own_transmittance(in_cloud_object(far), object_sun);
+            shadow *= in_cloud_beyond_transmittance(own.xyz);
+        }
+        let peak = cumulus_forward_peak(angle, optical_depth / truncation);
+        out.radiance += cumulus.extension.y * PI * cumulus_sun_radiance(far.y) * shadow * peak;
+    }
     return out;
 }
 
@@ -317,29 +370,91 @@ fn in_cloud_box(origin: vec3<f32>, direction: vec3<f32>) -> vec2<f32> {
     return vec2<f32>(max(near, 0.0), far);
 }
 
-@fragment
-fn in_cloud_fragment(in: FullscreenOutput) -> @location(0) vec4<f32> {
-    let direction = view_ray_world(in.clip_xy);
-    let origin = view_ray_origin_world(in.clip_xy);
-    let depth = textureLoad(in_cloud_depth, vec2<i32>(in.position.xy), 0);
+// The march of a pixel: premultiplied colour (the fade applied) and where
+// the cloud became opaque (negative if it did not).
+struct InCloudPixel {
+    colour: vec4<f32>,
+    opaque_t: f32,
+}
+
+fn in_cloud_pixel(clip_xy: vec2<f32>, pixel: vec2<i32>) -> InCloudPixel {
+    var out: InCloudPixel;
+    out.colour = vec4<f32>(0.0);
+    out.opaque_t = -1.0;
+    let direction = view_ray_world(clip_xy);
+    let origin = view_ray_origin_world(clip_xy);
+    let depth = textureLoad(in_cloud_scene_depth, pixel, 0).r;
     var end_m = 1e9;
     if (depth > 0.0) {
-        end_m = length(world_at_depth(in.clip_xy, depth) - origin);
+        end_m = length(world_at_depth(clip_xy, depth) - origin);
     }
     // The ray in the object frame, parametrised by world metres.
     let object_direction = in_cloud_object_direction(direction);
     let span = in_cloud_box(in_cloud_object(origin), object_direction);
     let t1 = min(span.y, end_m);
     if (t1 <= span.x) {
-        return vec4<f32>(0.0);
+        return out;
     }
-    let march = in_cloud_march(origin, direction, span.x, t1);
+    // The box's empty space before the cloud skipped, in strides of 1/64
+    // of the chord: the march's fine first steps and the direct beam's
+    // segments then start at the cloud's face, not at the box's (from
+    // outside, a face 200 m into the box met steps of ~20 m and a beam
+    // held over ~60 m).
+    var t0 = -1.0;
+    let stride = (t1 - span.x) / f32(IN_CLOUD_SKIP_STEPS);
+    for (var i = 0u; i < IN_CLOUD_SKIP_STEPS; i += 1u) {
+        let t = span.x + (f32(i) + 0.5) * stride;
+        if (in_cloud_sigma(in_cloud_object(origin + direction * t)) > 0.0) {
+            t0 = max(span.x, t - stride);
+            break;
+        }
+    }
+    if (t0 < 0.0) {
+        return out;
+    }
+    let march = in_cloud_march(origin, direction, t0, t1);
     let opacity = 1.0 - march.transmittance;
     if (opacity <= 0.0) {
-        return vec4<f32>(0.0);
+        return out;
     }
     // The air in front of the light, at its mean depth: α f(L/α).
     let seen = opacity * stratus_apply_aerial_perspective(march.radiance / opacity, march.mean_m);
     let fade = in_cloud.rotation.z;
-    return vec4<f32>(to_target(seen).rgb * fade, opacity * fade);
+    out.colour = vec4<f32>(to_target(seen).rgb * fade, opacity * fade);
+    out.opaque_t = march.opaque_t;
+    return out;
+}
+
+@fragment
+fn in_cloud_fragment(in: FullscreenOutput) -> @location(0) vec4<f32> {
+    return in_cloud_pixel(in.clip_xy, vec2<i32>(in.position.xy)).colour;
+}
+
+struct InCloudVolumeOutput {
+    @location(0) colour: vec4<f32>,
+    @builtin(frag_depth) depth: f32,
+}
+
+// The volume model's march: the colour, and the depth of the body where
+// the cloud is opaque (else the depth read: what is behind stays in front
+// of whatever is drawn later).
+@fragment
+fn in_cloud_volume_fragment(in: FullscreenOutput) -> InCloudVolumeOutput {
+    let pixel = vec2<i32>(in.position.xy);
+    let march = in_cloud_pixel(in.clip_xy, pixel);
+    var out: InCloudVolumeOutput;
+    out.colour = march.colour;
+    out.depth = textureLoad(in_cloud_scene_depth, pixel, 0).r;
+    if (march.opaque_t >= 0.0) {
+        let p = view_ray_origin_world(in.clip_xy) + view_ray_world(in.clip_xy) * march.opaque_t;
+        let clip = frame.clip_from_world * vec4<f32>(p, 1.0);
+        out.depth = max(out.depth, clamp(clip.z / clip.w, 0.0, 1.0));
+    }
+    return out;
+}
+
+// The depth buffer copied into the float texture the marches read.
+@fragment
+fn in_cloud_scene_depth_fragment(in: FullscreenOutput) -> @location(0) vec4<f32> {
+    return vec4<f32>(textureLoad(in_cloud_depth, vec2<i32>(in.position.xy), 0), 0.0, 0.0, 0.0);
 }

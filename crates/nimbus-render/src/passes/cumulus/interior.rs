@@ -35,7 +35,7 @@ pub const INTERIOR_CELLS: usize = 32;
 /// 2 bytes: 4 MiB per variant).
 pub const EXTINCTION_CELLS: usize = 128;
 const CACHE_MAGIC: &[u8; 8] = b"NIMBUSIC";
-const CACHE_VERSION: u32 = 1;
+const CACHE_VERSION: u32 = 2;
 /// Largest interior cache file read, bytes.
 const MAX_CACHE_FILE_BYTES: u64 = 256 * 1024 * 1024;
 
@@ -82,8 +82,9 @@ pub struct VariantInterior {
     /// Cells of the light along x, y, z.
     pub light_dims: [u32; 3],
     /// Per cell (x fastest): Φ_k as quadratic forms ([`pack_form`]) at the
-    /// smallest scale, then at the largest.
-    pub light_forms: Vec<[[f32; 4]; 6]>,
+    /// smallest scale, then at the largest; then Φ^d_k (the direct
+    /// fluence's) at the two scales.
+    pub light_forms: Vec<[[f32; 4]; 12]>,
 }
 
 /// Computes variant `index`'s interior (seconds).
@@ -101,7 +102,7 @@ pub fn compute_interior(
     )?;
     let origin = DVec3::from_array(shape.origin_m.map(f64::from));
     let (scattering, truncated) = tracer_scattering(optics);
-    let mut forms: Vec<[[f32; 4]; 6]> = Vec::new();
+    let mut forms: Vec<[[f32; 4]; 12]> = Vec::new();
     let mut light = None;
     for (slot, scale) in params.scales.iter().enumerate() {
         let interior = trace_interior(
@@ -114,11 +115,14 @@ pub fn compute_interior(
             },
         );
         if forms.is_empty() {
-            forms = vec![[[0.0; 4]; 6]; interior.coefficients.len()];
+            forms = vec![[[0.0; 4]; 12]; interior.coefficients.len()];
         }
-        for (out, phi) in forms.iter_mut().zip(&interior.coefficients) {
+        let cells = interior.coefficients.iter().zip(&interior.direct);
+        for (out, (phi, direct)) in forms.iter_mut().zip(cells) {
             let packed = pack_form(&SphericalQuadratic::from_sh(phi));
             out[3 * slot..3 * slot + 3].copy_from_slice(&packed);
+            let packed = pack_form(&SphericalQuadratic::from_sh(direct));
+            out[6 + 3 * slot..9 + 3 * slot].copy_from_slice(&packed);
         }
         light = Some(interior);
     }
@@ -384,8 +388,8 @@ fn from_bytes(bytes: &[u8]) -> Option<VariantInterior> {
         .iter()
         .try_fold(1usize, |a, &n| a.checked_mul(n as usize))?;
     let values_per_m: Vec<f32> = bytemuck::pod_collect_to_vec(take(cells.checked_mul(4)?)?);
-    let light_forms: Vec<[[f32; 4]; 6]> =
-        bytemuck::pod_collect_to_vec(take(light_cells.checked_mul(96)?)?);
+    let light_forms: Vec<[[f32; 4]; 12]> =
+        bytemuck::pod_collect_to_vec(take(light_cells.checked_mul(192)?)?);
     if at != bytes.len() || cells == 0 || light_cells == 0 {
         return None;
     }
@@ -453,7 +457,7 @@ mod tests {
             light_origin_m: [1.0, 2.0, 3.0],
             light_extent_m: [4.0, 5.0, 6.0],
             light_dims: [2, 1, 1],
-            light_forms: vec![[[1.0, 2.0, 3.0, 4.0]; 6]; 2],
+            light_forms: vec![[[1.0, 2.0, 3.0, 4.0]; 12]; 2],
         };
         let bytes = to_bytes(&interior);
         assert_eq!(from_bytes(&bytes), Some(interior));

@@ -157,7 +157,13 @@ impl CumulusPass {
     /// Whether the camera is in or near a cloud this frame (the in-cloud
     /// passes run).
     pub fn in_cloud_active(&self) -> bool {
-        self.in_cloud.active().is_some()
+        !self.in_cloud.active().is_empty() && !self.in_cloud.volume()
+    }
+
+    /// Whether the volume model marches clouds this frame (drawn with the
+    /// bodies, before the stratus layer: [`Self::encode_in_cloud`] there).
+    pub fn volume_active(&self) -> bool {
+        !self.in_cloud.active().is_empty() && self.in_cloud.volume()
     }
 
     /// Records the in-cloud passes (see [`super::in_cloud`]): the active

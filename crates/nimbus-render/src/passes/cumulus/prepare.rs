@@ -262,6 +262,7 @@ impl CumulusPass {
                 move || variants::load_or_generate(&crate::core::cache::cache_dir(), &job)
             })
             .cloned();
+        let volume = settings.shading.model == CumulusShadingModel::Volume;
         let transport = settings.shading.model == CumulusShadingModel::Transport;
         // The droplets' tables are needed by the forward peak, the transport
         // model and the in-cloud march (its phase function and δ-M factor).
@@ -348,7 +349,10 @@ impl CumulusPass {
             drift,
         ));
         let mut uniform = CumulusUniform::new(settings, &scene.atmosphere, scene.sun.direction());
-        if transport && !self.moved.is_empty() {
+        // The volume model shades the clouds beyond those it marches as the
+        // transport model does (none when it can march them all).
+        let meshes_shaded = !volume || self.moved.len() > in_cloud::MAX_MARCHED_CLOUDS;
+        if (transport || volume) && meshes_shaded && !self.moved.is_empty() {
             // The transfer's scales: the field's smallest and largest, to a
             // thousandth (a field edited by a hair keeps its transfer).
             let round = |s: f64| (s * 1000.0).round() / 1000.0;
@@ -409,6 +413,12 @@ impl CumulusPass {
             };
             let shapes: Vec<Arc<CumulusVariant>> =
                 variants.iter().map(|v| v.shape.clone()).collect();
+            let view = in_cloud::MarchView {
+                volume,
+                clip_from_world: frame.clip_from_world(),
+                size: (width, height),
+            };
+            self.in_cloud.ensure_scene_depth(view.size);
             self.in_cloud.prepare(
                 queue,
                 DVec3::from_array(frame.camera_position_m.map(f64::from)),
@@ -418,9 +428,10 @@ impl CumulusPass {
                 DVec3::from_array(frame.sun_direction.map(f64::from)),
                 self.transport_truncation,
                 precompute,
+                &view,
             )?;
         }
-        let active = self.in_cloud.active();
+        let active = self.in_cloud.active().to_vec();
 
         // Instances: the camera's (culled, by level of detail), then the shadow's (all).
         let clip_from_world = frame.clip_from_world();
@@ -428,7 +439,7 @@ impl CumulusPass {
         let mut camera_list: Vec<(usize, usize, CumulusInstance)> = Vec::new();
         for (index, cloud) in clouds.iter().enumerate() {
             let mut instance = cloud.instance;
-            if let Some(a) = active.filter(|a| a.cloud == index) {
+            if let Some(a) = active.iter().find(|a| a.cloud == index) {
                 // Drawn by the march alone once it has fully taken over.
                 if a.fade >= 1.0 {
                     continue;
