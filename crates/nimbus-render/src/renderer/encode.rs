@@ -190,9 +190,9 @@ impl Renderer {
                     .map(|t| t.pass_writes(PassId::CumulusFringes.timer_index())),
             );
         }
-        // 6b. The volume model: the clouds in view marched as volumes over
-        // what is behind them, writing the depth of their bodies.
-        if volume {
+        // The cumulus marches, of the volume model (6b) or of the cloud the
+        // camera is in or near (8e).
+        let cumulus_marches = |encoder: &mut wgpu::CommandEncoder| {
             let writes = |id: PassId| self.timer.as_ref().map(|t| t.pass_writes(id.timer_index()));
             self.cumulus.encode_in_cloud(
                 encoder,
@@ -202,6 +202,11 @@ impl Renderer {
                 writes(PassId::CumulusInCloudLight),
                 writes(PassId::CumulusInCloud),
             );
+        };
+        // 6b. The volume model: the clouds in view marched as volumes over
+        // what is behind them, writing the depth of their bodies.
+        if volume {
+            cumulus_marches(encoder);
         }
         // 7. The stratus layer, blended over sky, terrain and cumulus bodies, depth-tested.
         if self.stratus.enabled() {
@@ -255,15 +260,7 @@ impl Renderer {
         // volume over everything (its mesh faded out), attenuating what is
         // behind it — the caller's surfaces included, through the depth.
         if in_cloud {
-            let writes = |id: PassId| self.timer.as_ref().map(|t| t.pass_writes(id.timer_index()));
-            self.cumulus.encode_in_cloud(
-                encoder,
-                &hdr.view,
-                depth,
-                &frame,
-                writes(PassId::CumulusInCloudLight),
-                writes(PassId::CumulusInCloud),
-            );
+            cumulus_marches(encoder);
         }
         // 9–10 in LinearHdr: nimbus's target over the caller's colour; the
         // caller exposes and tone maps.
