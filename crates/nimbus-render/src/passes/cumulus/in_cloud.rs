@@ -649,12 +649,12 @@ impl InCloud {
         // the last's end.
         fn span<'q>(
             writes: &Option<wgpu::RenderPassTimestampWrites<'q>>,
-            k: usize,
-            count: usize,
+            first: bool,
+            last: bool,
         ) -> Option<wgpu::RenderPassTimestampWrites<'q>> {
             let w = writes.as_ref()?;
-            let beginning = w.beginning_of_pass_write_index.filter(|_| k == 0);
-            let end = w.end_of_pass_write_index.filter(|_| k + 1 == count);
+            let beginning = w.beginning_of_pass_write_index.filter(|_| first);
+            let end = w.end_of_pass_write_index.filter(|_| last);
             (beginning.is_some() || end.is_some()).then_some(wgpu::RenderPassTimestampWrites {
                 query_set: w.query_set,
                 beginning_of_pass_write_index: beginning,
@@ -713,7 +713,7 @@ impl InCloud {
                     },
                 })],
                 depth_stencil_attachment: None,
-                timestamp_writes: span(&light_timestamps, k, count),
+                timestamp_writes: span(&light_timestamps, k == 0, k + 1 == count),
                 occlusion_query_set: None,
                 multiview_mask: None,
             });
@@ -724,22 +724,8 @@ impl InCloud {
         for (k, (_, (_, march_group), [x, y, w, h])) in drawn.iter().enumerate() {
             let (x, y, w, h) = (*x, *y, *w, *h);
             // The march's timer starts with its first copy of the depth.
-            let start = span(&march_timestamps, k, count).and_then(|t| {
-                t.beginning_of_pass_write_index
-                    .map(|index| wgpu::RenderPassTimestampWrites {
-                        query_set: t.query_set,
-                        beginning_of_pass_write_index: Some(index),
-                        end_of_pass_write_index: None,
-                    })
-            });
-            let end = span(&march_timestamps, k, count).and_then(|t| {
-                t.end_of_pass_write_index
-                    .map(|index| wgpu::RenderPassTimestampWrites {
-                        query_set: t.query_set,
-                        beginning_of_pass_write_index: None,
-                        end_of_pass_write_index: Some(index),
-                    })
-            });
+            let start = span(&march_timestamps, k == 0, false);
+            let end = span(&march_timestamps, false, k + 1 == count);
             {
                 let mut pass = crate::core::targets::colour_pass(
                     encoder,

@@ -351,8 +351,11 @@ fn in_cloud_march(origin_m: vec3<f32>, direction: vec3<f32>, t0: f32, t1: f32) -
         let far = origin_m + direction * t1;
         var shadow = stratus_sun_transmittance(far).g;
         if (cumulus_term_on(CUMULUS_SHADOW)) {
-            let own = in_cloud_own_transmittance(in_cloud_object(far), object_sun);
-            shadow *= in_cloud_beyond_transmittance(own.xyz);
+            // Where the beam leaves the box (no march along it: this
+            // cloud's own body is not in the way).
+            let object_far = in_cloud_object(far);
+            let exit = object_far + object_sun * max(in_cloud_box(object_far, object_sun).y, 0.0);
+            shadow *= in_cloud_beyond_transmittance(in_cloud_world(exit));
         }
         let peak = cumulus_forward_peak(angle, optical_depth / truncation);
         out.radiance += cumulus.extension.y * PI * cumulus_sun_radiance(far.y) * shadow * peak;
