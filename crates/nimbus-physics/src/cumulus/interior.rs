@@ -18,7 +18,19 @@
 //! Σ_k Φ^d_k L_k /(4π) per unit σ, and near a face — all a camera outside
 //! the cloud sees — it is as large as the scattered light (half the sky
 //! is open there; docs/REALISM.md, "The volume model"). The sun's direct
-//! beam stays analytic (below), so the sun reads Φ_k alone.
+//! beam stays analytic (below), so the sun reads Φ_k alone. Taken
+//! isotropic it also sent the light arriving sideways down to a camera
+//! under a base: the march scatters it through the phase function instead
+//! ([`SkyDirectKernel`], T's orders ≤ 1).
+//!
+//! And F_k (k ≤ 3): the scattered light's net flux, ∫ Φ(x, s, ω) ω dω
+//! projected on the harmonics of order ≤ 1 over s, the first moment of the
+//! same tally (each path length weighed by its direction of travel). The
+//! sky's scattered light towards the camera is then Eddington's
+//! (Φ + 3 g* o·F)/(4π) rather than Φ/(4π): near a face the sky's light
+//! flows out of the cloud, so the fog looking out through a shaded face is
+//! dimmer than the isotropic fluence says, a face seen from outside
+//! brighter (docs/REALISM.md, "The volume model").
 //!
 //! **Estimator.** Photons arrive as in [`super::transport::trace_transfer`]
 //! (uniform directions, uniform over the disk facing each across the
@@ -106,6 +118,10 @@ pub struct InteriorTransfer {
     pub coefficients: Vec<[f64; 9]>,
     /// Φ^d_0 … Φ^d_8, the direct fluence's, per cell (the same order).
     pub direct: Vec<[f64; 9]>,
+    /// F_0 … F_3, the scattered light's net flux vectors (x, y, z, per unit
+    /// irradiance, dimensionless) projected on the harmonics of order ≤ 1
+    /// over the source's direction, per cell: the sky's is Σ_k F_k L_k.
+    pub flux: Vec<[[f64; 3]; 4]>,
     /// Photons traced.
     pub photons: u64,
 }
@@ -137,19 +153,20 @@ impl InteriorTransfer {
     pub fn direct_cell(&self, cell: [usize; 3]) -> [f64; 9] {
         self.direct[self.index(cell)]
     }
+
+    /// F_k of cell (i, j, k).
+    pub fn flux_cell(&self, cell: [usize; 3]) -> [[f64; 3]; 4] {
+        self.flux[self.index(cell)]
+    }
 }
 
-/// Where the photons of [`trace_cells`] come from, and what their tally
-/// is weighed by.
+/// Where the photons of [`trace_cells`] come from.
 #[derive(Clone, Copy, Debug, PartialEq)]
 enum Launch {
     /// Uniform over the directions towards the source: the light of every
-    /// sun direction at once, for a projection over them. The weight is a
-    /// function of the photon's source direction s, taken once per photon.
+    /// sun direction at once, for a projection over them.
     Uniform,
     /// One collimated beam from the direction towards its source (unit).
-    /// The weight is a function of the photon's direction of travel d,
-    /// taken at each scattering.
     Beam(DVec3),
 }
 
@@ -171,8 +188,10 @@ fn cell_size_m(extent_m: DVec3, dims: [usize; 3]) -> DVec3 {
 
 /// The scattered light's path length per cell, weighted: photons launched
 /// by `launch` cross the medium by delta tracking, and every tentative
-/// collision after the first real one adds `weigh(s)` or `weigh(d)` (see
-/// [`Launch`]) times its weight to its cell (see the module notes). Returns the sums scaled to per unit volume
+/// collision adds `weigh(s, d, order)` times its weight to its cell (see
+/// the module notes): s the photon's source direction, d its direction of
+/// travel, `order` its scatterings so far; the unscattered light (order 0)
+/// only for [`Launch::Uniform`] (a beam's is the analytic direct beam's). Returns the sums scaled to per unit volume
 /// and unit irradiance of the source (times 4π for [`Launch::Uniform`],
 /// whose sources' directions have density 1/4π), the cells' grid and the
 /// photons traced. Parallel (rayon); the result does not depend on the
@@ -182,7 +201,7 @@ fn trace_cells<const N: usize>(
     scattering: &Scattering,
     settings: &InteriorSettings,
     launch: Launch,
-    weigh: impl Fn(DVec3, u32) -> [f64; N] + Sync,
+    weigh: impl Fn(DVec3, DVec3, u32) -> [f64; N] + Sync,
 ) -> (Vec<[f64; N]>, DVec3, [usize; 3], u64) {
     let bounds = medium.bounds_m();
     let (lo, hi) = bounds;
@@ -236,7 +255,7 @@ fn trace_cells<const N: usize>(
                     // may tally it (the direct fluence), a beam's is the
                     // analytic direct beam's and is not tallied.
                     let mut per_unit_weight = match launch {
-                        Launch::Uniform => weigh(to_light, 0),
+                        Launch::Uniform => weigh(to_light, d, 0),
                         Launch::Beam(_) => [0.0; N],
                     };
                     let tally_direct = matches!(launch, Launch::Uniform);
@@ -267,13 +286,7 @@ fn trace_cells<const N: usize>(
                                 phi,
                             ))
                             .normalize();
-                            match launch {
-                                Launch::Uniform if order == 1 => {
-                                    per_unit_weight = weigh(to_light, 1);
-                                }
-                                Launch::Uniform => {}
-                                Launch::Beam(_) => per_unit_weight = weigh(d, order),
-                            }
+                            per_unit_weight = weigh(to_light, d, order);
                         }
                     }
                 }
@@ -296,35 +309,54 @@ fn trace_cells<const N: usize>(
     (scaled, extent, dims, photons)
 }
 
-/// Traces Φ_k and Φ^d_k of `medium` on a grid of cells over its box (see
-/// the module notes). Parallel (rayon); the result does not depend on the
-/// thread count. Memory: 144 bytes per cell per worker.
+/// Traces Φ_k, Φ^d_k and F_k of `medium` on a grid of cells over its box
+/// (see the module notes). Parallel (rayon); the result does not depend on
+/// the thread count. Memory: 240 bytes per cell per worker.
 pub fn trace_interior(
     medium: &impl Medium,
     scattering: &Scattering,
     settings: &InteriorSettings,
 ) -> InteriorTransfer {
-    // The first nine: the scattered light's; the last nine: the direct's.
-    let (cells, extent_m, dims, photons) =
-        trace_cells(medium, scattering, settings, Launch::Uniform, |s, order| {
+    // 0..9: the scattered light's Y_k(s); 9..18: the direct's; 18..30: the
+    // scattered light's Y_k(s) d (k ≤ 3, d's x, y, z).
+    let (cells, extent_m, dims, photons) = trace_cells(
+        medium,
+        scattering,
+        settings,
+        Launch::Uniform,
+        |s, d, order| {
             let y = sh::basis(s.to_array());
-            let mut weights = [0.0; 18];
-            let half = if order == 0 { 9 } else { 0 };
-            weights[half..half + 9].copy_from_slice(&y);
+            let mut weights = [0.0; 30];
+            if order == 0 {
+                weights[9..18].copy_from_slice(&y);
+            } else {
+                weights[..9].copy_from_slice(&y);
+                for k in 0..4 {
+                    for a in 0..3 {
+                        weights[18 + 3 * k + a] = y[k] * d[a];
+                    }
+                }
+            }
             weights
-        });
+        },
+    );
     let split = |from: usize| -> Vec<[f64; 9]> {
         cells
             .iter()
             .map(|c| std::array::from_fn(|k| c[from + k]))
             .collect()
     };
+    let flux = cells
+        .iter()
+        .map(|c| std::array::from_fn(|k| std::array::from_fn(|a| c[18 + 3 * k + a])))
+        .collect();
     InteriorTransfer {
         origin_m: medium.bounds_m().0,
         extent_m,
         dims,
         coefficients: split(0),
         direct: split(9),
+        flux,
         photons,
     }
 }
@@ -350,7 +382,7 @@ pub fn trace_beam_cells<const N: usize>(
         scattering,
         settings,
         Launch::Beam(to_light.normalize()),
-        |d, _| weigh(d),
+        |_, d, _| weigh(d),
     );
     (cells, extent, dims)
 }
@@ -579,6 +611,14 @@ pub struct FogLight {
     /// irradiance, from the sun's own [`SunCube`], when one is ready: it
     /// replaces the isotropic `sun_fluence` with its forward lobe.
     pub sun_toward_camera: Option<f64>,
+    /// o·F/Φ of the sky's scattered light (luminance): its net flux
+    /// towards the camera over its fluence, so that its source is
+    /// Φ (1 + 3 g* o·F/Φ)/(4π), Eddington's (at least 0).
+    pub environment_flux_toward_camera: f64,
+    /// The sky's direct light scattered towards the camera per unit σ*,
+    /// W sr⁻¹ m⁻² (RGB): [`SkyDirectKernel::source`] of the cell's
+    /// [`direct_transmittance`].
+    pub sky_direct: [f64; 3],
 }
 
 /// What is constant along a ray of the fog.
@@ -657,13 +697,131 @@ pub fn march_fog(ray: &FogRay, light: impl Fn(f64) -> FogLight) -> ([f64; 3], f6
             p.sun_fluence - forward + forward * lobe
         });
         for (c, r) in radiance.iter_mut().enumerate() {
+            let environment = p.environment_fluence[c]
+                * (1.0 + 3.0 * ray.asymmetry * p.environment_flux_toward_camera).max(0.0);
             let source = ray.phase[c] * ray.sun_irradiance[c] * p.sun_transmittance
-                + (ray.sun_irradiance[c] * sun_fluence + p.environment_fluence[c]) / (4.0 * PI);
+                + (ray.sun_irradiance[c] * sun_fluence + environment) / (4.0 * PI);
+            let source = source + p.sky_direct[c];
             *r += transmittance * source * (1.0 - step_t);
         }
         transmittance *= step_t;
     }
     (radiance, transmittance)
+}
+
+/// The 26-point rule of Lebedev (1976, "Quadratures on a sphere", USSR
+/// Comput. Math. Math. Phys. 16(2)): the octahedron's 6 vertices (weight
+/// 1/21), its 12 edge midpoints (4/105) and 8 face centres (9/280), weights
+/// summing to 1; exact for polynomials of degree ≤ 7 on the sphere. Twin of
+/// WGSL `lebedev_26`.
+pub fn lebedev_26() -> [(DVec3, f64); 26] {
+    let mut points = [(DVec3::ZERO, 0.0); 26];
+    let mut n = 0;
+    let mut push = |d: DVec3, w: f64| {
+        points[n] = (d.normalize(), w);
+        n += 1;
+    };
+    for a in 0..3 {
+        for sign in [1.0, -1.0] {
+            let mut d = DVec3::ZERO;
+            d[a] = sign;
+            push(d, 1.0 / 21.0);
+        }
+    }
+    for a in 0..3 {
+        let (b, c) = ((a + 1) % 3, (a + 2) % 3);
+        for sb in [1.0, -1.0] {
+            for sc in [1.0, -1.0] {
+                let mut d = DVec3::ZERO;
+                d[b] = sb;
+                d[c] = sc;
+                push(d, 4.0 / 105.0);
+            }
+        }
+    }
+    for sx in [1.0, -1.0] {
+        for sy in [1.0, -1.0] {
+            for sz in [1.0, -1.0] {
+                push(DVec3::new(sx, sy, sz), 9.0 / 280.0);
+            }
+        }
+    }
+    points
+}
+
+/// The Henyey–Greenstein phase function of asymmetry g truncated to its
+/// Legendre orders l ≤ 3, sr⁻¹: Σ_l (2l + 1) gˡ P_l(μ)/(4π) (HG's moments
+/// are gˡ). Against a function of order ≤ 3 over the sphere it integrates
+/// exactly as the whole function does (Funk–Hecke).
+fn phase_orders_3(asymmetry: f64, mu: f64) -> f64 {
+    let g = asymmetry;
+    let p2 = 0.5 * (3.0 * mu * mu - 1.0);
+    let p3 = 0.5 * (5.0 * mu * mu * mu - 3.0 * mu);
+    (1.0 + 3.0 * g * mu + 5.0 * g * g * p2 + 7.0 * g * g * g * p3) / (4.0 * PI)
+}
+
+/// The sky's light scattered once towards the camera, for one view: with
+/// the direct transmittance from the sky to a point T(s) ≈ t̄ + b·s (its
+/// projection on the harmonics of order ≤ 1, [`direct_transmittance`]) and
+/// the sky's radiance L(s) (nine harmonics), the source per unit σ* is
+/// ∫ L(s) T(s) p(−s·o) ds = t̄ `mean` + b · `moment`, o the direction
+/// towards the camera and p the droplets' peak-removed phase function,
+/// Henyey–Greenstein of its asymmetry g*. Where the sky's light crosses
+/// little cloud from the sides and above but the camera looks up from
+/// below, the droplets send little of it down: taken as isotropic (T's
+/// fluence over 4π), the sky's direct light made the view from just under
+/// a base 21 % too bright (docs/REALISM.md, "The volume model").
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct SkyDirectKernel {
+    /// ∫ L(s) p(−s·o) ds, W sr⁻¹ m⁻² (RGB).
+    pub mean: [f64; 3],
+    /// ∫ L(s) p(−s·o) s ds along x, y, z, W sr⁻¹ m⁻² (RGB each).
+    pub moment: [[f64; 3]; 3],
+}
+
+impl SkyDirectKernel {
+    /// The kernel of the sky `sky` (the nine harmonics of its radiance,
+    /// [`crate::sh`]), droplets of peak-removed asymmetry `asymmetry` and
+    /// the direction `toward` the camera (unit: the light's travel after
+    /// scattering). L T is of order ≤ 3, so only p's orders ≤ 3 count and
+    /// the integrand is a polynomial of degree ≤ 6: [`lebedev_26`] is exact.
+    /// Twin of WGSL `sky_direct_kernel` (nimbus-render's
+    /// `shader/diffusion.wgsl`).
+    pub fn new(sky: &[[f64; 3]; 9], asymmetry: f64, toward: DVec3) -> Self {
+        let mut kernel = Self::default();
+        for (s, w) in lebedev_26() {
+            let l = crate::sh::radiance(sky, s.to_array());
+            let weight = 4.0 * PI * w * phase_orders_3(asymmetry, -s.dot(toward));
+            for (c, l) in l.iter().enumerate() {
+                kernel.mean[c] += weight * l;
+                for a in 0..3 {
+                    kernel.moment[a][c] += weight * l * s[a];
+                }
+            }
+        }
+        kernel
+    }
+
+    /// The source per unit σ*, W sr⁻¹ m⁻² (RGB), of a point whose direct
+    /// transmittance is `transmittance` (t̄, b).
+    pub fn source(&self, (mean, gradient): (f64, DVec3)) -> [f64; 3] {
+        std::array::from_fn(|c| {
+            mean * self.mean[c]
+                + gradient.x * self.moment[0][c]
+                + gradient.y * self.moment[1][c]
+                + gradient.z * self.moment[2][c]
+        })
+    }
+}
+
+/// The direct transmittance from the sky, T(s) ≈ t̄ + b·s, from its
+/// projection Φ^d_k ([`InteriorTransfer::direct_cell`]): t̄ = Y₀ Φ^d_0 the
+/// mean over directions, b from the order-1 harmonics.
+pub fn direct_transmittance(direct: &[f64; 9]) -> (f64, DVec3) {
+    (
+        0.282_095 * direct[0],
+        0.488_603 * DVec3::new(direct[3], direct[1], direct[2]),
+    )
 }
 
 #[cfg(test)]

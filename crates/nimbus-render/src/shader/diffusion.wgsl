@@ -93,3 +93,81 @@ fn henyey_greenstein_relative(g: f32, cos_theta: f32) -> f32 {
     let d = 1.0 + g * g - 2.0 * g * cos_theta;
     return (1.0 - g * g) / (d * sqrt(d));
 }
+
+// The 26-point rule of Lebedev (1976): the octahedron's vertices (weight
+// 1/21), edge midpoints (4/105) and face centres (9/280), exact for
+// polynomials of degree ≤ 7 on the sphere. Twin of
+// nimbus_physics::cumulus::interior::lebedev_26 (same points, same order).
+const LEBEDEV_EDGE: f32 = 0.70710678;
+const LEBEDEV_CORNER: f32 = 0.57735027;
+fn lebedev_26(k: u32) -> vec4<f32> {
+    if (k < 6u) {
+        var d = vec3<f32>(0.0);
+        d[k / 2u] = select(1.0, -1.0, (k & 1u) != 0u);
+        return vec4<f32>(d, 1.0 / 21.0);
+    }
+    if (k < 18u) {
+        let j = k - 6u;
+        let a = j / 4u;
+        var d = vec3<f32>(0.0);
+        d[(a + 1u) % 3u] = select(LEBEDEV_EDGE, -LEBEDEV_EDGE, (j & 2u) != 0u);
+        d[(a + 2u) % 3u] = select(LEBEDEV_EDGE, -LEBEDEV_EDGE, (j & 1u) != 0u);
+        return vec4<f32>(d, 4.0 / 105.0);
+    }
+    let j = k - 18u;
+    let d = vec3<f32>(
+        select(LEBEDEV_CORNER, -LEBEDEV_CORNER, (j & 4u) != 0u),
+        select(LEBEDEV_CORNER, -LEBEDEV_CORNER, (j & 2u) != 0u),
+        select(LEBEDEV_CORNER, -LEBEDEV_CORNER, (j & 1u) != 0u));
+    return vec4<f32>(d, 9.0 / 280.0);
+}
+
+// The sky's light scattered once towards the camera, for one view (twin of
+// nimbus_physics::cumulus::interior::SkyDirectKernel): with the direct
+// transmittance T(s) ≈ t̄ + b·s, the source per unit σ* is
+// t̄ mean + b·(x, y, z).
+struct SkyDirectKernel {
+    mean: vec3<f32>,
+    x: vec3<f32>,
+    y: vec3<f32>,
+    z: vec3<f32>,
+}
+
+// The kernel of the sky of nine harmonics `sh` (radiance, rgb), droplets of
+// peak-removed asymmetry `asymmetry` and the direction `toward` the camera:
+// ∫ L(s) HG₃(−s·o) (1, s) ds by the 26-point rule (exact: HG's orders ≤ 3).
+fn sky_direct_kernel(sh: array<vec4<f32>, 9>, asymmetry: f32, toward: vec3<f32>) -> SkyDirectKernel {
+    var out: SkyDirectKernel;
+    out.mean = vec3<f32>(0.0);
+    out.x = vec3<f32>(0.0);
+    out.y = vec3<f32>(0.0);
+    out.z = vec3<f32>(0.0);
+    let g = asymmetry;
+    for (var k = 0u; k < 26u; k += 1u) {
+        let point = lebedev_26(k);
+        let s = point.xyz;
+        let l = 0.282095 * sh[0].xyz
+            + 0.488603 * (sh[1].xyz * s.y + sh[2].xyz * s.z + sh[3].xyz * s.x)
+            + 1.092548 * (sh[4].xyz * s.x * s.y + sh[5].xyz * s.y * s.z + sh[7].xyz * s.x * s.z)
+            + 0.315392 * sh[6].xyz * (3.0 * s.z * s.z - 1.0)
+            + 0.546274 * sh[8].xyz * (s.x * s.x - s.y * s.y);
+        let mu = -dot(s, toward);
+        let p2 = 0.5 * (3.0 * mu * mu - 1.0);
+        let p3 = 0.5 * (5.0 * mu * mu * mu - 3.0 * mu);
+        let phase = 1.0 + 3.0 * g * mu + 5.0 * g * g * p2 + 7.0 * g * g * g * p3;
+        // 4π w p₃, p₃ = phase/(4π).
+        let weighted = point.w * phase * l;
+        out.mean += weighted;
+        out.x += weighted * s.x;
+        out.y += weighted * s.y;
+        out.z += weighted * s.z;
+    }
+    return out;
+}
+
+// The source per unit σ* of a point whose direct transmittance is
+// (t̄, b) = (transmittance.x, transmittance.yzw).
+fn sky_direct_source(kernel: SkyDirectKernel, transmittance: vec4<f32>) -> vec3<f32> {
+    let b = transmittance.yzw;
+    return transmittance.x * kernel.mean + b.x * kernel.x + b.y * kernel.y + b.z * kernel.z;
+}

@@ -88,7 +88,8 @@ pub struct InCloudUniform {
     /// Its size, m, and the light's weight between its two scales.
     pub extinction_size: [f32; 4],
     /// The light's box, object frame (min, m), and the weight of the sky's
-    /// direct fluence (1 in the volume model, else 0).
+    /// direct light and of its scattered light's net flux (1 in the volume
+    /// model, else 0).
     pub light_min: [f32; 4],
     /// Its size, m, unused.
     pub light_size: [f32; 4],
@@ -233,7 +234,7 @@ impl InCloud {
         light_entries.push(binding::buffer_entry(
             8,
             wgpu::BufferBindingType::Storage { read_only: true },
-            192,
+            std::mem::size_of::<super::interior::LightForms>() as u64,
             fragment,
         ));
         let light_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
@@ -927,13 +928,15 @@ fn instance_uniform(
     }
 }
 
-/// The light atlas of an instance: its cells as z slices stacked in y.
+/// The light atlas of an instance: its cells as z slices stacked in y, the
+/// scattered light's, the direct transmittance's (x + nx), the scattered
+/// light's net flux (x + 2 nx).
 fn light_atlas(device: &wgpu::Device, [nx, ny, nz]: [u32; 3]) -> wgpu::TextureView {
     device
         .create_texture(&wgpu::TextureDescriptor {
             label: Some("cumulus in-cloud light"),
             size: wgpu::Extent3d {
-                width: nx,
+                width: 3 * nx,
                 height: ny * nz,
                 depth_or_array_layers: 1,
             },

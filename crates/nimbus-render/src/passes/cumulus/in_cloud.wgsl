@@ -26,7 +26,7 @@ struct InCloud {
     // Its size (m) and the light's weight between its two scales.
     extinction_size: vec4<f32>,
     // The light's box in the object frame (min xyz, m), and the weight of
-    // the sky's direct fluence (1 in the volume model, else 0).
+    // the sky's direct light (1 in the volume model, else 0).
     light_min: vec4<f32>,
     // Its size, m, unused.
     light_size: vec4<f32>,
@@ -40,16 +40,19 @@ struct InCloud {
 @group(1) @binding(4) var in_cloud_extinction: texture_3d<f32>;
 // The light's cells as an atlas of z slices stacked in y: rgb the sky's
 // scattered fluence Σ Φ_k L_k (W m⁻², pre-exposure not applied), a the
-// sun's per unit irradiance Σ Φ_k Y_k(l).
+// sun's per unit irradiance Σ Φ_k Y_k(l); beside them (x + nx) the direct
+// transmittance from the sky, t̄ and b of T(s) ≈ t̄ + b·s, then (x + 2 nx)
+// the sky's scattered light's net flux Σ_k F_k L_k (luminance, world).
 @group(1) @binding(5) var in_cloud_light: texture_2d<f32>;
 @group(1) @binding(6) var in_cloud_sampler: sampler;
 // The depth buffer, read only by the copy each march reads (binding 11):
 // the volume marches write the depth buffer.
 @group(1) @binding(7) var in_cloud_depth: texture_depth_2d;
 // The light pass's input: per cell, the quadratic forms of the scattered
-// fluence at the two scales, then of the direct fluence (twelve vec4,
-// interior.rs VariantInterior::light_forms).
+// fluence at the two scales, then of the direct fluence, then the scattered
+// light's net flux F_0 … F_3 (interior.rs VariantInterior::light_forms).
 @group(1) @binding(8) var<storage, read> in_cloud_forms: array<vec4<f32>>;
+const IN_CLOUD_LIGHT_FORMS: u32 = 18u;
 // The sun cube (interior.rs VariantSunCube) over the light's box: rgb the
 // sun's directional fluence per unit irradiance towards +x, +y, +z and a its
 // excess along the beam over the cube's reading there; then towards −x, −y,
@@ -85,14 +88,16 @@ fn in_cloud_sigma(object_m: vec3<f32>) -> f32 {
 }
 
 // The light at an object point: trilinear between cell centres, clamped to
-// the edge cells (two bilinear lookups of the atlas's slices).
-fn in_cloud_light_at(object_m: vec3<f32>) -> vec4<f32> {
+// the edge cells (two bilinear lookups of the atlas's slices); `part` 0 the
+// scattered light, 1 the direct transmittance from the sky, 2 the sky's
+// scattered light's net flux.
+fn in_cloud_light_at(object_m: vec3<f32>, part: f32) -> vec4<f32> {
     let dims = vec3<f32>(in_cloud.light_dims.xyz);
     let u = (object_m - in_cloud.light_min.xyz) / in_cloud.light_size.xyz * dims;
     let z = clamp(u.z - 0.5, 0.0, dims.z - 1.0);
     let k0 = floor(z);
     let k1 = min(k0 + 1.0, dims.z - 1.0);
-    let x = clamp(u.x, 0.5, dims.x - 0.5) / dims.x;
+    let x = (clamp(u.x, 0.5, dims.x - 0.5) + part * dims.x) / (3.0 * dims.x);
     let y = clamp(u.y, 0.5, dims.y - 0.5);
     let height = dims.y * dims.z;
     let a = textureSampleLevel(in_cloud_light, in_cloud_sampler, vec2<f32>(x, (y + k0 * dims.y) / height), 0.0);
@@ -163,30 +168,45 @@ fn in_cloud_layer_shadow() -> vec3<f32> {
 
 // The light pass: one fragment per cell of the atlas, the forms at the
 // cloud's scale turned to the world (b → R b, A → R A Rᵀ) and integrated
-// against the sun and the sky.
+// against the sun and the sky. The atlas's right half holds each cell's
+// direct transmittance from the sky, T(s) ≈ t̄ + b·s (the direct fluence's
+// orders ≤ 1: its mean over directions c + tr A/3 and b), which the march
+// scatters towards the camera through the phase function.
 @fragment
 fn in_cloud_light_fragment(in: FullscreenOutput) -> @location(0) vec4<f32> {
     let dims = in_cloud.light_dims;
     let texel = vec2<u32>(in.position.xy);
-    let cell = (texel.y / dims.y) * dims.y * dims.x + (texel.y % dims.y) * dims.x + texel.x;
+    let x = texel.x % dims.x;
+    let cell = (texel.y / dims.y) * dims.y * dims.x + (texel.y % dims.y) * dims.x + x;
     let w = in_cloud.extinction_size.w;
-    let at = 12u * cell;
+    let at = IN_CLOUD_LIGHT_FORMS * cell;
+    if (texel.x >= 2u * dims.x) {
+        // The sky's scattered light's net flux Σ_k F_k L_k (luminance),
+        // the sky's orders ≤ 1 turned into the object frame and the flux
+        // back out.
+        let a = mix(in_cloud_forms[at + 12u], in_cloud_forms[at + 15u], w);
+        let b = mix(in_cloud_forms[at + 13u], in_cloud_forms[at + 16u], w);
+        let c = mix(in_cloud_forms[at + 14u], in_cloud_forms[at + 17u], w);
+        let luma = vec3<f32>(0.2126, 0.7152, 0.0722);
+        let sky_0 = dot(lighting.sh[0].xyz, luma);
+        let sky_world = vec3<f32>(dot(lighting.sh[3].xyz, luma), dot(lighting.sh[1].xyz, luma), dot(lighting.sh[2].xyz, luma));
+        let sky = in_cloud_object_direction(sky_world) * in_cloud.offset_scale.w;
+        let flux = sky_0 * a.xyz + sky.y * vec3<f32>(a.w, b.xy) + sky.z * vec3<f32>(b.zw, c.x) + sky.x * c.yzw;
+        return vec4<f32>(cumulus_rotate(flux, in_cloud.rotation.x, in_cloud.rotation.y), 0.0);
+    }
+    if (texel.x >= dims.x) {
+        let c_b = mix(in_cloud_forms[at + 6u], in_cloud_forms[at + 9u], w);
+        let d = mix(in_cloud_forms[at + 7u], in_cloud_forms[at + 10u], w);
+        let o = mix(in_cloud_forms[at + 8u], in_cloud_forms[at + 11u], w);
+        let direct = cumulus_turned_transfer(c_b, d, o, in_cloud.rotation.xy);
+        let a = direct.diagonal_xy.xyz;
+        return vec4<f32>(direct.c_b.x + (a.x + a.y + a.z) / 3.0, direct.c_b.yzw);
+    }
     let c_b = mix(in_cloud_forms[at], in_cloud_forms[at + 3u], w);
     let d = mix(in_cloud_forms[at + 1u], in_cloud_forms[at + 4u], w);
     let o = mix(in_cloud_forms[at + 2u], in_cloud_forms[at + 5u], w);
     let f = cumulus_turned_transfer(c_b, d, o, in_cloud.rotation.xy);
-    // The sky's direct fluence: its single scattering, taken as isotropic
-    // as its scattered light is (cumulus::interior's notes), in the volume
-    // model only: right on the faces a camera outside sees, too bright
-    // under a base seen from just below it, where the sky's light arrives
-    // sideways and the droplets send little of it down (docs/REALISM.md,
-    // "The volume model"). The sun's direct beam is the march's own.
-    let direct_c_b = mix(in_cloud_forms[at + 6u], in_cloud_forms[at + 9u], w);
-    let direct_d = mix(in_cloud_forms[at + 7u], in_cloud_forms[at + 10u], w);
-    let direct_o = mix(in_cloud_forms[at + 8u], in_cloud_forms[at + 11u], w);
-    let direct = cumulus_turned_transfer(direct_c_b, direct_d, direct_o, in_cloud.rotation.xy);
-    let environment = max(cumulus_transfer_environment(f, lighting), vec3<f32>(0.0))
-        + in_cloud.light_min.w * max(cumulus_transfer_environment(direct, lighting), vec3<f32>(0.0));
+    let environment = max(cumulus_transfer_environment(f, lighting), vec3<f32>(0.0));
     let sun = max(cumulus_transfer_value(f, frame.sun_direction), 0.0);
     return vec4<f32>(environment, sun);
 }
@@ -250,6 +270,13 @@ fn in_cloud_march(origin_m: vec3<f32>, direction: vec3<f32>, t0: f32, t1: f32) -
     // The light towards the camera, in the object frame (the sun cube's).
     let toward_camera = -normalize(in_cloud_object_direction(direction));
     let sun_cube = in_cloud.light_dims.w != 0u;
+    // The sky's direct light scattered towards the camera, by the
+    // transmittance's orders ≤ 1 (cumulus::interior::SkyDirectKernel).
+    let sky_direct_weight = in_cloud.light_min.w;
+    var sky_kernel: SkyDirectKernel;
+    if (sky_direct_weight > 0.0) {
+        sky_kernel = sky_direct_kernel(lighting.sh, asymmetry, -direction);
+    }
     var sun_segments: array<vec4<f32>, IN_CLOUD_SHADOW_SEGMENTS>;
     var sun_lobes: array<f32, IN_CLOUD_SHADOW_SEGMENTS>;
     var beyond = 1.0;
@@ -300,12 +327,19 @@ fn in_cloud_march(origin_m: vec3<f32>, direction: vec3<f32>, t0: f32, t1: f32) -
         if (sigma <= 0.0) {
             continue;
         }
-        let light = in_cloud_light_at(object);
+        let light = in_cloud_light_at(object, 0.0);
         let segment = min(i * IN_CLOUD_SHADOW_SEGMENTS / steps, IN_CLOUD_SHADOW_SEGMENTS - 1u);
         let sun = sun_segments[segment];
         var environment = light.rgb;
+        if (sky_direct_weight > 0.0) {
+            // Eddington's (Φ + 3 g* o·F)/(4π): the sky's scattered light
+            // flows out through the faces (cumulus::interior's notes).
+            let flux = in_cloud_light_at(object, 2.0).xyz;
+            let toward = 3.0 * asymmetry * dot(-direction, flux) / max(dot(light.rgb, luma), 1e-6);
+            environment *= max(1.0 + sky_direct_weight * toward, 0.0);
+        }
         if (layered) {
-            environment = layer_scale * dot(light.rgb, luma);
+            environment = layer_scale * dot(environment, luma);
         }
         // The sun's scattered light towards the camera: from the sun cube
         // and its excess along the beam; until it is ready, what left the
@@ -320,7 +354,14 @@ fn in_cloud_march(origin_m: vec3<f32>, direction: vec3<f32>, t0: f32, t1: f32) -
             sun_toward = sun_fluence - forward + forward * sun_lobes[segment];
         }
         let scattered = sun.rgb * sun_toward + environment;
-        let source = phase * sun.rgb * sun.a + scattered / (4.0 * PI);
+        var source = phase * sun.rgb * sun.a + scattered / (4.0 * PI);
+        if (sky_direct_weight > 0.0) {
+            var sky_direct = max(sky_direct_source(sky_kernel, in_cloud_light_at(object, 1.0)), vec3<f32>(0.0));
+            if (layered) {
+                sky_direct = layer_scale * dot(sky_direct, luma);
+            }
+            source += sky_direct_weight * sky_direct;
+        }
         let opacity = 1.0 - exp(-sigma * dt);
         optical_depth += sigma * dt;
         let seen = out.transmittance * opacity;

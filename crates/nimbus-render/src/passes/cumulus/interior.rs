@@ -35,7 +35,7 @@ pub const INTERIOR_CELLS: usize = 32;
 /// 2 bytes: 4 MiB per variant).
 pub const EXTINCTION_CELLS: usize = 128;
 const CACHE_MAGIC: &[u8; 8] = b"NIMBUSIC";
-const CACHE_VERSION: u32 = 2;
+const CACHE_VERSION: u32 = 3;
 /// Largest interior cache file read, bytes.
 const MAX_CACHE_FILE_BYTES: u64 = 256 * 1024 * 1024;
 
@@ -83,8 +83,26 @@ pub struct VariantInterior {
     pub light_dims: [u32; 3],
     /// Per cell (x fastest): Φ_k as quadratic forms ([`pack_form`]) at the
     /// smallest scale, then at the largest; then Φ^d_k (the direct
-    /// fluence's) at the two scales.
-    pub light_forms: Vec<[[f32; 4]; 12]>,
+    /// fluence's) at the two scales; then the scattered light's net flux
+    /// F_0 … F_3 ([`pack_flux`]) at the two scales.
+    pub light_forms: Vec<LightForms>,
+}
+
+/// Vectors of a light cell's [`VariantInterior::light_forms`].
+pub const LIGHT_FORMS: usize = 18;
+
+/// One light cell's forms (see [`VariantInterior::light_forms`]).
+pub type LightForms = [[f32; 4]; LIGHT_FORMS];
+
+/// F_0 … F_3 (object frame) as three vectors: F_0.xyz F_1.x, F_1.yz
+/// F_2.xy, F_2.z F_3.xyz (WGSL `in_cloud_light_fragment` unpacks them).
+pub fn pack_flux(flux: &[[f64; 3]; 4]) -> [[f32; 4]; 3] {
+    let f: Vec<f32> = flux.iter().flatten().map(|&v| v as f32).collect();
+    [
+        [f[0], f[1], f[2], f[3]],
+        [f[4], f[5], f[6], f[7]],
+        [f[8], f[9], f[10], f[11]],
+    ]
 }
 
 /// Computes variant `index`'s interior (seconds).
@@ -102,7 +120,7 @@ pub fn compute_interior(
     )?;
     let origin = DVec3::from_array(shape.origin_m.map(f64::from));
     let (scattering, truncated) = tracer_scattering(optics);
-    let mut forms: Vec<[[f32; 4]; 12]> = Vec::new();
+    let mut forms: Vec<LightForms> = Vec::new();
     let mut light = None;
     for (slot, scale) in params.scales.iter().enumerate() {
         let interior = trace_interior(
@@ -115,14 +133,19 @@ pub fn compute_interior(
             },
         );
         if forms.is_empty() {
-            forms = vec![[[0.0; 4]; 12]; interior.coefficients.len()];
+            forms = vec![[[0.0; 4]; LIGHT_FORMS]; interior.coefficients.len()];
         }
-        let cells = interior.coefficients.iter().zip(&interior.direct);
-        for (out, (phi, direct)) in forms.iter_mut().zip(cells) {
+        let cells = interior
+            .coefficients
+            .iter()
+            .zip(&interior.direct)
+            .zip(&interior.flux);
+        for (out, ((phi, direct), flux)) in forms.iter_mut().zip(cells) {
             let packed = pack_form(&SphericalQuadratic::from_sh(phi));
             out[3 * slot..3 * slot + 3].copy_from_slice(&packed);
             let packed = pack_form(&SphericalQuadratic::from_sh(direct));
             out[6 + 3 * slot..9 + 3 * slot].copy_from_slice(&packed);
+            out[12 + 3 * slot..15 + 3 * slot].copy_from_slice(&pack_flux(flux));
         }
         light = Some(interior);
     }
@@ -388,8 +411,9 @@ fn from_bytes(bytes: &[u8]) -> Option<VariantInterior> {
         .iter()
         .try_fold(1usize, |a, &n| a.checked_mul(n as usize))?;
     let values_per_m: Vec<f32> = bytemuck::pod_collect_to_vec(take(cells.checked_mul(4)?)?);
-    let light_forms: Vec<[[f32; 4]; 12]> =
-        bytemuck::pod_collect_to_vec(take(light_cells.checked_mul(192)?)?);
+    let light_forms: Vec<LightForms> = bytemuck::pod_collect_to_vec(take(
+        light_cells.checked_mul(std::mem::size_of::<LightForms>())?,
+    )?);
     if at != bytes.len() || cells == 0 || light_cells == 0 {
         return None;
     }
@@ -457,7 +481,7 @@ mod tests {
             light_origin_m: [1.0, 2.0, 3.0],
             light_extent_m: [4.0, 5.0, 6.0],
             light_dims: [2, 1, 1],
-            light_forms: vec![[[1.0, 2.0, 3.0, 4.0]; 12]; 2],
+            light_forms: vec![[[1.0, 2.0, 3.0, 4.0]; LIGHT_FORMS]; 2],
         };
         let bytes = to_bytes(&interior);
         assert_eq!(from_bytes(&bytes), Some(interior));
