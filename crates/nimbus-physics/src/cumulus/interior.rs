@@ -754,10 +754,14 @@ pub fn lebedev_26() -> [(DVec3, f64); 26] {
 /// are gˡ). Against a function of order ≤ 3 over the sphere it integrates
 /// exactly as the whole function does (Funk–Hecke).
 fn phase_orders_3(asymmetry: f64, mu: f64) -> f64 {
-    let g = asymmetry;
-    let p2 = 0.5 * (3.0 * mu * mu - 1.0);
-    let p3 = 0.5 * (5.0 * mu * mu * mu - 3.0 * mu);
-    (1.0 + 3.0 * g * mu + 5.0 * g * g * p2 + 7.0 * g * g * g * p3) / (4.0 * PI)
+    let mut legendre = [0.0; 4];
+    crate::optics::phase::legendre_values(mu, &mut legendre);
+    let sum: f64 = legendre
+        .iter()
+        .enumerate()
+        .map(|(l, p)| (2 * l + 1) as f64 * asymmetry.powi(l as i32) * p)
+        .sum();
+    sum / (4.0 * PI)
 }
 
 /// The sky's light scattered once towards the camera, for one view: with

@@ -1,4 +1,5 @@
 // import shader/common.wgsl
+// import shader/lighting_types.wgsl
 // The angular distribution of the light scattered inside a cloud (the
 // in-cloud marches of the cumulus and of the stratus layer).
 
@@ -146,11 +147,8 @@ fn sky_direct_kernel(sh: array<vec4<f32>, 9>, asymmetry: f32, toward: vec3<f32>)
     for (var k = 0u; k < 26u; k += 1u) {
         let point = lebedev_26(k);
         let s = point.xyz;
-        let l = 0.282095 * sh[0].xyz
-            + 0.488603 * (sh[1].xyz * s.y + sh[2].xyz * s.z + sh[3].xyz * s.x)
-            + 1.092548 * (sh[4].xyz * s.x * s.y + sh[5].xyz * s.y * s.z + sh[7].xyz * s.x * s.z)
-            + 0.315392 * sh[6].xyz * (3.0 * s.z * s.z - 1.0)
-            + 0.546274 * sh[8].xyz * (s.x * s.x - s.y * s.y);
+        // Unclamped: the rule is exact for the harmonics themselves.
+        let l = sh_evaluate(sh, s, vec3<f32>(1.0));
         let mu = -dot(s, toward);
         let p2 = 0.5 * (3.0 * mu * mu - 1.0);
         let p3 = 0.5 * (5.0 * mu * mu * mu - 3.0 * mu);

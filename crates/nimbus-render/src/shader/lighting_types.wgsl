@@ -12,15 +12,21 @@ struct Lighting {
     exposure: vec4<f32>,
 }
 
+// Nine SH coefficients' function (rgb) towards n, band l scaled by
+// `band[l]`, not clamped. Twin of nimbus_physics::sh::radiance (bands 1).
+fn sh_evaluate(sh: array<vec4<f32>, 9>, n: vec3<f32>, band: vec3<f32>) -> vec3<f32> {
+    var e = band.x * 0.282095 * sh[0].xyz;
+    e += band.y * 0.488603 * (sh[1].xyz * n.y + sh[2].xyz * n.z + sh[3].xyz * n.x);
+    e += band.z * (1.092548 * (sh[4].xyz * n.x * n.y + sh[5].xyz * n.y * n.z + sh[7].xyz * n.x * n.z)
+        + 0.315392 * sh[6].xyz * (3.0 * n.z * n.z - 1.0)
+        + 0.546274 * sh[8].xyz * (n.x * n.x - n.y * n.y));
+    return e;
+}
+
 // The SH environment's radiance convolved with a kernel symmetric about n,
 // band l scaled by `band[l]` (Funk–Hecke), clamped at zero.
 fn sh_convolved(l: Lighting, n: vec3<f32>, band: vec3<f32>) -> vec3<f32> {
-    var e = band.x * 0.282095 * l.sh[0].xyz;
-    e += band.y * 0.488603 * (l.sh[1].xyz * n.y + l.sh[2].xyz * n.z + l.sh[3].xyz * n.x);
-    e += band.z * (1.092548 * (l.sh[4].xyz * n.x * n.y + l.sh[5].xyz * n.y * n.z + l.sh[7].xyz * n.x * n.z)
-        + 0.315392 * l.sh[6].xyz * (3.0 * n.z * n.z - 1.0)
-        + 0.546274 * l.sh[8].xyz * (n.x * n.x - n.y * n.y));
-    return max(e, vec3<f32>(0.0));
+    return max(sh_evaluate(l.sh, n, band), vec3<f32>(0.0));
 }
 
 // Irradiance on a surface of unit normal n from the SH environment

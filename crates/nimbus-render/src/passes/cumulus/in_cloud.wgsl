@@ -53,6 +53,8 @@ struct InCloud {
 // light's net flux F_0 … F_3 (interior.rs VariantInterior::light_forms).
 @group(1) @binding(8) var<storage, read> in_cloud_forms: array<vec4<f32>>;
 const IN_CLOUD_LIGHT_FORMS: u32 = 18u;
+// Rec. 709 luminance weights.
+const IN_CLOUD_LUMA: vec3<f32> = vec3<f32>(0.2126, 0.7152, 0.0722);
 // The sun cube (interior.rs VariantSunCube) over the light's box: rgb the
 // sun's directional fluence per unit irradiance towards +x, +y, +z and a its
 // excess along the beam over the cube's reading there; then towards −x, −y,
@@ -87,22 +89,40 @@ fn in_cloud_sigma(object_m: vec3<f32>) -> f32 {
     return textureSampleLevel(in_cloud_extinction, in_cloud_sampler, uvw, 0.0).r * in_cloud.extinction_min.w;
 }
 
-// The light at an object point: trilinear between cell centres, clamped to
-// the edge cells (two bilinear lookups of the atlas's slices); `part` 0 the
-// scattered light, 1 the direct transmittance from the sky, 2 the sky's
-// scattered light's net flux.
-fn in_cloud_light_at(object_m: vec3<f32>, part: f32) -> vec4<f32> {
+// Where an object point reads the light atlas: trilinear between cell
+// centres, clamped to the edge cells, as two bilinear lookups of the
+// atlas's z slices (their rows, the blend between them; x in the first
+// part).
+struct InCloudLightTexel {
+    x: f32,
+    row_0: f32,
+    row_1: f32,
+    blend: f32,
+}
+
+fn in_cloud_light_texel(object_m: vec3<f32>) -> InCloudLightTexel {
     let dims = vec3<f32>(in_cloud.light_dims.xyz);
     let u = (object_m - in_cloud.light_min.xyz) / in_cloud.light_size.xyz * dims;
     let z = clamp(u.z - 0.5, 0.0, dims.z - 1.0);
     let k0 = floor(z);
     let k1 = min(k0 + 1.0, dims.z - 1.0);
-    let x = (clamp(u.x, 0.5, dims.x - 0.5) + part * dims.x) / (3.0 * dims.x);
     let y = clamp(u.y, 0.5, dims.y - 0.5);
     let height = dims.y * dims.z;
-    let a = textureSampleLevel(in_cloud_light, in_cloud_sampler, vec2<f32>(x, (y + k0 * dims.y) / height), 0.0);
-    let b = textureSampleLevel(in_cloud_light, in_cloud_sampler, vec2<f32>(x, (y + k1 * dims.y) / height), 0.0);
-    return mix(a, b, z - k0);
+    var out: InCloudLightTexel;
+    out.x = clamp(u.x, 0.5, dims.x - 0.5) / (3.0 * dims.x);
+    out.row_0 = (y + k0 * dims.y) / height;
+    out.row_1 = (y + k1 * dims.y) / height;
+    out.blend = z - k0;
+    return out;
+}
+
+// The light there: `part` 0 the scattered light, 1 the direct
+// transmittance from the sky, 2 the sky's scattered light's net flux.
+fn in_cloud_light_at(at: InCloudLightTexel, part: f32) -> vec4<f32> {
+    let x = at.x + part / 3.0;
+    let a = textureSampleLevel(in_cloud_light, in_cloud_sampler, vec2<f32>(x, at.row_0), 0.0);
+    let b = textureSampleLevel(in_cloud_light, in_cloud_sampler, vec2<f32>(x, at.row_1), 0.0);
+    return mix(a, b, at.blend);
 }
 
 // The sun's directional fluence per unit irradiance at an object point
@@ -166,6 +186,18 @@ fn in_cloud_layer_shadow() -> vec3<f32> {
     return 0.2 * sum;
 }
 
+// A light cell's form vector `index` at the cloud's scale: between its
+// values at the two scales (the second three vectors on).
+fn in_cloud_scaled_form(index: u32) -> vec4<f32> {
+    return mix(in_cloud_forms[index], in_cloud_forms[index + 3u], in_cloud.extinction_size.w);
+}
+
+// The quadratic form whose vectors start at `index`, at the cloud's scale,
+// turned to the world.
+fn in_cloud_turned_form(index: u32) -> CumulusTransfer {
+    return cumulus_turned_transfer(in_cloud_scaled_form(index), in_cloud_scaled_form(index + 1u), in_cloud_scaled_form(index + 2u), in_cloud.rotation.xy);
+}
+
 // The light pass: one fragment per cell of the atlas, the forms at the
 // cloud's scale turned to the world (b → R b, A → R A Rᵀ) and integrated
 // against the sun and the sky. The atlas's right half holds each cell's
@@ -178,16 +210,15 @@ fn in_cloud_light_fragment(in: FullscreenOutput) -> @location(0) vec4<f32> {
     let texel = vec2<u32>(in.position.xy);
     let x = texel.x % dims.x;
     let cell = (texel.y / dims.y) * dims.y * dims.x + (texel.y % dims.y) * dims.x + x;
-    let w = in_cloud.extinction_size.w;
     let at = IN_CLOUD_LIGHT_FORMS * cell;
     if (texel.x >= 2u * dims.x) {
         // The sky's scattered light's net flux Σ_k F_k L_k (luminance),
         // the sky's orders ≤ 1 turned into the object frame and the flux
         // back out.
-        let a = mix(in_cloud_forms[at + 12u], in_cloud_forms[at + 15u], w);
-        let b = mix(in_cloud_forms[at + 13u], in_cloud_forms[at + 16u], w);
-        let c = mix(in_cloud_forms[at + 14u], in_cloud_forms[at + 17u], w);
-        let luma = vec3<f32>(0.2126, 0.7152, 0.0722);
+        let a = in_cloud_scaled_form(at + 12u);
+        let b = in_cloud_scaled_form(at + 13u);
+        let c = in_cloud_scaled_form(at + 14u);
+        let luma = IN_CLOUD_LUMA;
         let sky_0 = dot(lighting.sh[0].xyz, luma);
         let sky_world = vec3<f32>(dot(lighting.sh[3].xyz, luma), dot(lighting.sh[1].xyz, luma), dot(lighting.sh[2].xyz, luma));
         let sky = in_cloud_object_direction(sky_world) * in_cloud.offset_scale.w;
@@ -195,17 +226,11 @@ fn in_cloud_light_fragment(in: FullscreenOutput) -> @location(0) vec4<f32> {
         return vec4<f32>(cumulus_rotate(flux, in_cloud.rotation.x, in_cloud.rotation.y), 0.0);
     }
     if (texel.x >= dims.x) {
-        let c_b = mix(in_cloud_forms[at + 6u], in_cloud_forms[at + 9u], w);
-        let d = mix(in_cloud_forms[at + 7u], in_cloud_forms[at + 10u], w);
-        let o = mix(in_cloud_forms[at + 8u], in_cloud_forms[at + 11u], w);
-        let direct = cumulus_turned_transfer(c_b, d, o, in_cloud.rotation.xy);
+        let direct = in_cloud_turned_form(at + 6u);
         let a = direct.diagonal_xy.xyz;
         return vec4<f32>(direct.c_b.x + (a.x + a.y + a.z) / 3.0, direct.c_b.yzw);
     }
-    let c_b = mix(in_cloud_forms[at], in_cloud_forms[at + 3u], w);
-    let d = mix(in_cloud_forms[at + 1u], in_cloud_forms[at + 4u], w);
-    let o = mix(in_cloud_forms[at + 2u], in_cloud_forms[at + 5u], w);
-    let f = cumulus_turned_transfer(c_b, d, o, in_cloud.rotation.xy);
+    let f = in_cloud_turned_form(at);
     let environment = max(cumulus_transfer_environment(f, lighting), vec3<f32>(0.0));
     let sun = max(cumulus_transfer_value(f, frame.sun_direction), 0.0);
     return vec4<f32>(environment, sun);
@@ -246,7 +271,7 @@ fn in_cloud_march(origin_m: vec3<f32>, direction: vec3<f32>, t0: f32, t1: f32) -
     let clear = sh_irradiance(lighting, up);
     let under = stratus_ground_irradiance(origin_m + direction * t0, up, clear);
     let layered = any(under != clear);
-    let luma = vec3<f32>(0.2126, 0.7152, 0.0722);
+    let luma = IN_CLOUD_LUMA;
     let layer_scale = under / max(dot(clear, luma), 1e-6);
     let layer_shadow = in_cloud_layer_shadow();
     // δ-M's peak-removed asymmetry g* = (g − f)/(1 − f).
@@ -327,14 +352,15 @@ fn in_cloud_march(origin_m: vec3<f32>, direction: vec3<f32>, t0: f32, t1: f32) -
         if (sigma <= 0.0) {
             continue;
         }
-        let light = in_cloud_light_at(object, 0.0);
+        let texel = in_cloud_light_texel(object);
+        let light = in_cloud_light_at(texel, 0.0);
         let segment = min(i * IN_CLOUD_SHADOW_SEGMENTS / steps, IN_CLOUD_SHADOW_SEGMENTS - 1u);
         let sun = sun_segments[segment];
         var environment = light.rgb;
         if (sky_direct_weight > 0.0) {
             // Eddington's (Φ + 3 g* o·F)/(4π): the sky's scattered light
             // flows out through the faces (cumulus::interior's notes).
-            let flux = in_cloud_light_at(object, 2.0).xyz;
+            let flux = in_cloud_light_at(texel, 2.0).xyz;
             let toward = 3.0 * asymmetry * dot(-direction, flux) / max(dot(light.rgb, luma), 1e-6);
             environment *= max(1.0 + sky_direct_weight * toward, 0.0);
         }
@@ -356,7 +382,7 @@ fn in_cloud_march(origin_m: vec3<f32>, direction: vec3<f32>, t0: f32, t1: f32) -
         let scattered = sun.rgb * sun_toward + environment;
         var source = phase * sun.rgb * sun.a + scattered / (4.0 * PI);
         if (sky_direct_weight > 0.0) {
-            var sky_direct = max(sky_direct_source(sky_kernel, in_cloud_light_at(object, 1.0)), vec3<f32>(0.0));
+            var sky_direct = max(sky_direct_source(sky_kernel, in_cloud_light_at(texel, 1.0)), vec3<f32>(0.0));
             if (layered) {
                 sky_direct = layer_scale * dot(sky_direct, luma);
             }
