@@ -34,7 +34,9 @@ fi
 export DRJIT_LIBLLVM_PATH
 
 cargo build -p nimbus-sky --quiet
-nimbus=target/debug/nimbus
+# Where cargo put it: CARGO_TARGET_DIR (or the config's build.target-dir)
+# moves the target directory away from ./target.
+nimbus=$(cargo metadata --format-version 1 --no-deps | python3 -c 'import json, sys; print(json.load(sys.stdin)["target_directory"])')/debug/nimbus
 mkdir -p scenes/realism-air/references
 
 for scene in "${scenes[@]}"; do

@@ -82,7 +82,9 @@ settings() {
 }
 
 cargo build -p nimbus-sky --quiet
-nimbus=target/debug/nimbus
+# Where cargo put it: CARGO_TARGET_DIR (or the config's build.target-dir)
+# moves the target directory away from ./target.
+nimbus=$(cargo metadata --format-version 1 --no-deps | python3 -c 'import json, sys; print(json.load(sys.stdin)["target_directory"])')/debug/nimbus
 
 # Exports SCENE into DIR with the δ-M truncation TRUNCATION unless DIR holds
 # an export of the same scene file and truncation by the same nimbus binary
