@@ -936,7 +936,7 @@ fn light_atlas(device: &wgpu::Device, [nx, ny, nz]: [u32; 3]) -> wgpu::TextureVi
         .create_texture(&wgpu::TextureDescriptor {
             label: Some("cumulus in-cloud light"),
             size: wgpu::Extent3d {
-                width: 3 * nx,
+                width: interior::LIGHT_PARTS * nx,
                 height: ny * nz,
                 depth_or_array_layers: 1,
             },

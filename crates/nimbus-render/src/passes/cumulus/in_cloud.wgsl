@@ -53,6 +53,8 @@ struct InCloud {
 // light's net flux F_0 … F_3 (interior.rs VariantInterior::light_forms).
 @group(1) @binding(8) var<storage, read> in_cloud_forms: array<vec4<f32>>;
 const IN_CLOUD_LIGHT_FORMS: u32 = 18u;
+// Parts of the light atlas side by side (interior.rs LIGHT_PARTS).
+const IN_CLOUD_LIGHT_PARTS: f32 = 3.0;
 // Rec. 709 luminance weights.
 const IN_CLOUD_LUMA: vec3<f32> = vec3<f32>(0.2126, 0.7152, 0.0722);
 // The sun cube (interior.rs VariantSunCube) over the light's box: rgb the
@@ -109,7 +111,7 @@ fn in_cloud_light_texel(object_m: vec3<f32>) -> InCloudLightTexel {
     let y = clamp(u.y, 0.5, dims.y - 0.5);
     let height = dims.y * dims.z;
     var out: InCloudLightTexel;
-    out.x = clamp(u.x, 0.5, dims.x - 0.5) / (3.0 * dims.x);
+    out.x = clamp(u.x, 0.5, dims.x - 0.5) / (IN_CLOUD_LIGHT_PARTS * dims.x);
     out.row_0 = (y + k0 * dims.y) / height;
     out.row_1 = (y + k1 * dims.y) / height;
     out.blend = z - k0;
@@ -119,7 +121,7 @@ fn in_cloud_light_texel(object_m: vec3<f32>) -> InCloudLightTexel {
 // The light there: `part` 0 the scattered light, 1 the direct
 // transmittance from the sky, 2 the sky's scattered light's net flux.
 fn in_cloud_light_at(at: InCloudLightTexel, part: f32) -> vec4<f32> {
-    let x = at.x + part / 3.0;
+    let x = at.x + part / IN_CLOUD_LIGHT_PARTS;
     let a = textureSampleLevel(in_cloud_light, in_cloud_sampler, vec2<f32>(x, at.row_0), 0.0);
     let b = textureSampleLevel(in_cloud_light, in_cloud_sampler, vec2<f32>(x, at.row_1), 0.0);
     return mix(a, b, at.blend);
@@ -200,10 +202,11 @@ fn in_cloud_turned_form(index: u32) -> CumulusTransfer {
 
 // The light pass: one fragment per cell of the atlas, the forms at the
 // cloud's scale turned to the world (b → R b, A → R A Rᵀ) and integrated
-// against the sun and the sky. The atlas's right half holds each cell's
+// against the sun and the sky. The atlas's second part holds each cell's
 // direct transmittance from the sky, T(s) ≈ t̄ + b·s (the direct fluence's
 // orders ≤ 1: its mean over directions c + tr A/3 and b), which the march
-// scatters towards the camera through the phase function.
+// scatters towards the camera through the phase function; its third the
+// sky's scattered light's net flux.
 @fragment
 fn in_cloud_light_fragment(in: FullscreenOutput) -> @location(0) vec4<f32> {
     let dims = in_cloud.light_dims;

@@ -91,6 +91,11 @@ pub struct VariantInterior {
 /// Vectors of a light cell's [`VariantInterior::light_forms`].
 pub const LIGHT_FORMS: usize = 18;
 
+/// Parts of the light atlas side by side, each one value per cell: the
+/// scattered light, the direct transmittance from the sky, the scattered
+/// light's net flux (WGSL `IN_CLOUD_LIGHT_PARTS`).
+pub const LIGHT_PARTS: u32 = 3;
+
 /// One light cell's forms (see [`VariantInterior::light_forms`]).
 pub type LightForms = [[f32; 4]; LIGHT_FORMS];
 
