@@ -283,9 +283,10 @@ fn compare_against_noisy_halves_of_the_image_itself_finds_no_error() {
 /// made by tools/reference/suite.sh). Neither the unbiased relative RMSE of
 /// luminance over 4×4 blocks nor the mean luminance ratio's distance from 1
 /// may grow beyond its recorded value by more than three of its standard
-/// errors: realism can only improve. Where a record also keeps the cumulus
-/// `volume` model's (`"volume"`: the scene with `cumulus.shading.model =
-/// "volume"`, not yet the default), that model is held to it the same way.
+/// errors: realism can only improve. Where a record also keeps another
+/// cumulus model's (`"fitted"`: the scene with `cumulus.shading.model =
+/// "fitted"`, the default before `volume`), that model is held to it the
+/// same way.
 #[test]
 fn the_realism_suite_does_not_move_away_from_its_references() {
     let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
@@ -315,9 +316,12 @@ fn the_realism_suite_does_not_move_away_from_its_references() {
             }))
             .expect("record JSON");
         let mut runs = vec![(name.clone(), scene.clone(), &record["error"]["halves"])];
-        // The cumulus `volume` model, not yet the default, held to its own
-        // record where one is kept (the scene with that model).
-        if let Some(volume) = record.get("volume") {
+        // Another cumulus model than the default, held to its own record
+        // where one is kept (`"fitted"`: the scene with that model).
+        for (model, kept) in ["fitted", "bouthors2004", "transport"]
+            .iter()
+            .filter_map(|m| record.get(*m).map(|kept| (*m, kept)))
+        {
             let text = std::fs::read_to_string(scene).expect("scene");
             let mut table: toml::Table = toml::from_str(&text).expect("scene TOML");
             let cumulus = table
@@ -331,10 +335,10 @@ fn the_realism_suite_does_not_move_away_from_its_references() {
             shading
                 .as_table_mut()
                 .expect("[cumulus.shading]")
-                .insert("model".into(), "volume".into());
-            let path = dir.join(format!("{name}-volume.toml"));
-            std::fs::write(&path, toml::to_string(&table).expect("TOML")).expect("volume scene");
-            runs.push((format!("{name} (volume)"), path, &volume["halves"]));
+                .insert("model".into(), model.into());
+            let path = dir.join(format!("{name}-{model}.toml"));
+            std::fs::write(&path, toml::to_string(&table).expect("TOML")).expect("model's scene");
+            runs.push((format!("{name} ({model})"), path, &kept["halves"]));
         }
         for (label, scene, recorded) in runs {
             let realtime = dir.join(format!("{}.exr", label.replace([' ', '(', ')'], "")));

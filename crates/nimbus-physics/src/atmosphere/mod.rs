@@ -19,7 +19,10 @@ mod params;
 mod scattering;
 pub mod under_layer;
 
-pub use lighting::{LIGHTING_DIRECTIONS, SkyLighting};
+pub use lighting::{
+    CLOUDS_AIR_STEPS, GroundBelow, LIGHTING_DIRECTIONS, SkyLighting, sea_specular_reflectance,
+    water_fresnel,
+};
 pub use lut::*;
 pub use params::AtmosphereParams;
 pub use scattering::*;

@@ -114,7 +114,6 @@ pub enum CumulusShadingModel {
     /// The weights fitted by least squares to path-traced references of the
     /// realism suite (`tools/reference/fit_cumulus.py`, docs/REALISM.md):
     /// the paper's terms plus D and P, Lambert and the lobe T at 0.
-    #[default]
     Fitted,
     /// Bouthors (2004) as published: the paper's weights, without the
     /// extensions D and P, to reproduce the paper's images.
@@ -135,7 +134,9 @@ pub enum CumulusShadingModel {
     /// the march the camera uses inside a cloud, from outside too. Clouds
     /// beyond the nearest are shaded as by [`Self::Transport`]; until a
     /// cloud's sun cube is traced (seconds, on a worker thread) its sun
-    /// light is taken isotropic.
+    /// light is taken isotropic. The default: the nearest to the
+    /// path-traced references on the realism suite (docs/REALISM.md).
+    #[default]
     Volume,
 }
 
@@ -161,7 +162,9 @@ pub const MAX_MARCHED_CLOUDS: usize = 12;
 #[schemars(
     description = "The cumulus shader's parameters (`[cumulus.shading]`, Bouthors 2004, ch. 5; \
                    docs/cumulus.md). Every key is optional: a missing one takes the value of \
-                   the chosen `model` (the defaults shown are the `fitted` model's)."
+                   the chosen `model` (the defaults shown are the `volume` model's: the `fitted` \
+                   model's weights, which shade the clouds beyond the marched ones, with the \
+                   physical forward peak)."
 )]
 pub struct CumulusShading {
     /// The model whose defaults the other fields started from.
@@ -208,9 +211,9 @@ pub struct CumulusShading {
 }
 
 impl Default for CumulusShading {
-    /// The fitted model.
+    /// The default model's ([`CumulusShadingModel::Volume`]).
     fn default() -> Self {
-        Self::fitted()
+        Self::of_model(CumulusShadingModel::default())
     }
 }
 
@@ -282,10 +285,12 @@ impl CumulusShading {
 #[derive(Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 struct CumulusShadingFile {
-    /// The model whose weights the missing keys take: `fitted` (default,
-    /// fitted to the path-traced references), `bouthors2004` (the paper as
-    /// published) or `transport` (light transport precomputed per shape;
-    /// the fitted weights until it is ready).
+    /// The model: `volume` (default: each cloud in view marched as the
+    /// medium its mesh stands for, lit by light precomputed inside it),
+    /// `fitted` (the phenomenological shader with weights fitted to the
+    /// path-traced references), `bouthors2004` (the paper as published) or
+    /// `transport` (light transport precomputed per shape; the fitted
+    /// weights until it is ready). The missing keys take its weights.
     model: Option<CumulusShadingModel>,
     /// α_a, weight of the ambient (environment) light.
     ambient: Option<f64>,
@@ -853,7 +858,11 @@ mod tests {
     #[test]
     fn the_model_picks_the_defaults_and_keys_override_them() {
         let parse = |text: &str| -> CumulusShading { toml::from_str(text).expect("valid shading") };
-        assert_eq!(parse(""), CumulusShading::fitted());
+        assert_eq!(
+            parse(""),
+            CumulusShading::of_model(CumulusShadingModel::Volume)
+        );
+        assert_eq!(parse("model = \"fitted\""), CumulusShading::fitted());
         assert_eq!(
             parse("model = \"bouthors2004\""),
             CumulusShading::bouthors2004()

@@ -13,8 +13,8 @@ use crate::core::binding::{buffer_entry, sampler_entry, sequential_bind_group, t
 use crate::scene::Scene;
 use bytemuck::{Pod, Zeroable};
 use nimbus_physics::atmosphere::{
-    AERIAL_PERSPECTIVE_SIZE, AtmosphereParams, AtmosphereTables, MULTIPLE_SCATTERING_LUT_SIZE,
-    SKY_VIEW_LUT_SIZE, SkyLighting, TRANSMITTANCE_LUT_SIZE,
+    AERIAL_PERSPECTIVE_SIZE, AtmosphereParams, AtmosphereTables, GroundBelow,
+    MULTIPLE_SCATTERING_LUT_SIZE, SKY_VIEW_LUT_SIZE, SkyLighting, TRANSMITTANCE_LUT_SIZE,
 };
 use nimbus_physics::photometry::MAX_LUMINOUS_EFFICACY_LM_PER_W;
 use nimbus_physics::sky::SOLAR_ILLUMINANCE_CONSTANT_LUX;
@@ -40,6 +40,61 @@ pub fn sky_lighting(scene: &Scene) -> SkyLighting {
         scene.sun.direction(),
         solar_irradiance_top().map(f64::from),
         ground_albedo(scene),
+    )
+}
+
+/// What the clouds' environment is taken over (`Lighting::clouds_sh`):
+/// where the clouds are and the ground and sea under them.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct CloudsGround {
+    /// The clouds' mean centre, world m: the observer of their environment.
+    pub observer_m: [f64; 3],
+    /// The drawn ground's square, the sea beyond it, and whether the air
+    /// between is drawn.
+    pub below: GroundBelow,
+}
+
+impl CloudsGround {
+    /// The ground and sea the scene draws under clouds centred at
+    /// `observer_m`: the terrain's square and the open sea beyond it, or,
+    /// without a drawn terrain, the flat ground everywhere.
+    pub fn of_scene(scene: &Scene, observer_m: [f64; 3]) -> Self {
+        Self {
+            observer_m,
+            below: GroundBelow {
+                near_ground_half_extent_m: if scene.ground.terrain {
+                    0.5 * scene.terrain.extent_m
+                } else {
+                    f64::INFINITY
+                },
+                water_albedo: scene.terrain.albedo.water.map(f64::from),
+                water_ggx_alpha: crate::shader::WATER_GGX_ALPHA,
+                through_air: scene.camera.aerial_perspective,
+            },
+        }
+    }
+}
+
+/// The environment the clouds of `scene` see from `clouds.observer_m`
+/// ([`SkyLighting::environment_at`]), computed on the CPU: the same SH the
+/// GPU lighting step writes as `Lighting::clouds_sh` (tested against it in
+/// `tests/integration/atmosphere.rs`).
+pub fn clouds_environment(scene: &Scene, clouds: &CloudsGround) -> [[f64; 3]; 9] {
+    let tables = AtmosphereTables::new(&scene.atmosphere);
+    let solar = solar_irradiance_top().map(f64::from);
+    SkyLighting::at(
+        &tables,
+        scene.camera.position_m[1],
+        scene.sun.direction(),
+        solar,
+        ground_albedo(scene),
+    )
+    .environment_at(
+        &tables,
+        scene.camera.position_m[1],
+        clouds.observer_m,
+        solar,
+        &clouds.below,
     )
 }
 
@@ -85,6 +140,11 @@ pub struct LightingUniform {
     pub ground_radiance: [f32; 4],
     /// x: pre-exposure of the drawing passes; y: incident-light EV100 at the camera.
     pub exposure: [f32; 4],
+    /// The environment's radiance as the clouds see it (at
+    /// [`AtmosphereUniform::clouds_observer_m`], whose lower hemisphere is
+    /// the ground and sea under them), order-2 real SH (RGB in xyz),
+    /// W·sr⁻¹·m⁻² ([`SkyLighting::environment_at`]).
+    pub clouds_sh: [[f32; 4]; 9],
 }
 
 /// GPU layout of WGSL `Atmosphere`.
@@ -129,6 +189,16 @@ pub struct AtmosphereUniform {
     pub near_ground_albedo: [f32; 3],
     /// Padding.
     pub _padding3: f32,
+    /// Where the clouds' environment is taken (`Lighting::clouds_sh`): the
+    /// mean centre of the cumulus clouds, world m.
+    pub clouds_observer_m: [f32; 3],
+    /// Half the side of the drawn ground's square about the origin, m;
+    /// beyond it the open sea (a very large value: ground everywhere).
+    pub near_ground_half_extent_m: f32,
+    /// Diffuse albedo of the sea's water body.
+    pub water_albedo: [f32; 3],
+    /// GGX roughness α of the sea's surface.
+    pub water_ggx_alpha: f32,
 }
 
 impl From<&AtmosphereParams> for AtmosphereUniform {
@@ -153,6 +223,10 @@ impl From<&AtmosphereParams> for AtmosphereUniform {
             _padding2: 0.0,
             near_ground_albedo: v(p.ground_albedo),
             _padding3: 0.0,
+            clouds_observer_m: [0.0; 3],
+            near_ground_half_extent_m: f32::MAX,
+            water_albedo: [0.0; 3],
+            water_ggx_alpha: crate::shader::WATER_GGX_ALPHA as f32,
         }
     }
 }

@@ -22,7 +22,7 @@ use crate::core::timing::GpuTimer;
 use crate::frame::cloud_shadow::CloudShadowMap;
 use crate::frame::occluders::OccluderGeometry;
 use crate::frame::{FrameResources, FrameUniform, View};
-use crate::passes::atmosphere::AtmospherePass;
+use crate::passes::atmosphere::{AtmospherePass, CloudsGround};
 use crate::passes::composite::CompositePass;
 use crate::passes::cumulus::CumulusPass;
 use crate::passes::exposure::ExposurePass;
@@ -552,13 +552,6 @@ impl Renderer {
             .terrain
             .mean_albedo()
             .unwrap_or(scene.atmosphere.ground_albedo);
-        self.atmosphere.prepare(
-            &self.queue,
-            &scene.atmosphere,
-            scene.camera.aerial_perspective,
-            near_ground_albedo,
-            &frame,
-        );
         self.objects.prepare(&self.device, scene)?;
         self.stratus.prepare(
             &self.device,
@@ -579,6 +572,20 @@ impl Renderer {
             height,
             precompute,
         )?;
+        // The clouds' environment is taken at their mean centre (at the
+        // camera before any cumulus is drawn).
+        let clouds_observer_m = self
+            .cumulus
+            .mean_centre_m()
+            .unwrap_or(scene.camera.position_m);
+        self.atmosphere.prepare(
+            &self.queue,
+            &scene.atmosphere,
+            scene.camera.aerial_perspective,
+            near_ground_albedo,
+            &CloudsGround::of_scene(scene, clouds_observer_m),
+            &frame,
+        );
         let occluders = self.occluders();
         let strides: Vec<u64> = occluders.iter().map(|g| g.vertex_stride).collect();
         let generation = [

@@ -31,6 +31,16 @@ struct Atmosphere {
     // is the planet's far ground of the sky's multiple scattering.
     near_ground_albedo: vec3<f32>,
     _padding3: f32,
+    // Where the clouds' environment (Lighting.clouds_sh) is taken: the mean
+    // centre of the cumulus clouds, world m.
+    clouds_observer_m: vec3<f32>,
+    // Half the side of the drawn ground's square about the origin, m;
+    // beyond it the open sea.
+    near_ground_half_extent_m: f32,
+    // Diffuse albedo of the sea's water body.
+    water_albedo: vec3<f32>,
+    // GGX roughness α of the sea's surface.
+    water_ggx_alpha: f32,
 }
 
 const TRANSMITTANCE_LUT_SIZE: vec2<f32> = vec2<f32>(256.0, 64.0);

@@ -10,6 +10,18 @@ struct Lighting {
     // x: pre-exposure of this frame's drawing passes (radiance to HDR target
     // values); y: the incident-light meter's EV100 at the camera.
     exposure: vec4<f32>,
+    // The environment as the clouds see it: like `sh`, taken at the clouds'
+    // mean centre (Atmosphere.clouds_observer_m), whose lower hemisphere is
+    // the ground and the sea under them seen from their altitude.
+    clouds_sh: array<vec4<f32>, 9>,
+}
+
+// `l` with the environment the clouds see (`clouds_sh`) as its `sh`: what
+// the cumulus passes light their clouds with.
+fn clouds_lighting(l: Lighting) -> Lighting {
+    var c = l;
+    c.sh = l.clouds_sh;
+    return c;
 }
 
 // Nine SH coefficients' function (rgb) towards n, band l scaled by

@@ -245,6 +245,78 @@ fn gpu_lighting_inputs_match_the_cpu_reference() {
     }
 }
 
+/// The environment the clouds see (`Lighting::clouds_sh`), taken at their
+/// mean centre 2 km up, with and without the air below them, against the
+/// library's CPU twin ([`nimbus_render::atmosphere::clouds_environment`]):
+/// the irradiance the SH give on a few normals, downward ones included
+/// (the ground within the terrain's square, the sea and the sun's glint
+/// beyond it, at a low sun over a small terrain).
+#[test]
+fn gpu_clouds_environment_matches_the_cpu_reference() {
+    for aerial in [true, false] {
+        let mut scene = Scene::from_toml_str(
+            r#"
+[camera]
+position_m = [0.0, 300.0, 5200.0]
+look_at_m = [0.0, 1850.0, 0.0]
+
+[sun]
+azimuth_deg = 200.0
+elevation_deg = 12.0
+
+[terrain]
+extent_m = 8000.0
+resolution = 32
+
+[cumulus]
+[[cumulus.clouds]]
+position_m = [2500.0, 1500.0, -1000.0]
+"#,
+            "clouds-environment.toml",
+        )
+        .expect("scene");
+        scene.camera.aerial_perspective = aerial;
+        let mut h = HeadlessRenderer::new(AdapterPreference::Auto)
+            .unwrap_or_else(|e| panic!("GPU tests need an adapter: {e}"));
+        h.render_frame(&scene, 64, 36, 0.0).expect("render");
+        let ground = *h.renderer.atmosphere().clouds_ground().expect("prepared");
+        // The observer is the cloud's centre: above its base, over it.
+        let [x, y, z] = ground.observer_m;
+        assert!(
+            (1600.0..4000.0).contains(&y)
+                && (x - 2500.0).abs() < 500.0
+                && (z + 1000.0).abs() < 500.0,
+            "observer {:?}",
+            ground.observer_m
+        );
+        assert_eq!(ground.below.through_air, aerial);
+        let lighting: nimbus_render::atmosphere::LightingUniform = h
+            .read_buffer(h.renderer.atmosphere().lighting_buffer())
+            .expect("read lighting");
+        let gpu: [[f64; 3]; 9] =
+            std::array::from_fn(|k| [0, 1, 2].map(|c| f64::from(lighting.clouds_sh[k][c])));
+        let cpu = nimbus_render::atmosphere::clouds_environment(&scene, &ground);
+        let scale = sh::irradiance(&cpu, [0.0, 1.0, 0.0])[2];
+        for n in [
+            [0.0, 1.0, 0.0],
+            [0.0, -1.0, 0.0],
+            [1.0, 0.0, 0.0],
+            [0.0, -0.6, 0.8],
+            [-0.8, -0.6, 0.0],
+        ] {
+            let (g, c) = (sh::irradiance(&gpu, n), sh::irradiance(&cpu, n));
+            for k in 0..3 {
+                assert!(
+                    (g[k] - c[k]).abs() < 0.03 * scale.max(c[k]),
+                    "aerial {aerial}: SH irradiance on {n:?}, channel {k}: GPU {} vs CPU {}",
+                    g[k],
+                    c[k]
+                );
+            }
+        }
+    }
+}
+
 /// `camera.aerial_perspective = false` leaves the air out of everything in
 /// front of the sky and nothing else: the aerial-perspective volume holds no
 /// in-scattered light and a transmittance of 1, the sky's pixels are the

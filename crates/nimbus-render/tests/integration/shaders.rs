@@ -143,6 +143,10 @@ fn atmosphere_and_lighting_match_wgsl_layout() {
             _padding2,
             near_ground_albedo,
             _padding3,
+            clouds_observer_m,
+            near_ground_half_extent_m,
+            water_albedo,
+            water_ggx_alpha,
         ]
     );
     assert_layout!(
@@ -154,7 +158,8 @@ fn atmosphere_and_lighting_match_wgsl_layout() {
             sky_irradiance_up,
             sun_irradiance,
             ground_radiance,
-            exposure
+            exposure,
+            clouds_sh
         ]
     );
 }

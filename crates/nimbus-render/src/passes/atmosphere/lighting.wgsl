@@ -10,7 +10,13 @@
 // - sun_irradiance: C_sun, the direct solar irradiance at the camera's
 //   altitude after atmospheric transmittance (normal incidence);
 // - ground_radiance: C_ground, the radiance of a Lambertian ground of the
-//   near ground albedo (the scene's terrain) lit by that sun and sky.
+//   near ground albedo (the scene's terrain) lit by that sun and sky;
+// - clouds_sh: the environment as the clouds see it, from
+//   atmosphere.clouds_observer_m: above its horizon the camera's sky, below
+//   it the ground (C_ground) within the drawn ground's square and beyond it
+//   the open sea (the sky's specular reflection, the water body's light and
+//   the sun's glint), through the air between them when the aerial
+//   perspective is drawn. Twin of SkyLighting::environment_at.
 // One workgroup of 64 invocations integrates 1024 Fibonacci directions.
 // Mirrors nimbus_physics::sh and the CPU reference in the render tests.
 
@@ -55,6 +61,41 @@ fn ground_transmittance(r: f32, mu: f32) -> vec3<f32> {
     let from_ground = sample_sun_transmittance(transmittance_lut, lut_sampler, atmosphere, r_ground, -mu_ground);
     let from_observer = sample_sun_transmittance(transmittance_lut, lut_sampler, atmosphere, r, -mu);
     return min(from_ground / max(from_observer, vec3<f32>(1e-6)), vec3<f32>(1.0));
+}
+
+// March steps of the air between the clouds' observer and the ground
+// (nimbus_physics::atmosphere::CLOUDS_AIR_STEPS).
+const CLOUDS_AIR_STEPS: u32 = 16u;
+
+// The sea's specular reflectance near the mirror direction at the cosine of
+// incidence: Schlick's Fresnel of water (F0 = 0.02, shader/water.wgsl's
+// water_fresnel) times the height-correlated Smith masking of the GGX
+// surface, 1/(1 + 2Λ). Twin of nimbus_physics::atmosphere::
+// sea_specular_reflectance.
+fn clouds_sea_reflectance(cos_theta: f32) -> f32 {
+    let mu = clamp(cos_theta, 1e-4, 1.0);
+    let m = 1.0 - mu;
+    let fresnel = 0.02 + 0.98 * m * m * m * m * m;
+    let alpha = atmosphere.water_ggx_alpha;
+    let tan2 = (1.0 - mu * mu) / (mu * mu);
+    let lambda = 0.5 * (sqrt(1.0 + alpha * alpha * tan2) - 1.0);
+    return fresnel / (1.0 + 2.0 * lambda);
+}
+
+// What the clouds' observer sees along d where it meets the ground: the
+// radiance leaving the ground or the sea there (rgb) and whether it is the
+// sea (w); d must hit the ground from radius r_observer.
+fn clouds_surface(d: vec3<f32>, r_observer: f32, length_m: f32, ground_radiance: vec3<f32>,
+    water_irradiance: vec3<f32>) -> vec4<f32> {
+    let hit = atmosphere.clouds_observer_m.xz + d.xz * length_m;
+    if (all(abs(hit) <= vec2<f32>(atmosphere.near_ground_half_extent_m))) {
+        return vec4<f32>(ground_radiance, 0.0);
+    }
+    // The reversed ray's cosine to the local vertical on the spherical surface.
+    let cos_surface = clamp((-r_observer * d.y - length_m) / atmosphere.bottom_radius_m, 0.0, 1.0);
+    let fresnel = clouds_sea_reflectance(cos_surface);
+    let sky = sky_view_radiance(vec3<f32>(d.x, -d.y, d.z));
+    return vec4<f32>(fresnel * sky + (1.0 - fresnel) * atmosphere.water_albedo / ATMOSPHERE_PI * water_irradiance, 1.0);
 }
 
 fn sky_view_radiance(direction: vec3<f32>) -> vec3<f32> {
@@ -110,8 +151,8 @@ fn lighting_main(@builtin(local_invocation_index) thread: u32) {
     }
     partial_sh[thread] = sh;
     workgroupBarrier();
+    var total: array<vec3<f32>, 9>;
     if (thread == 0u) {
-        var total: array<vec3<f32>, 9>;
         for (var c = 0u; c < 9u; c = c + 1u) {
             total[c] = vec3<f32>(0.0);
         }
@@ -120,8 +161,69 @@ fn lighting_main(@builtin(local_invocation_index) thread: u32) {
                 total[c] += partial_sh[t][c];
             }
         }
+    }
+    workgroupBarrier();
+
+    // Pass 3: the environment as the clouds see it (twin of
+    // SkyLighting::environment_at).
+    let r_clouds = observer_radius(atmosphere, atmosphere.clouds_observer_m.y);
+    let water_irradiance = sun_irradiance * max(mu_s, 0.0) + sky_irradiance_up;
+    let through_air = atmosphere.aerial_perspective_scale > 0.0;
+    for (var c = 0u; c < 9u; c = c + 1u) {
+        sh[c] = vec3<f32>(0.0);
+    }
+    for (var k = 0u; k < per_thread; k = k + 1u) {
+        let d = lighting_direction(thread * per_thread + k);
+        var radiance = sky_view_radiance(d);
+        if (ray_hits_ground(atmosphere, r_clouds, d.y)) {
+            let length_m = distance_to_bottom(atmosphere, r_clouds, d.y);
+            radiance = clouds_surface(d, r_clouds, length_m, ground_radiance, water_irradiance).xyz;
+            if (through_air) {
+                let air = scatter_along(transmittance_lut, multiple_scattering_lut, lut_sampler, atmosphere,
+                    r_clouds, d, frame.sun_direction, length_m, CLOUDS_AIR_STEPS);
+                radiance = air.luminance * atmosphere.sun_irradiance_top + air.transmittance * radiance;
+            }
+        }
+        let y = sh_basis(d);
+        for (var c = 0u; c < 9u; c = c + 1u) {
+            sh[c] += radiance * y[c] * weight;
+        }
+    }
+    partial_sh[thread] = sh;
+    workgroupBarrier();
+    if (thread == 0u) {
         for (var c = 0u; c < 9u; c = c + 1u) {
             lighting_out.sh[c] = vec4<f32>(total[c], 0.0);
+        }
+        var clouds_total: array<vec3<f32>, 9>;
+        for (var c = 0u; c < 9u; c = c + 1u) {
+            clouds_total[c] = vec3<f32>(0.0);
+        }
+        for (var t = 0u; t < LIGHTING_THREADS; t = t + 1u) {
+            for (var c = 0u; c < 9u; c = c + 1u) {
+                clouds_total[c] += partial_sh[t][c];
+            }
+        }
+        // The sun's glint where its mirror direction meets the sea.
+        let glint = vec3<f32>(frame.sun_direction.x, -frame.sun_direction.y, frame.sun_direction.z);
+        if (mu_s > 0.0 && ray_hits_ground(atmosphere, r_clouds, glint.y)) {
+            let length_m = distance_to_bottom(atmosphere, r_clouds, glint.y);
+            let surface = clouds_surface(glint, r_clouds, length_m, ground_radiance, water_irradiance);
+            if (surface.w > 0.5) {
+                var transmittance = vec3<f32>(1.0);
+                if (through_air) {
+                    transmittance = scatter_along(transmittance_lut, multiple_scattering_lut, lut_sampler,
+                        atmosphere, r_clouds, glint, frame.sun_direction, length_m, CLOUDS_AIR_STEPS).transmittance;
+                }
+                let e = clouds_sea_reflectance(mu_s) * sun_irradiance * transmittance;
+                let y = sh_basis(glint);
+                for (var c = 0u; c < 9u; c = c + 1u) {
+                    clouds_total[c] += e * y[c];
+                }
+            }
+        }
+        for (var c = 0u; c < 9u; c = c + 1u) {
+            lighting_out.clouds_sh[c] = vec4<f32>(clouds_total[c], 0.0);
         }
         lighting_out.sky_irradiance_up = vec4<f32>(sky_irradiance_up, 0.0);
         lighting_out.sun_irradiance = vec4<f32>(sun_irradiance, 0.0);

@@ -20,7 +20,8 @@ use nimbus_physics::atmosphere::{
 use std::sync::atomic::{AtomicBool, Ordering};
 
 pub use crate::frame::atmosphere::{
-    AtmosphereLookups, AtmosphereUniform, LightingUniform, sky_lighting, solar_irradiance_top,
+    AtmosphereLookups, AtmosphereUniform, CloudsGround, LightingUniform, clouds_environment,
+    sky_lighting, solar_irradiance_top,
 };
 pub use nimbus_physics::atmosphere::SkyLighting;
 
@@ -98,9 +99,12 @@ pub struct AtmospherePass {
     /// The parameters, the aerial-perspective switch and the near ground's
     /// albedo last uploaded.
     params: Option<(AtmosphereParams, bool, [f64; 3])>,
+    /// The ground under the clouds and where they are, last uploaded.
+    clouds: Option<CloudsGround>,
     view: Option<ViewKey>,
     luts_pending: AtomicBool,
     view_pending: AtomicBool,
+    lighting_pending: AtomicBool,
 }
 
 impl std::fmt::Debug for AtmospherePass {
@@ -298,6 +302,7 @@ impl AtmospherePass {
                     atmosphere(),
                     sampler(),
                     sampled(slot::TRANSMITTANCE, &lookups.transmittance),
+                    sampled(slot::MULTIPLE_SCATTERING, &lookups.multiple_scattering),
                     sampled(slot::SKY_VIEW, &lookups.sky_view),
                     (
                         buffer_entry(
@@ -324,9 +329,11 @@ impl AtmospherePass {
             lighting: lookups.lighting.clone(),
             steps,
             params: None,
+            clouds: None,
             view: None,
             luts_pending: AtomicBool::new(true),
             view_pending: AtomicBool::new(true),
+            lighting_pending: AtomicBool::new(true),
         }
     }
 
@@ -335,24 +342,38 @@ impl AtmospherePass {
     /// Without `aerial_perspective` the aerial-perspective volume holds no
     /// air (nothing scattered in, transmittance 1). `near_ground_albedo`:
     /// the mean albedo of the ground the scene draws
-    /// ([`crate::frame::atmosphere::ground_albedo`]).
+    /// ([`crate::frame::atmosphere::ground_albedo`]). `clouds`: the ground
+    /// under the clouds and where their environment is taken (a change
+    /// recomputes only the lighting inputs).
     pub fn prepare(
         &mut self,
         queue: &wgpu::Queue,
         params: &AtmosphereParams,
         aerial_perspective: bool,
         near_ground_albedo: [f64; 3],
+        clouds: &CloudsGround,
         frame: &crate::frame::FrameUniform,
     ) {
         let state = (params.clone(), aerial_perspective, near_ground_albedo);
-        if self.params.as_ref() != Some(&state) {
+        let params_changed = self.params.as_ref() != Some(&state);
+        let clouds_changed = self.clouds.as_ref() != Some(clouds);
+        if params_changed || clouds_changed {
+            let f = |a: [f64; 3]| a.map(|c| c as f32);
             let uniform = AtmosphereUniform {
                 aerial_perspective_scale: if aerial_perspective { 1.0 } else { 0.0 },
-                near_ground_albedo: near_ground_albedo.map(|c| c as f32),
+                near_ground_albedo: f(near_ground_albedo),
+                clouds_observer_m: f(clouds.observer_m),
+                near_ground_half_extent_m: clouds.below.near_ground_half_extent_m.min(1e30) as f32,
+                water_albedo: f(clouds.below.water_albedo),
+                water_ggx_alpha: clouds.below.water_ggx_alpha as f32,
                 ..AtmosphereUniform::from(params)
             };
             queue.write_buffer(&self.uniform, 0, bytemuck::bytes_of(&uniform));
             self.params = Some(state);
+            self.clouds = Some(*clouds);
+            self.lighting_pending.store(true, Ordering::Relaxed);
+        }
+        if params_changed {
             self.luts_pending.store(true, Ordering::Relaxed);
             self.view_pending.store(true, Ordering::Relaxed);
         }
@@ -370,6 +391,13 @@ impl AtmospherePass {
     pub fn invalidate(&self) {
         self.luts_pending.store(true, Ordering::Relaxed);
         self.view_pending.store(true, Ordering::Relaxed);
+        self.lighting_pending.store(true, Ordering::Relaxed);
+    }
+
+    /// The ground under the clouds and where their environment is taken,
+    /// as last prepared (None before the first [`Self::prepare`]).
+    pub fn clouds_ground(&self) -> Option<&CloudsGround> {
+        self.clouds.as_ref()
     }
 
     /// Records the passes whose inputs changed; `first_timer_index` is the
@@ -383,7 +411,8 @@ impl AtmospherePass {
     ) -> [bool; 5] {
         let luts = self.luts_pending.swap(false, Ordering::Relaxed);
         let view = self.view_pending.swap(false, Ordering::Relaxed) || luts;
-        let run = [luts, luts, view, view, view];
+        let lighting = self.lighting_pending.swap(false, Ordering::Relaxed) || view;
+        let run = [luts, luts, view, view, lighting];
         for (k, step) in self.steps.iter().enumerate() {
             if !run[k] {
                 continue;

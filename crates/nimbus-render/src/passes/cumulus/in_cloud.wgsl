@@ -222,8 +222,8 @@ fn in_cloud_light_fragment(in: FullscreenOutput) -> @location(0) vec4<f32> {
         let b = in_cloud_scaled_form(at + 13u);
         let c = in_cloud_scaled_form(at + 14u);
         let luma = IN_CLOUD_LUMA;
-        let sky_0 = dot(lighting.sh[0].xyz, luma);
-        let sky_world = vec3<f32>(dot(lighting.sh[3].xyz, luma), dot(lighting.sh[1].xyz, luma), dot(lighting.sh[2].xyz, luma));
+        let sky_0 = dot(lighting.clouds_sh[0].xyz, luma);
+        let sky_world = vec3<f32>(dot(lighting.clouds_sh[3].xyz, luma), dot(lighting.clouds_sh[1].xyz, luma), dot(lighting.clouds_sh[2].xyz, luma));
         let sky = in_cloud_object_direction(sky_world) * in_cloud.offset_scale.w;
         let flux = sky_0 * a.xyz + sky.y * vec3<f32>(a.w, b.xy) + sky.z * vec3<f32>(b.zw, c.x) + sky.x * c.yzw;
         return vec4<f32>(cumulus_rotate(flux, in_cloud.rotation.x, in_cloud.rotation.y), 0.0);
@@ -234,7 +234,7 @@ fn in_cloud_light_fragment(in: FullscreenOutput) -> @location(0) vec4<f32> {
         return vec4<f32>(direct.c_b.x + (a.x + a.y + a.z) / 3.0, direct.c_b.yzw);
     }
     let f = in_cloud_turned_form(at);
-    let environment = max(cumulus_transfer_environment(f, lighting), vec3<f32>(0.0));
+    let environment = max(cumulus_transfer_environment(f, clouds_lighting(lighting)), vec3<f32>(0.0));
     let sun = max(cumulus_transfer_value(f, frame.sun_direction), 0.0);
     return vec4<f32>(environment, sun);
 }
@@ -271,7 +271,7 @@ fn in_cloud_march(origin_m: vec3<f32>, direction: vec3<f32>, t0: f32, t1: f32) -
     // colour (a ratio per channel, as the mesh's shading scales its
     // transfer, turned the fluence's share of ground light brown).
     let up = vec3<f32>(0.0, 1.0, 0.0);
-    let clear = sh_irradiance(lighting, up);
+    let clear = sh_irradiance(clouds_lighting(lighting), up);
     let under = stratus_ground_irradiance(origin_m + direction * t0, up, clear);
     let layered = any(under != clear);
     let luma = IN_CLOUD_LUMA;
@@ -303,7 +303,7 @@ fn in_cloud_march(origin_m: vec3<f32>, direction: vec3<f32>, t0: f32, t1: f32) -
     let sky_direct_weight = in_cloud.light_min.w;
     var sky_kernel: SkyDirectKernel;
     if (sky_direct_weight > 0.0) {
-        sky_kernel = sky_direct_kernel(lighting.sh, asymmetry, -direction);
+        sky_kernel = sky_direct_kernel(lighting.clouds_sh, asymmetry, -direction);
     }
     var sun_segments: array<vec4<f32>, IN_CLOUD_SHADOW_SEGMENTS>;
     var sun_lobes: array<f32, IN_CLOUD_SHADOW_SEGMENTS>;

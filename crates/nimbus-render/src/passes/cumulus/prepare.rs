@@ -224,6 +224,16 @@ impl CumulusPass {
             .collect()
     }
 
+    /// The mean centre of the field's clouds this frame (of their bounding
+    /// spheres), world m; None without clouds.
+    pub fn mean_centre_m(&self) -> Option<[f64; 3]> {
+        if self.moved.is_empty() {
+            return None;
+        }
+        let sum: DVec3 = self.moved.iter().map(|c| c.centre_m).sum();
+        Some((sum / self.moved.len() as f64).to_array())
+    }
+
     /// Number of clouds in the field and number drawn this frame.
     pub fn cloud_counts(&self) -> (usize, usize) {
         let drawn = self.draws.iter().map(|d| d.instances.len()).sum();
