@@ -98,6 +98,20 @@ fn clouds_surface(d: vec3<f32>, r_observer: f32, length_m: f32, ground_radiance:
     return vec4<f32>(fresnel * sky + (1.0 - fresnel) * atmosphere.water_albedo / ATMOSPHERE_PI * water_irradiance, 1.0);
 }
 
+// The SH coefficients the workgroup's threads left in partial_sh, summed.
+fn summed_partial_sh() -> array<vec3<f32>, 9> {
+    var total: array<vec3<f32>, 9>;
+    for (var c = 0u; c < 9u; c = c + 1u) {
+        total[c] = vec3<f32>(0.0);
+    }
+    for (var t = 0u; t < LIGHTING_THREADS; t = t + 1u) {
+        for (var c = 0u; c < 9u; c = c + 1u) {
+            total[c] += partial_sh[t][c];
+        }
+    }
+    return total;
+}
+
 fn sky_view_radiance(direction: vec3<f32>) -> vec3<f32> {
     let r = observer_radius(atmosphere, frame.camera_position_m.y);
     return sky_view_lookup(sky_view_lut, lut_sampler, atmosphere, r, direction, frame.sun_direction);
@@ -153,14 +167,7 @@ fn lighting_main(@builtin(local_invocation_index) thread: u32) {
     workgroupBarrier();
     var total: array<vec3<f32>, 9>;
     if (thread == 0u) {
-        for (var c = 0u; c < 9u; c = c + 1u) {
-            total[c] = vec3<f32>(0.0);
-        }
-        for (var t = 0u; t < LIGHTING_THREADS; t = t + 1u) {
-            for (var c = 0u; c < 9u; c = c + 1u) {
-                total[c] += partial_sh[t][c];
-            }
-        }
+        total = summed_partial_sh();
     }
     workgroupBarrier();
 
@@ -195,15 +202,7 @@ fn lighting_main(@builtin(local_invocation_index) thread: u32) {
         for (var c = 0u; c < 9u; c = c + 1u) {
             lighting_out.sh[c] = vec4<f32>(total[c], 0.0);
         }
-        var clouds_total: array<vec3<f32>, 9>;
-        for (var c = 0u; c < 9u; c = c + 1u) {
-            clouds_total[c] = vec3<f32>(0.0);
-        }
-        for (var t = 0u; t < LIGHTING_THREADS; t = t + 1u) {
-            for (var c = 0u; c < 9u; c = c + 1u) {
-                clouds_total[c] += partial_sh[t][c];
-            }
-        }
+        var clouds_total = summed_partial_sh();
         // The sun's glint where its mirror direction meets the sea.
         let glint = vec3<f32>(frame.sun_direction.x, -frame.sun_direction.y, frame.sun_direction.z);
         if (mu_s > 0.0 && ray_hits_ground(atmosphere, r_clouds, glint.y)) {
