@@ -12,8 +12,21 @@ fn headless() -> HeadlessRenderer {
         .unwrap_or_else(|e| panic!("GPU tests need an adapter: {e}"))
 }
 
-fn auto_scene(elevation_deg: f64) -> Scene {
+/// The embedded default scene with its cumulus shaded by the `fitted`
+/// model: these tests sweep the sun, and the default `volume` model would
+/// trace a sun cube per cloud for each new sun direction (~7 s each), which
+/// the exposure does not depend on.
+fn default_scene() -> Scene {
+    use nimbus_physics::cumulus::shading::{CumulusShading, CumulusShadingModel};
     let mut scene = Scene::embedded_default();
+    if let Some(cumulus) = &mut scene.cumulus {
+        cumulus.shading = CumulusShading::of_model(CumulusShadingModel::Fitted);
+    }
+    scene
+}
+
+fn auto_scene(elevation_deg: f64) -> Scene {
+    let mut scene = default_scene();
     scene.terrain.resolution = 64;
     scene.camera.auto_exposure = true;
     scene.camera.exposure_compensation_ev = 0.0;
@@ -106,7 +119,7 @@ fn sky_is_continuous_and_finite_as_the_sun_crosses_the_horizon() {
     let mut previous_step: Option<f64> = None;
     for step in 0..=20 {
         let elevation = 4.0 - 0.5 * step as f64;
-        let mut scene = Scene::embedded_default();
+        let mut scene = default_scene();
         scene.terrain.resolution = 32;
         scene.camera.position_m = [0.0, 2000.0, 0.0];
         scene.camera.look_at_m = None;
