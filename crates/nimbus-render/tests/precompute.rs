@@ -26,8 +26,13 @@ fn prepare_does_not_wait_for_the_shapes_and_the_clouds_appear_once_they_are_made
     scene.rain = None;
     scene.keyframes.clear();
     scene.camera.auto_exposure = false;
+    // The fitted model: the volume default adds a sun cube per cloud
+    // (~7 s each) to wait for, which this test does not need.
     if let Some(cumulus) = &mut scene.cumulus {
         cumulus.variants = 1;
+        cumulus.shading = nimbus_physics::cumulus::shading::CumulusShading::of_model(
+            nimbus_physics::cumulus::shading::CumulusShadingModel::Fitted,
+        );
     }
 
     let mut h = HeadlessRenderer::new(AdapterPreference::Auto).expect("a wgpu adapter");
