@@ -185,9 +185,13 @@ impl SkyLighting {
         // The sun's glint where its mirror direction meets the sea.
         let glint = [sun[0], -sun[1], sun[2]];
         if sun[1] > 0.0
-            && let Some((length_m, _, true)) = surface(glint)
+            && let Some((_, _, true)) = surface(glint)
         {
-            let (_, transmittance) = air(glint, length_m);
+            let transmittance = if below.through_air {
+                ground_transmittance(p, observer_r, glint[1])
+            } else {
+                [1.0; 3]
+            };
             let fresnel = sea_specular_reflectance(sun[1], below.water_ggx_alpha);
             for (k, y) in sh::basis(glint).iter().enumerate() {
                 for c in 0..3 {

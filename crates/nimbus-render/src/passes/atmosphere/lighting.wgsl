@@ -211,8 +211,7 @@ fn lighting_main(@builtin(local_invocation_index) thread: u32) {
             if (surface.w > 0.5) {
                 var transmittance = vec3<f32>(1.0);
                 if (through_air) {
-                    transmittance = scatter_along(transmittance_lut, multiple_scattering_lut, lut_sampler,
-                        atmosphere, r_clouds, glint, frame.sun_direction, length_m, CLOUDS_AIR_STEPS).transmittance;
+                    transmittance = ground_transmittance(r_clouds, glint.y);
                 }
                 let e = clouds_sea_reflectance(mu_s) * sun_irradiance * transmittance;
                 let y = sh_basis(glint);
