@@ -73,7 +73,26 @@ impl CloudsGround {
             },
         }
     }
+
+    /// Whether the clouds' environment taken for `self` still stands for
+    /// `other`: the same ground and sea, and an observer within
+    /// [`CLOUDS_OBSERVER_TOLERANCE_M`] of `self`'s.
+    pub fn stands_for(&self, other: &Self) -> bool {
+        let moved_m2: f64 = (0..3)
+            .map(|a| (self.observer_m[a] - other.observer_m[a]).powi(2))
+            .sum();
+        self.below == other.below && moved_m2 <= CLOUDS_OBSERVER_TOLERANCE_M.powi(2)
+    }
 }
+
+/// How far the clouds' mean centre may drift before their environment is
+/// taken again, m. The clouds drift with the wind every frame, and their
+/// lower hemisphere changes over kilometres (the edge of the terrain's
+/// square seen from 1.5 km up) and their sky over the air's scale height
+/// (~8 km: 100 m of height is ~1 % of the air above): re-taken every 100 m
+/// it is within ~1 % of its exact value, and a 10 m/s wind reruns the
+/// lighting step every 10 s rather than every frame.
+pub const CLOUDS_OBSERVER_TOLERANCE_M: f64 = 100.0;
 
 /// The environment the clouds of `scene` see from `clouds.observer_m`
 /// ([`SkyLighting::environment_at`]), computed on the CPU: the same SH the

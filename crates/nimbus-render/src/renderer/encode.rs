@@ -77,6 +77,12 @@ impl Renderer {
             run.remove(PassId::CumulusInCloudLight);
             run.remove(PassId::CumulusInCloud);
         }
+        // The marched clouds' light atlases are kept while the lighting
+        // and the clouds' scale and yaw hold.
+        let lighting_generation = self.atmosphere.lighting_generation();
+        if !self.cumulus.in_cloud_light_pending(lighting_generation) {
+            run.remove(PassId::CumulusInCloudLight);
+        }
         if !self.objects.enabled() {
             run.remove(PassId::Objects);
         }
@@ -199,6 +205,7 @@ impl Renderer {
                 &hdr.view,
                 depth,
                 &frame,
+                lighting_generation,
                 writes(PassId::CumulusInCloudLight),
                 writes(PassId::CumulusInCloud),
             );

@@ -372,6 +372,56 @@ fn a_kept_shadow_map_shades_as_a_redrawn_one() {
     );
 }
 
+/// The volume model's light atlases, kept while the lighting holds, are
+/// rendered again when it changes: the front-lit cumulus over flat ground,
+/// drawn over a dark ground and then, by the same renderer, over a bright
+/// one (more light from below: a new `Lighting`, the same sun), gives the
+/// picture a fresh renderer gives over the bright ground; and the ground's
+/// light is in that picture (the two grounds differ far more).
+#[test]
+fn kept_light_atlases_follow_the_lighting() {
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../../scenes/cumulus-front-lit.toml");
+    let mut dark = nimbus_render::Scene::from_file(&path).unwrap_or_else(|e| panic!("{e}"));
+    dark.camera.auto_exposure = false;
+    dark.ground.terrain = false;
+    dark.ground.albedo = [0.05; 3];
+    if let Some(cumulus) = &mut dark.cumulus {
+        cumulus.shading.model = nimbus_physics::cumulus::shading::CumulusShadingModel::Volume;
+    }
+    let mut bright = dark.clone();
+    bright.ground.albedo = [0.9; 3];
+    let (width, height) = (64, 36);
+    let mut kept = HeadlessRenderer::new(AdapterPreference::Auto).expect("a wgpu adapter");
+    kept.render_hdr(&dark, width, height, 0.0).expect("frame");
+    let followed = kept.render_hdr(&bright, width, height, 0.0).expect("frame");
+    let mut fresh = HeadlessRenderer::new(AdapterPreference::Auto).expect("a wgpu adapter");
+    let redrawn = fresh
+        .render_hdr(&bright, width, height, 0.0)
+        .expect("frame");
+    let over_dark = fresh.render_hdr(&dark, width, height, 0.0).expect("frame");
+    let luminance = |p: &[f32; 3]| 0.2126 * p[0] + 0.7152 * p[1] + 0.0722 * p[2];
+    let mean = redrawn.pixels.iter().map(luminance).sum::<f32>() / redrawn.pixels.len() as f32;
+    let largest_difference = |image: &[[f32; 3]]| {
+        image
+            .iter()
+            .zip(&redrawn.pixels)
+            .map(|(a, b)| (luminance(a) - luminance(b)).abs())
+            .fold(0.0f32, f32::max)
+    };
+    let largest = largest_difference(&followed.pixels);
+    let ground = largest_difference(&over_dark.pixels);
+    eprintln!("kept against fresh: largest {largest}; the grounds differ by {ground}; mean {mean}");
+    assert!(
+        largest <= 1e-3 * mean,
+        "largest difference {largest} against a mean luminance of {mean}"
+    );
+    assert!(
+        ground > 0.05 * mean,
+        "the ground changes the picture by {ground}"
+    );
+}
+
 const TRANSPORT_KERNEL: &str = r#"
 struct TransportCase {
     low_c_b: vec4<f32>,

@@ -17,7 +17,7 @@ use nimbus_physics::atmosphere::{
     AERIAL_PERSPECTIVE_SIZE, AtmosphereParams, MULTIPLE_SCATTERING_LUT_SIZE, SKY_VIEW_LUT_SIZE,
     TRANSMITTANCE_LUT_SIZE,
 };
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 
 pub use crate::frame::atmosphere::{
     AtmosphereLookups, AtmosphereUniform, CloudsGround, LightingUniform, clouds_environment,
@@ -105,6 +105,9 @@ pub struct AtmospherePass {
     luts_pending: AtomicBool,
     view_pending: AtomicBool,
     lighting_pending: AtomicBool,
+    /// How many times the lighting step has been recorded: what the passes
+    /// that cache work derived from `Lighting` compare.
+    lighting_generation: AtomicU64,
 }
 
 impl std::fmt::Debug for AtmospherePass {
@@ -334,6 +337,7 @@ impl AtmospherePass {
             luts_pending: AtomicBool::new(true),
             view_pending: AtomicBool::new(true),
             lighting_pending: AtomicBool::new(true),
+            lighting_generation: AtomicU64::new(0),
         }
     }
 
@@ -343,8 +347,10 @@ impl AtmospherePass {
     /// air (nothing scattered in, transmittance 1). `near_ground_albedo`:
     /// the mean albedo of the ground the scene draws
     /// ([`crate::frame::atmosphere::ground_albedo`]). `clouds`: the ground
-    /// under the clouds and where their environment is taken (a change
-    /// recomputes only the lighting inputs).
+    /// under the clouds and where their environment is taken (a change of
+    /// ground, or a move beyond
+    /// [`crate::frame::atmosphere::CLOUDS_OBSERVER_TOLERANCE_M`], recomputes
+    /// only the lighting inputs).
     pub fn prepare(
         &mut self,
         queue: &wgpu::Queue,
@@ -356,7 +362,12 @@ impl AtmospherePass {
     ) {
         let state = (params.clone(), aerial_perspective, near_ground_albedo);
         let params_changed = self.params.as_ref() != Some(&state);
-        let clouds_changed = self.clouds.as_ref() != Some(clouds);
+        // The clouds drift with the wind: their environment is taken again
+        // once they have moved far enough to change it (not every frame).
+        let clouds_changed = !self
+            .clouds
+            .as_ref()
+            .is_some_and(|taken| taken.stands_for(clouds));
         if params_changed || clouds_changed {
             let f = |a: [f64; 3]| a.map(|c| c as f32);
             let uniform = AtmosphereUniform {
@@ -387,6 +398,13 @@ impl AtmospherePass {
         }
     }
 
+    /// Counts the lighting step's recordings ([`Self::encode`]): it changes
+    /// whenever the `Lighting` buffer (the sun, the sky's and the clouds'
+    /// SH) may have.
+    pub fn lighting_generation(&self) -> u64 {
+        self.lighting_generation.load(Ordering::Relaxed)
+    }
+
     /// Forces every LUT to be recomputed by the next [`Self::encode`] (benchmarks).
     pub fn invalidate(&self) {
         self.luts_pending.store(true, Ordering::Relaxed);
@@ -394,8 +412,8 @@ impl AtmospherePass {
         self.lighting_pending.store(true, Ordering::Relaxed);
     }
 
-    /// The ground under the clouds and where their environment is taken,
-    /// as last prepared (None before the first [`Self::prepare`]).
+    /// The ground under the clouds and where their environment was last
+    /// taken (None before the first [`Self::prepare`]).
     pub fn clouds_ground(&self) -> Option<&CloudsGround> {
         self.clouds.as_ref()
     }
@@ -412,6 +430,9 @@ impl AtmospherePass {
         let luts = self.luts_pending.swap(false, Ordering::Relaxed);
         let view = self.view_pending.swap(false, Ordering::Relaxed) || luts;
         let lighting = self.lighting_pending.swap(false, Ordering::Relaxed) || view;
+        if lighting {
+            self.lighting_generation.fetch_add(1, Ordering::Relaxed);
+        }
         let run = [luts, luts, view, view, lighting];
         for (k, step) in self.steps.iter().enumerate() {
             if !run[k] {

@@ -15,7 +15,8 @@
 //!
 //! Per frame, when active: `cumulus_in_cloud_light` renders the light of
 //! the active instance (its scale and yaw, this frame's sun and sky) into
-//! an atlas of its cells; `cumulus_in_cloud` marches every pixel from the
+//! an atlas of its cells — only when one of those changed, the atlas being
+//! kept between frames; `cumulus_in_cloud` marches every pixel from the
 //! camera to the first opaque depth or out of the box and blends the
 //! fog's light over the frame, attenuating everything behind it.
 //!
@@ -125,6 +126,10 @@ pub(super) struct Active {
     pub fade: f32,
     /// The pixels its box may cover: x, y, width, height.
     scissor: [u32; 4],
+    /// What its light atlas is rendered from besides `Lighting`: its
+    /// uniform without what only the march reads (where the wind has
+    /// carried it, its weight).
+    light_inputs: InCloudUniform,
 }
 
 /// What the instances are chosen for: the model and the camera's view.
@@ -160,7 +165,17 @@ struct Slot {
     sun_cube_active: bool,
     /// The groups of the last (scene depth, variant, sun cube) drawn.
     groups: Mutex<Option<GroupsCache>>,
+    /// What the light atlas holds now: rendered into which view, from which
+    /// inputs, with which `Lighting` ([`LightMadeFor`]).
+    light_made_for: Mutex<Option<LightMadeFor>>,
 }
+
+/// What a light atlas was rendered for: the atlas, the instance's
+/// [`Active::light_inputs`], and the lighting step's generation
+/// (`Atmosphere::lighting_generation`). The atlas depends on nothing else
+/// (the sun and the clouds' SH are in `Lighting`), so while these hold it is
+/// not rendered again: with a still sun and sky, only in the first frame.
+type LightMadeFor = (wgpu::TextureView, InCloudUniform, u64);
 
 /// The in-cloud passes' state.
 #[derive(Debug)]
@@ -432,6 +447,9 @@ impl InCloud {
                 .map(|i| self.upload(queue, i))
                 .collect();
             self.uploaded = Some((key.clone(), gpu));
+            // The slots' groups, light atlases and sun cubes were made from
+            // the interiors uploaded before.
+            self.slots.clear();
         }
         let Some((key, gpu)) = &self.uploaded else {
             return Ok(());
@@ -486,11 +504,16 @@ impl InCloud {
             );
             let slot = &self.slots[&index];
             queue.write_buffer(&slot.uniform, 0, bytemuck::bytes_of(&uniform));
+            let mut light_inputs = uniform;
+            light_inputs.offset_scale[..3].fill(0.0);
+            light_inputs.rotation[2] = 0.0;
+            light_inputs.light_dims[3] = 0;
             self.active.push(Active {
                 cloud: index,
                 variant: cloud.variant,
                 fade,
                 scissor: box_scissor(cloud, interior, &view.clip_from_world, view.size),
+                light_inputs,
             });
         }
         Ok(())
@@ -524,6 +547,7 @@ impl InCloud {
             sun_cube: None,
             sun_cube_active: false,
             groups: Mutex::new(None),
+            light_made_for: Mutex::new(None),
         });
         if slot.light.as_ref().map(|l| l.0) != Some(cloud.variant) {
             slot.light = Some((cloud.variant, light_atlas(device, interior.light_dims)));
@@ -607,10 +631,34 @@ impl InCloud {
         self.scene_depth = Some(((width, height), view));
     }
 
+    /// What the light atlas of `active` must be rendered for this frame, or
+    /// `None` if it holds that already.
+    fn stale_light(&self, active: &Active, lighting_generation: u64) -> Option<LightMadeFor> {
+        let slot = self.slots.get(&active.cloud)?;
+        let (_, light) = slot.light.as_ref()?;
+        let wanted = (light.clone(), active.light_inputs, lighting_generation);
+        let made = slot
+            .light_made_for
+            .lock()
+            .unwrap_or_else(std::sync::PoisonError::into_inner);
+        (made.as_ref() != Some(&wanted)).then_some(wanted)
+    }
+
+    /// Whether [`Self::encode`] will render any light atlas this frame (a
+    /// new instance, a turned or rescaled one, or a new `Lighting`).
+    pub(super) fn light_pending(&self, lighting_generation: u64) -> bool {
+        self.active
+            .iter()
+            .any(|a| self.stale_light(a, lighting_generation).is_some())
+    }
+
     /// Records, for each instance of this frame (farthest first), its light
-    /// atlas, a copy of the depth over its box's pixels and its march over
-    /// `hdr` — in the volume model writing `depth` where the cloud is
-    /// opaque. `cumulus_uniform`: the cumulus group's binding 0.
+    /// atlas where it is stale (new, or the lighting, its scale or yaw
+    /// changed), a copy of the depth over its box's pixels and its march
+    /// over `hdr` — in the volume model writing `depth` where the cloud is
+    /// opaque. `cumulus_uniform`: the
+    /// cumulus group's binding 0; `lighting_generation`: the atmosphere's
+    /// count of lighting steps recorded.
     #[allow(clippy::too_many_arguments)]
     pub fn encode(
         &self,
@@ -619,6 +667,7 @@ impl InCloud {
         depth: &wgpu::TextureView,
         frame: &FrameBindings<'_>,
         cumulus_uniform: &wgpu::Buffer,
+        lighting_generation: u64,
         light_timestamps: Option<wgpu::RenderPassTimestampWrites<'_>>,
         march_timestamps: Option<wgpu::RenderPassTimestampWrites<'_>>,
     ) {
@@ -696,12 +745,26 @@ impl InCloud {
                     groups
                 }
             };
-            drawn.push((light, groups, active.scissor));
+            drop(cached);
+            let stale = self.stale_light(active, lighting_generation);
+            if let Some(wanted) = &stale {
+                *slot
+                    .light_made_for
+                    .lock()
+                    .unwrap_or_else(std::sync::PoisonError::into_inner) = Some(wanted.clone());
+            }
+            drawn.push((light, groups, active.scissor, stale.is_some()));
         }
         let count = drawn.len();
-        // The light atlases first, then the marches (farthest first), so
-        // that each timer spans its own passes.
-        for (k, (light, (light_group, _), _)) in drawn.iter().enumerate() {
+        let lights: Vec<_> = drawn
+            .iter()
+            .filter(|d| d.3)
+            .map(|(light, (light_group, _), ..)| (light, light_group))
+            .collect();
+        // The stale light atlases first, then the marches (farthest first),
+        // so that each timer spans its own passes.
+        let light_count = lights.len();
+        for (k, (light, light_group)) in lights.into_iter().enumerate() {
             let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
                 label: Some("cumulus in-cloud light"),
                 color_attachments: &[Some(wgpu::RenderPassColorAttachment {
@@ -714,7 +777,7 @@ impl InCloud {
                     },
                 })],
                 depth_stencil_attachment: None,
-                timestamp_writes: span(&light_timestamps, k == 0, k + 1 == count),
+                timestamp_writes: span(&light_timestamps, k == 0, k + 1 == light_count),
                 occlusion_query_set: None,
                 multiview_mask: None,
             });
@@ -722,7 +785,7 @@ impl InCloud {
             frame.set_on(&mut pass, Some(light_group));
             pass.draw(0..3, 0..1);
         }
-        for (k, (_, (_, march_group), [x, y, w, h])) in drawn.iter().enumerate() {
+        for (k, (_, (_, march_group), [x, y, w, h], _)) in drawn.iter().enumerate() {
             let (x, y, w, h) = (*x, *y, *w, *h);
             // The march's timer starts with its first copy of the depth.
             let start = span(&march_timestamps, k == 0, false);

@@ -166,14 +166,25 @@ impl CumulusPass {
         !self.in_cloud.active().is_empty() && self.in_cloud.volume()
     }
 
+    /// Whether [`Self::encode_in_cloud`] will render any instance's light
+    /// atlas this frame (`lighting_generation`: the atmosphere's count of
+    /// lighting steps recorded; the atlases are kept while it and the
+    /// instances' scale and yaw hold).
+    pub fn in_cloud_light_pending(&self, lighting_generation: u64) -> bool {
+        self.in_cloud.light_pending(lighting_generation)
+    }
+
     /// Records the in-cloud passes (see [`super::in_cloud`]): the active
-    /// instance's light, then its march over `hdr`, reading `depth`.
+    /// instances' light where it is stale, then their marches over `hdr`,
+    /// reading `depth`.
+    #[allow(clippy::too_many_arguments)]
     pub fn encode_in_cloud(
         &self,
         encoder: &mut wgpu::CommandEncoder,
         hdr: &wgpu::TextureView,
         depth: &wgpu::TextureView,
         frame: &FrameBindings<'_>,
+        lighting_generation: u64,
         light_timestamps: Option<wgpu::RenderPassTimestampWrites<'_>>,
         march_timestamps: Option<wgpu::RenderPassTimestampWrites<'_>>,
     ) {
@@ -183,6 +194,7 @@ impl CumulusPass {
             depth,
             frame,
             &self.uniform,
+            lighting_generation,
             light_timestamps,
             march_timestamps,
         );
