@@ -1203,8 +1203,17 @@ fn animate_the_default_sunset_and_shower_smoothly() {
     // Frames change steadily: no frame stands out from the mean of its two
     // neighbours (a flicker) by more than the neighbours differ from each
     // other, and the last frame is darker than the first (the sunset).
+    // Its cumulus shaded by the `fitted` model: the `volume` default traces
+    // a sun cube per cloud for each of the six suns (72, minutes of CI on
+    // two cores), and what is tested here is the animation, not the model
+    // (whose own goldens, suite and flight test the default).
     let dir = temp_dir("cli", "animate-default");
-    let frames = animate(&dir, &["--seconds", "10", "--fps", "0.6"]);
+    let default = nimbus(&["scene", "--print-default"], &dir);
+    assert!(default.status.success());
+    let mut scene = String::from_utf8(default.stdout).expect("UTF-8");
+    scene.push_str("\n[cumulus.shading]\nmodel = \"fitted\"\n");
+    std::fs::write(dir.join("sunset.toml"), scene).expect("scene");
+    let frames = animate(&dir, &["sunset.toml", "--seconds", "10", "--fps", "0.6"]);
     assert_eq!(frames.len(), 6);
     for i in 1..frames.len() - 1 {
         let (a, b, c) = (&frames[i - 1], &frames[i], &frames[i + 1]);

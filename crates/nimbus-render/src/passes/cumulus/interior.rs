@@ -110,14 +110,17 @@ pub fn pack_flux(flux: &[[f64; 3]; 4]) -> [[f32; 4]; 3] {
     ]
 }
 
-/// Computes variant `index`'s interior (seconds).
+/// Computes variant `index`'s interior (seconds); its extinction grid from
+/// `dir`'s cache where it is there.
 pub fn compute_interior(
+    dir: &Path,
     params: &InteriorParams,
     index: u32,
     shape: &CumulusVariant,
     optics: &CloudOpticsTables,
 ) -> Result<VariantInterior, VariantError> {
     let grid = variant_extinction_grid(
+        dir,
         &params.variants,
         index,
         params.density_per_m,
@@ -253,13 +256,16 @@ pub struct VariantSunCube {
     pub texels: Vec<[f32; 4]>,
 }
 
-/// Traces the sun cube of `key` (seconds).
+/// Traces the sun cube of `key` (seconds); its extinction grid from
+/// `dir`'s cache where it is there.
 pub fn compute_sun_cube(
+    dir: &Path,
     key: &SunCubeKey,
     shape: &CumulusVariant,
     optics: &CloudOpticsTables,
 ) -> Result<VariantSunCube, VariantError> {
     let grid = variant_extinction_grid(
+        dir,
         &key.params.variants,
         key.variant,
         key.params.density_per_m,
@@ -356,7 +362,7 @@ pub fn load_or_compute_sun_cube(
         &dir.join(format!("cumulus-sun-cube-{:016x}.bin", key.cache_key())),
         MAX_CACHE_FILE_BYTES,
         sun_cube_from_bytes,
-        || compute_sun_cube(key, shape, optics),
+        || compute_sun_cube(dir, key, shape, optics),
         sun_cube_to_bytes,
     )
 }
@@ -461,7 +467,7 @@ pub fn load_or_compute(
                 &cache_path(dir, params, index),
                 MAX_CACHE_FILE_BYTES,
                 from_bytes,
-                || compute_interior(params, index, shape, optics),
+                || compute_interior(dir, params, index, shape, optics),
                 to_bytes,
             )
             .map(Arc::new)

@@ -24,7 +24,7 @@ use nimbus_physics::optics::phase::PhaseTable;
 use nimbus_physics::optics::tables::CloudOpticsTables;
 use nimbus_physics::transport::phase_model::PhaseModel;
 use std::path::{Path, PathBuf};
-use std::sync::Arc;
+use std::sync::{Arc, Mutex, OnceLock};
 
 /// Photons traced per variant and scale. The cost (release build, one
 /// core of this project's 2-core reference machine): about 4 s per million
@@ -134,35 +134,160 @@ pub fn tracer_scattering(optics: &CloudOpticsTables) -> (Scattering, f64) {
 }
 
 /// Variant `index`'s extinction on the grid the references render (α_ρ
-/// `density_per_m`, corona `corona_thickness_m`): what the transfer's and
-/// the interior light's tracers walk through.
+/// `density_per_m`, corona `corona_thickness_m`): what the transfer's, the
+/// interior light's and the sun cubes' tracers walk through. Building it
+/// (the shape's hierarchy again, then the blob field voxelised: ~10 s for
+/// the paper's cloud on two cores) cost more than tracing a sun cube through
+/// it (profiled), and a field asks for it once per cloud and sun direction:
+/// the last [`KEPT_GRIDS`] are kept in this process's memory, and each is
+/// cached on disk in `dir` beside its shape (6–13 MB), for the next process.
 pub(super) fn variant_extinction_grid(
+    dir: &Path,
     variants: &VariantParams,
     index: u32,
     density_per_m: f64,
     corona_thickness_m: f64,
-) -> Result<ExtinctionGrid, VariantError> {
-    let cumulus = hierarchy::build(&variants.hierarchy(index), |_| {})
-        .map_err(|source| VariantError::Generation { index, source })?;
-    let volume = VolumeParams {
-        density_per_m,
-        corona_thickness_m,
-        ..VolumeParams::from_shading(&Default::default())
-    };
-    extinction_grid(&cumulus.field, &volume).map_err(|e| VariantError::Transfer {
-        index,
-        reason: e.to_string(),
-    })
+) -> Result<Arc<ExtinctionGrid>, VariantError> {
+    let key = nimbus_physics::io::fnv1a(&format!(
+        "{GRID_CACHE_VERSION} {} {} {}",
+        variants.cache_key(index),
+        density_per_m.to_bits(),
+        corona_thickness_m.to_bits()
+    ));
+    // One build at a time per process: the tracers of a field's clouds
+    // (each on its own worker thread) wait for the first rather than
+    // voxelising the same shape again.
+    let mut kept = grid_memory()
+        .lock()
+        .unwrap_or_else(std::sync::PoisonError::into_inner);
+    if let Some(at) = kept.iter().position(|(k, _)| *k == key) {
+        // Most recently used last.
+        let entry = kept.remove(at);
+        let grid = entry.1.clone();
+        kept.push(entry);
+        return Ok(grid);
+    }
+    let grid = super::variants::read_or_compute(
+        &dir.join(format!("cumulus-grid-{key:016x}.bin")),
+        MAX_GRID_FILE_BYTES,
+        grid_from_bytes,
+        || {
+            let cumulus = hierarchy::build(&variants.hierarchy(index), |_| {})
+                .map_err(|source| VariantError::Generation { index, source })?;
+            let volume = VolumeParams {
+                density_per_m,
+                corona_thickness_m,
+                ..VolumeParams::from_shading(&Default::default())
+            };
+            extinction_grid(&cumulus.field, &volume)
+                .map(Arc::new)
+                .map_err(|e| VariantError::Transfer {
+                    index,
+                    reason: e.to_string(),
+                })
+        },
+        grid_to_bytes,
+    )?;
+    if kept.len() >= KEPT_GRIDS {
+        kept.remove(0);
+    }
+    kept.push((key, grid.clone()));
+    Ok(grid)
 }
 
-/// Computes variant `index`'s transfer (seconds: see [`TRANSFER_PHOTONS`]).
+const GRID_CACHE_MAGIC: &[u8; 8] = b"NIMBUSXG";
+const GRID_CACHE_VERSION: u32 = 1;
+const GRID_HEADER_BYTES: usize = 8 + 4 + 4 * 8 + 3 * 4 + 1;
+/// Largest grid file read: the largest grid the tracers build (the default
+/// `VolumeParams::max_cells`).
+const MAX_GRID_FILE_BYTES: u64 =
+    GRID_HEADER_BYTES as u64 + 4 * nimbus_physics::cumulus::volume::DEFAULT_MAX_CELLS as u64;
+
+fn grid_to_bytes(grid: &Arc<ExtinctionGrid>) -> Vec<u8> {
+    let mut out = Vec::with_capacity(GRID_HEADER_BYTES + 4 * grid.values_per_m.len());
+    out.extend_from_slice(GRID_CACHE_MAGIC);
+    out.extend_from_slice(&GRID_CACHE_VERSION.to_le_bytes());
+    for x in grid.origin_m.to_array().iter().chain([&grid.cell_m]) {
+        out.extend_from_slice(&x.to_le_bytes());
+    }
+    for n in grid.dims {
+        out.extend_from_slice(&(n as u32).to_le_bytes());
+    }
+    out.push(u8::from(grid.coarsened));
+    out.extend_from_slice(bytemuck::cast_slice(&grid.values_per_m));
+    out
+}
+
+/// Reads [`grid_to_bytes`]' format: `None` unless it holds a whole grid of
+/// this version, every value finite and non-negative.
+fn grid_from_bytes(bytes: &[u8]) -> Option<Arc<ExtinctionGrid>> {
+    if bytes.len() < GRID_HEADER_BYTES
+        || &bytes[..8] != GRID_CACHE_MAGIC
+        || bytes[8..12] != GRID_CACHE_VERSION.to_le_bytes()
+    {
+        return None;
+    }
+    let f64_at = |i: usize| -> Option<f64> {
+        Some(f64::from_le_bytes(
+            bytes[12 + 8 * i..20 + 8 * i].try_into().ok()?,
+        ))
+    };
+    let u32_at = |i: usize| -> Option<usize> {
+        Some(u32::from_le_bytes(bytes[44 + 4 * i..48 + 4 * i].try_into().ok()?) as usize)
+    };
+    let origin_m = DVec3::new(f64_at(0)?, f64_at(1)?, f64_at(2)?);
+    let cell_m = f64_at(3)?;
+    let dims = [u32_at(0)?, u32_at(1)?, u32_at(2)?];
+    let coarsened = bytes[56] != 0;
+    let body = &bytes[GRID_HEADER_BYTES..];
+    let cells = dims.iter().try_fold(1usize, |n, &d| n.checked_mul(d))?;
+    if dims.contains(&0)
+        || body.len() != cells.checked_mul(4)?
+        || !(origin_m.is_finite() && cell_m.is_finite() && cell_m > 0.0)
+    {
+        return None;
+    }
+    let values_per_m: Vec<f32> = body
+        .chunks_exact(4)
+        .map(|b| f32::from_le_bytes([b[0], b[1], b[2], b[3]]))
+        .collect();
+    if !values_per_m.iter().all(|v| v.is_finite() && *v >= 0.0) {
+        return None;
+    }
+    Some(Arc::new(ExtinctionGrid {
+        origin_m,
+        cell_m,
+        dims,
+        values_per_m,
+        coarsened,
+    }))
+}
+
+/// Extinction grids kept in this process's memory by the tracers: a scene's
+/// few shapes (the default scene's three). Each is at most
+/// `VolumeParams::max_cells` × 4 bytes (64 MB; the paper's cloud ~10 MB).
+pub const KEPT_GRIDS: usize = 4;
+
+/// A grid's key (over the variant's description, α_ρ and the corona) and
+/// the grid, least recently used first.
+type GridMemory = Mutex<Vec<(u64, Arc<ExtinctionGrid>)>>;
+
+fn grid_memory() -> &'static GridMemory {
+    static MEMORY: OnceLock<GridMemory> = OnceLock::new();
+    MEMORY.get_or_init(Default::default)
+}
+
+/// Computes variant `index`'s transfer (seconds: see [`TRANSFER_PHOTONS`]);
+/// its extinction grid from `dir`'s cache where it is there.
 pub fn compute_transfer(
+    dir: &Path,
     params: &TransferParams,
     index: u32,
     shape: &CumulusVariant,
     optics: &CloudOpticsTables,
 ) -> Result<VariantTransfer, VariantError> {
     let grid = variant_extinction_grid(
+        dir,
         &params.variants,
         index,
         params.density_per_m,
@@ -302,7 +427,7 @@ pub fn load_or_compute(
                 &cache_path(dir, params, index),
                 MAX_CACHE_FILE_BYTES,
                 |bytes| from_bytes(bytes, shape),
-                || compute_transfer(params, index, shape, optics),
+                || compute_transfer(dir, params, index, shape, optics),
                 to_bytes,
             )
             .map(Arc::new)
@@ -313,6 +438,33 @@ pub fn load_or_compute(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A grid read back from its cache bytes is the grid written; a short,
+    /// foreign or non-finite file is refused (then computed again).
+    #[test]
+    fn grid_cache_round_trips_and_refuses_what_is_not_a_whole_grid() {
+        let grid = Arc::new(ExtinctionGrid {
+            origin_m: DVec3::new(-120.5, 3.25, 7.0),
+            cell_m: 12.5,
+            dims: [3, 2, 4],
+            values_per_m: (0..24).map(|i| 0.01 * i as f32).collect(),
+            coarsened: true,
+        });
+        let bytes = grid_to_bytes(&grid);
+        assert_eq!(grid_from_bytes(&bytes), Some(grid));
+        assert_eq!(grid_from_bytes(&bytes[..bytes.len() - 4]), None);
+        assert_eq!(grid_from_bytes(&bytes[..GRID_HEADER_BYTES - 1]), None);
+        let mut foreign = bytes.clone();
+        foreign[0] = b'X';
+        assert_eq!(grid_from_bytes(&foreign), None);
+        let mut not_finite = bytes.clone();
+        let last = not_finite.len() - 4;
+        not_finite[last..].copy_from_slice(&f32::NAN.to_le_bytes());
+        assert_eq!(grid_from_bytes(&not_finite), None);
+        let mut no_cells = bytes;
+        no_cells[44..48].copy_from_slice(&0u32.to_le_bytes());
+        assert_eq!(grid_from_bytes(&no_cells), None);
+    }
 
     #[test]
     fn cache_format_round_trips_and_rejects_other_shapes() {
@@ -368,7 +520,14 @@ mod tests {
             photons: TRANSFER_PHOTONS,
         };
         let t1 = std::time::Instant::now();
-        let transfer = compute_transfer(&params, 0, &shape, &optics).expect("its transfer");
+        let transfer = compute_transfer(
+            &crate::core::cache::cache_dir(),
+            &params,
+            0,
+            &shape,
+            &optics,
+        )
+        .expect("its transfer");
         eprintln!("transfer {:?}", t1.elapsed());
         let lod = &shape.lods[0];
         // Energy: Σ T₀ A over the surface against Y₀ 4π A_disk f₂.

@@ -110,7 +110,7 @@ impl VariantParams {
         }
     }
 
-    fn cache_key(&self, index: u32) -> u64 {
+    pub(super) fn cache_key(&self, index: u32) -> u64 {
         // FNV-1a over the full description: any parameter change is a new file.
         let text = format!(
             "{CACHE_VERSION} {:?} {}",
