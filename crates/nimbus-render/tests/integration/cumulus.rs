@@ -316,6 +316,22 @@ fn gpu_terms_match_the_cpu_reference() {
     }
 }
 
+fn luminance(p: &[f32; 3]) -> f32 {
+    0.2126 * p[0] + 0.7152 * p[1] + 0.0722 * p[2]
+}
+
+fn mean_luminance(pixels: &[[f32; 3]]) -> f32 {
+    pixels.iter().map(luminance).sum::<f32>() / pixels.len() as f32
+}
+
+/// The largest difference in luminance between two images' pixels.
+fn largest_luminance_difference(a: &[[f32; 3]], b: &[[f32; 3]]) -> f32 {
+    a.iter()
+        .zip(b)
+        .map(|(p, q)| (luminance(p) - luminance(q)).abs())
+        .fold(0.0f32, f32::max)
+}
+
 /// The cloud shadow map kept while the wind carries the field (drawn once,
 /// then translated with the drift) gives the picture a renderer that draws
 /// it for that frame gives: the default scene without rain or keyframes,
@@ -342,15 +358,9 @@ fn a_kept_shadow_map_shades_as_a_redrawn_one() {
     let mut fresh = HeadlessRenderer::new(AdapterPreference::Auto).expect("a wgpu adapter");
     let redrawn = fresh.render_hdr(&scene, width, height, 5.0).expect("frame");
     assert!(fresh.renderer.cumulus().shadow_redrawn());
-    let luminance = |p: &[f32; 3]| 0.2126 * p[0] + 0.7152 * p[1] + 0.0722 * p[2];
-    let mean = redrawn.pixels.iter().map(luminance).sum::<f32>() / redrawn.pixels.len() as f32;
-    let largest_difference = |image: &[[f32; 3]]| {
-        image
-            .iter()
-            .zip(&redrawn.pixels)
-            .map(|(a, b)| (luminance(a) - luminance(b)).abs())
-            .fold(0.0f32, f32::max)
-    };
+    let mean = mean_luminance(&redrawn.pixels);
+    let largest_difference =
+        |image: &[[f32; 3]]| largest_luminance_difference(image, &redrawn.pixels);
     let largest = largest_difference(&carried.pixels);
     eprintln!("kept against redrawn: largest luminance difference {largest}, mean {mean}");
     assert!(
@@ -400,15 +410,9 @@ fn kept_light_atlases_follow_the_lighting() {
         .render_hdr(&bright, width, height, 0.0)
         .expect("frame");
     let over_dark = fresh.render_hdr(&dark, width, height, 0.0).expect("frame");
-    let luminance = |p: &[f32; 3]| 0.2126 * p[0] + 0.7152 * p[1] + 0.0722 * p[2];
-    let mean = redrawn.pixels.iter().map(luminance).sum::<f32>() / redrawn.pixels.len() as f32;
-    let largest_difference = |image: &[[f32; 3]]| {
-        image
-            .iter()
-            .zip(&redrawn.pixels)
-            .map(|(a, b)| (luminance(a) - luminance(b)).abs())
-            .fold(0.0f32, f32::max)
-    };
+    let mean = mean_luminance(&redrawn.pixels);
+    let largest_difference =
+        |image: &[[f32; 3]]| largest_luminance_difference(image, &redrawn.pixels);
     let largest = largest_difference(&followed.pixels);
     let ground = largest_difference(&over_dark.pixels);
     eprintln!("kept against fresh: largest {largest}; the grounds differ by {ground}; mean {mean}");
