@@ -353,7 +353,10 @@ pub(super) fn write_cache(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
 /// `max_bytes`: a file far larger, or not a regular file, is not ours and is
 /// never read whole; one that does not decode is ignored), else computed and
 /// written (the cache is an optimisation: a read-only disk costs time, not
-/// correctness).
+/// correctness). Within a process one caller at a time per path: another
+/// asking for the same value meanwhile (two renderers, a field's clouds of
+/// one shape and sun) waits and reads what the first wrote, rather than
+/// computing it again beside it.
 pub(super) fn read_or_compute<T, E>(
     path: &Path,
     max_bytes: u64,
@@ -361,6 +364,10 @@ pub(super) fn read_or_compute<T, E>(
     compute: impl FnOnce() -> Result<T, E>,
     encode: impl FnOnce(&T) -> Vec<u8>,
 ) -> Result<T, E> {
+    let in_flight = path_lock(path);
+    let _only_caller = in_flight
+        .lock()
+        .unwrap_or_else(std::sync::PoisonError::into_inner);
     if let Some(value) = nimbus_physics::io::read_bounded(path, max_bytes)
         .ok()
         .and_then(|bytes| decode(&bytes))
@@ -370,6 +377,19 @@ pub(super) fn read_or_compute<T, E>(
     let value = compute()?;
     let _ = write_cache(path, &encode(&value));
     Ok(value)
+}
+
+/// The lock of one cache path ([`read_or_compute`]); paths are never
+/// forgotten (one small entry per precomputed file this process asked for).
+fn path_lock(path: &Path) -> Arc<Mutex<()>> {
+    static LOCKS: OnceLock<Mutex<HashMap<PathBuf, Arc<Mutex<()>>>>> = OnceLock::new();
+    LOCKS
+        .get_or_init(Default::default)
+        .lock()
+        .unwrap_or_else(std::sync::PoisonError::into_inner)
+        .entry(path.to_path_buf())
+        .or_default()
+        .clone()
 }
 
 type Memory = Mutex<HashMap<(PathBuf, u64), Arc<CumulusVariant>>>;
@@ -414,6 +434,44 @@ pub fn load_or_generate(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Two threads asking for the same missing cache file compute it once:
+    /// the second reads what the first wrote.
+    #[test]
+    fn one_computation_per_cache_path_at_a_time() {
+        let dir =
+            std::env::temp_dir().join(format!("nimbus-read-or-compute-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        let path = dir.join("value.bin");
+        let computed = std::sync::atomic::AtomicU32::new(0);
+        let values: Vec<u32> = std::thread::scope(|scope| {
+            let threads: Vec<_> = (0..2)
+                .map(|_| {
+                    scope.spawn(|| {
+                        read_or_compute(
+                            &path,
+                            64,
+                            |b| Some(u32::from_le_bytes(b.try_into().ok()?)),
+                            || {
+                                computed.fetch_add(1, std::sync::atomic::Ordering::SeqCst);
+                                std::thread::sleep(std::time::Duration::from_millis(200));
+                                Ok::<u32, ()>(42)
+                            },
+                            |v| v.to_le_bytes().to_vec(),
+                        )
+                        .expect("value")
+                    })
+                })
+                .collect();
+            threads
+                .into_iter()
+                .map(|t| t.join().expect("thread"))
+                .collect()
+        });
+        assert_eq!(values, [42, 42]);
+        assert_eq!(computed.load(std::sync::atomic::Ordering::SeqCst), 1);
+        let _ = std::fs::remove_dir_all(&dir);
+    }
 
     fn small() -> CumulusVariant {
         let lod = VariantLod {
