@@ -647,8 +647,10 @@ impl InCloud {
     /// Whether [`Self::encode`] will render any light atlas this frame (a
     /// new instance, a turned or rescaled one, or a new `Lighting`).
     pub(super) fn light_pending(&self, lighting_generation: u64) -> bool {
+        // As `encode` draws them: not an instance whose box covers no pixel.
         self.active
             .iter()
+            .filter(|a| a.scissor[2] > 0 && a.scissor[3] > 0)
             .any(|a| self.stale_light(a, lighting_generation).is_some())
     }
 
@@ -656,9 +658,9 @@ impl InCloud {
     /// atlas where it is stale (new, or the lighting, its scale or yaw
     /// changed), a copy of the depth over its box's pixels and its march
     /// over `hdr` — in the volume model writing `depth` where the cloud is
-    /// opaque. `cumulus_uniform`: the
-    /// cumulus group's binding 0; `lighting_generation`: the atmosphere's
-    /// count of lighting steps recorded.
+    /// opaque. `cumulus_uniform`: the cumulus group's binding 0;
+    /// `lighting_generation`: the atmosphere's count of lighting steps
+    /// recorded.
     #[allow(clippy::too_many_arguments)]
     pub fn encode(
         &self,
