@@ -315,8 +315,9 @@ pub const ENTRY_STEP_GROWTH: f64 = 1.03;
 pub const ENTRY_REFINEMENTS: u32 = 6;
 
 /// Distance, m, along the unit vector `direction` from `start_m` (a camera)
-/// to where the ray first enters the layer within `max_length_m`; 0 if
-/// `start_m` is inside it, `None` if the ray stays outside.
+/// to where the ray first enters the layer (each thickness plus `offset_m`)
+/// within `max_length_m`; 0 if `start_m` is inside it, `None` if the ray
+/// stays outside.
 ///
 /// Seen from within the layer's height range, the cells' tops and bases
 /// are both seen edge-on and a ray at eye level runs between them: drawn as
@@ -332,12 +333,13 @@ pub const ENTRY_REFINEMENTS: u32 = 6;
 /// `stratus_view_entry_m` in `nimbus-render`'s `shader/cloud_layer_lookup.wgsl`.
 pub fn first_entry_m(
     thickness_m: impl Fn(f64, f64) -> f64,
+    offset_m: f64,
     mid_plane_m: f64,
     start_m: [f64; 3],
     direction: [f64; 3],
     max_length_m: f64,
 ) -> Option<f64> {
-    let inside = signed_distance_along(&thickness_m, 0.0, mid_plane_m, start_m, direction);
+    let inside = signed_distance_along(&thickness_m, offset_m, mid_plane_m, start_m, direction);
     let mut last = (0.0, inside(0.0));
     if last.1 > 0.0 {
         return Some(0.0);
@@ -357,6 +359,31 @@ pub fn first_entry_m(
         last = next;
     }
     None
+}
+
+/// The outward unit normal of the layer's surface over (or under) the point
+/// `position_m` near it: the top y = `mid_plane_m` + h/2 above the
+/// mid-plane, the base y = `mid_plane_m` − h/2 below it, h's slope by
+/// central differences over ±`half_step_m`: (−½∂h/∂x, ±1, −½∂h/∂z)
+/// normalised (both faces are y_mid ± h/2). Where the in-layer march finds
+/// the face a low sun enters a cell's side by. The GPU twin is
+/// `stratus_surface_normal` in `nimbus-render`'s
+/// `shader/cloud_layer_lookup.wgsl` (over one texel of its window).
+pub fn surface_normal(
+    thickness_m: impl Fn(f64, f64) -> f64,
+    mid_plane_m: f64,
+    position_m: [f64; 3],
+    half_step_m: f64,
+) -> [f64; 3] {
+    let [x, y, z] = position_m;
+    let slope_x =
+        (thickness_m(x + half_step_m, z) - thickness_m(x - half_step_m, z)) / (2.0 * half_step_m);
+    let slope_z =
+        (thickness_m(x, z + half_step_m) - thickness_m(x, z - half_step_m)) / (2.0 * half_step_m);
+    let up = if y >= mid_plane_m { 1.0 } else { -1.0 };
+    let n = [-0.5 * slope_x, up, -0.5 * slope_z];
+    let length = (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt();
+    n.map(|c| c / length)
 }
 
 /// The far ends of the steps of a march over `max_length_m`: `steps` steps,
@@ -494,16 +521,44 @@ mod tests {
                 .map(|c: &f64| 300.0 * (1.0 - (x - c).abs() / 400.0).max(0.0))
                 .fold(0.0, f64::max)
         };
-        let entry = first_entry_m(cells, 0.0, [0.0, 50.0, 0.0], [1.0, 0.0, 0.0], 20_000.0)
+        let entry = first_entry_m(cells, 0.0, 0.0, [0.0, 50.0, 0.0], [1.0, 0.0, 0.0], 20_000.0)
             .expect("the ray enters the first cone");
         assert!((entry - (800.0 - 800.0 / 3.0)).abs() < 2.0, "{entry}");
+        // The cone's top slopes 0.75 m/m: its face at x = 700 leans 20.6°
+        // towards −x (normal ∝ (−0.375, 1, 0)); the base mirrors it.
+        let top = surface_normal(cells, 0.0, [700.0, 10.0, 0.0], 5.0);
+        let lean = 0.375 / (1.0f64 + 0.375 * 0.375).sqrt();
+        assert!(
+            (top[0] + lean).abs() < 1e-9 && top[1] > 0.9 && top[2] == 0.0,
+            "{top:?}"
+        );
+        let base = surface_normal(cells, 0.0, [700.0, -10.0, 0.0], 5.0);
+        assert!((base[0] + lean).abs() < 1e-9 && base[1] < -0.9, "{base:?}");
+        // 40 m added to every thickness: h > 60 m from x = 800 − 320.
+        let thicker = first_entry_m(
+            cells,
+            40.0,
+            0.0,
+            [0.0, 50.0, 0.0],
+            [1.0, 0.0, 0.0],
+            20_000.0,
+        )
+        .expect("the ray enters the first cone");
+        assert!((thicker - 480.0).abs() < 2.0, "{thicker}");
         // From inside a cell: 0. Above every cell: never.
         assert_eq!(
-            first_entry_m(cells, 0.0, [800.0, 0.0, 0.0], [1.0, 0.0, 0.0], 5000.0),
+            first_entry_m(cells, 0.0, 0.0, [800.0, 0.0, 0.0], [1.0, 0.0, 0.0], 5000.0),
             Some(0.0)
         );
         assert_eq!(
-            first_entry_m(cells, 0.0, [0.0, 200.0, 0.0], [1.0, 0.0, 0.0], 20_000.0),
+            first_entry_m(
+                cells,
+                0.0,
+                0.0,
+                [0.0, 200.0, 0.0],
+                [1.0, 0.0, 0.0],
+                20_000.0
+            ),
             None
         );
     }

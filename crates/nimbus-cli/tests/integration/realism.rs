@@ -276,6 +276,16 @@ fn compare_against_noisy_halves_of_the_image_itself_finds_no_error() {
     }
 }
 
+/// The models other than the defaults that a scene's record may hold
+/// errors for: the record's key, the table of the scene holding `model`,
+/// and the model.
+const OTHER_MODELS: [(&str, &[&str], &str); 4] = [
+    ("fitted", &["cumulus", "shading"], "fitted"),
+    ("bouthors2004", &["cumulus", "shading"], "bouthors2004"),
+    ("transport", &["cumulus", "shading"], "transport"),
+    ("stratus_volume", &["stratus"], "volume"),
+];
+
 /// The realism suite (docs/REALISM.md): every scene of scenes/realism/ is
 /// rendered as nimbus draws it now (without air in front of the clouds, as
 /// the references) and compared with its stored path-traced reference, two
@@ -284,9 +294,10 @@ fn compare_against_noisy_halves_of_the_image_itself_finds_no_error() {
 /// luminance over 4×4 blocks nor the mean luminance ratio's distance from 1
 /// may grow beyond its recorded value by more than three of its standard
 /// errors: realism can only improve. Where a record also keeps another
-/// cumulus model's (`"fitted"`: the scene with `cumulus.shading.model =
-/// "fitted"`, the default before `volume`), that model is held to it the
-/// same way.
+/// model's ([`OTHER_MODELS`]: `"fitted"`, the scene with
+/// `cumulus.shading.model = "fitted"`, the default before `volume`;
+/// `"stratus_volume"`, with `stratus.model = "volume"`), that model is held
+/// to it the same way.
 #[test]
 fn the_realism_suite_does_not_move_away_from_its_references() {
     let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
@@ -316,29 +327,28 @@ fn the_realism_suite_does_not_move_away_from_its_references() {
             }))
             .expect("record JSON");
         let mut runs = vec![(name.clone(), scene.clone(), &record["error"]["halves"])];
-        // Another cumulus model than the default, held to its own record
-        // where one is kept (`"fitted"`: the scene with that model).
-        for (model, kept) in ["fitted", "bouthors2004", "transport"]
+        // Another model than the default, held to its own record where one
+        // is kept (`"fitted"`: the scene with that cumulus model;
+        // `"stratus_volume"`: with `stratus.model = "volume"`).
+        for (key, section, model) in OTHER_MODELS
             .iter()
-            .filter_map(|m| record.get(*m).map(|kept| (*m, kept)))
+            .filter(|(key, _, _)| record.get(*key).is_some())
         {
+            let kept = &record[*key];
             let text = std::fs::read_to_string(scene).expect("scene");
             let mut table: toml::Table = toml::from_str(&text).expect("scene TOML");
-            let cumulus = table
-                .entry("cumulus")
-                .or_insert_with(|| toml::Table::new().into());
-            let shading = cumulus
-                .as_table_mut()
-                .expect("[cumulus]")
-                .entry("shading")
-                .or_insert_with(|| toml::Table::new().into());
-            shading
-                .as_table_mut()
-                .expect("[cumulus.shading]")
-                .insert("model".into(), model.into());
-            let path = dir.join(format!("{name}-{model}.toml"));
+            let mut at = &mut table;
+            for part in *section {
+                at = at
+                    .entry(*part)
+                    .or_insert_with(|| toml::Table::new().into())
+                    .as_table_mut()
+                    .expect("a table");
+            }
+            at.insert("model".into(), (*model).into());
+            let path = dir.join(format!("{name}-{key}.toml"));
             std::fs::write(&path, toml::to_string(&table).expect("TOML")).expect("model's scene");
-            runs.push((format!("{name} ({model})"), path, &kept["halves"]));
+            runs.push((format!("{name} ({key})"), path, &kept["halves"]));
         }
         for (label, scene, recorded) in runs {
             let realtime = dir.join(format!("{}.exr", label.replace([' ', '(', ')'], "")));

@@ -215,7 +215,24 @@ impl Renderer {
         if volume {
             cumulus_marches(encoder);
         }
-        // 7. The stratus layer, blended over sky, terrain and cumulus bodies, depth-tested.
+        // 7. The stratus layer, blended over sky, terrain and cumulus bodies,
+        // depth-tested; or, for a layer marched as a volume and seen from
+        // below, the march there (the mist and rain under it are in front).
+        let layer_march = |encoder: &mut wgpu::CommandEncoder| {
+            self.stratus.encode_in_layer(
+                encoder,
+                &hdr.view,
+                depth,
+                &frame,
+                self.timer
+                    .as_ref()
+                    .map(|t| t.pass_writes(PassId::StratusInLayer.timer_index())),
+            );
+        };
+        let layer_marched_early = in_layer && self.stratus.marches_before_overlays();
+        if layer_marched_early {
+            layer_march(encoder);
+        }
         if self.stratus.enabled() {
             let mut pass = self.hdr_pass(
                 encoder,
@@ -252,16 +269,8 @@ impl Renderer {
         }
         // 8d. The camera in or near the stratus layer's height range: the
         // layer marched as a volume over everything (its faces faded out).
-        if in_layer {
-            self.stratus.encode_in_layer(
-                encoder,
-                &hdr.view,
-                depth,
-                &frame,
-                self.timer
-                    .as_ref()
-                    .map(|t| t.pass_writes(PassId::StratusInLayer.timer_index())),
-            );
+        if in_layer && !layer_marched_early {
+            layer_march(encoder);
         }
         // 8e. The camera in or near a cumulus: that cloud marched as a
         // volume over everything (its mesh faded out), attenuating what is

@@ -419,8 +419,9 @@ pub struct StratusSettings {
     /// Ground–cloud radiosity iterations (each one ground → cloud → ground),
     /// 0 to 32 (Bouthors 2006: 2 suffice over country, 8 over snow).
     pub radiosity_iterations: u32,
-    /// How the layer's surface is shaded: `marched` (default) or the
-    /// paper's slab, `bnl2006`.
+    /// How the layer is shaded: `marched` (default), the paper's slab
+    /// (`bnl2006`) or the layer marched as a volume from every camera
+    /// (`volume`).
     pub model: StratusShadingModel,
 }
 
@@ -441,6 +442,14 @@ pub enum StratusShadingModel {
     /// horizontal slab of the local thickness, lit and seen through it
     /// alone, to reproduce the paper's images.
     Bnl2006,
+    /// The layer drawn as the volume it stands for from every camera, not
+    /// only from inside a cell: each pixel's ray marched through the
+    /// thickness field from where it first enters a cell, lit by the
+    /// cells' diffusion light (the in-layer march of docs/stratus.md), so
+    /// that thin rims are thin, cells shade each other and light entering
+    /// their sunlit sides reaches the camera. docs/REALISM.md gives the
+    /// gain and docs/PERFORMANCE.md the cost.
+    Volume,
 }
 
 impl Default for StratusSettings {

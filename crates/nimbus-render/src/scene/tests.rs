@@ -122,7 +122,7 @@ fn wrong_types_are_rejected_with_the_line() {
 }
 
 #[test]
-fn stratus_model_is_marched_by_default_and_the_paper_on_request() {
+fn stratus_model_is_marched_by_default_and_the_paper_or_the_volume_on_request() {
     let scene = Scene::from_toml_str("[stratus]\n", "scene.toml").expect("scene");
     assert_eq!(
         scene.stratus.expect("stratus").model,
@@ -134,11 +134,17 @@ fn stratus_model_is_marched_by_default_and_the_paper_on_request() {
         scene.stratus.expect("stratus").model,
         StratusShadingModel::Bnl2006
     );
+    let scene = Scene::from_toml_str("[stratus]\nmodel = \"volume\"", "scene.toml").expect("scene");
+    assert_eq!(
+        scene.stratus.expect("stratus").model,
+        StratusShadingModel::Volume
+    );
     let m = error_of("[stratus]\nmodel = \"bnl2007\"");
     assert!(
         m.contains("stratus.model")
             && m.contains("bnl2007")
             && m.contains("marched")
+            && m.contains("volume")
             && m.contains("line 2"),
         "{m}"
     );

@@ -104,30 +104,48 @@ const STRATUS_ENTRY_STEP_GROWTH: f32 = 1.03;
 const STRATUS_ENTRY_REFINEMENTS: u32 = 6u;
 
 // Distance, m, along the unit `direction` from `start_m` to where the ray
-// first enters the layer within `max_length_m`: 0 from inside it, −1 if it
-// stays outside. How a camera level with the layer finds what each pixel
-// sees (its tops and bases are edge-on there). GPU twin of
+// first enters the layer (its thickness plus `offset_m`) within
+// `max_length_m`: 0 from inside it, −1 if it stays outside. How a camera
+// level with the layer finds what each pixel sees (its tops and bases are
+// edge-on there), and where the volume's march starts. GPU twin of
 // nimbus_physics::cloud_layer::first_entry_m.
-fn stratus_view_entry_m(start_m: vec3<f32>, direction: vec3<f32>, max_length_m: f32) -> f32 {
+fn stratus_view_entry_m(start_m: vec3<f32>, direction: vec3<f32>, offset_m: f32, max_length_m: f32) -> f32 {
     let steps = u32(clamp(ceil(max_length_m / STRATUS_ENTRY_MEAN_STEP_M), 4.0, f32(STRATUS_ENTRY_STEPS)));
     let growth = STRATUS_ENTRY_STEP_GROWTH;
     var step = max_length_m * (growth - 1.0) / (pow(growth, f32(steps)) - 1.0);
     var s = 0.0;
-    var g = stratus_inside_m(start_m, 0.0);
+    var g = stratus_inside_m(start_m, offset_m);
     if (g > 0.0) {
         return 0.0;
     }
     for (var i = 0u; i < steps; i = i + 1u) {
         let next_s = min(s + step, max_length_m);
-        let next_g = stratus_inside_m(start_m + direction * next_s, 0.0);
+        let next_g = stratus_inside_m(start_m + direction * next_s, offset_m);
         if (next_g > 0.0) {
-            return stratus_place_crossing(start_m, direction, 0.0, vec2<f32>(s, g), vec2<f32>(next_s, next_g), false, STRATUS_ENTRY_REFINEMENTS);
+            return stratus_place_crossing(start_m, direction, offset_m, vec2<f32>(s, g), vec2<f32>(next_s, next_g), false, STRATUS_ENTRY_REFINEMENTS);
         }
         s = next_s;
         g = next_g;
         step = step * growth;
     }
     return -1.0;
+}
+
+// The outward unit normal of the layer's surface over (or under) the point
+// `position_m` near it: the top y = y_mid + h/2 above the mid-plane, the
+// base y = y_mid − h/2 below it, h the window's relief, its slope by central
+// differences over one texel: (−½∂h/∂x, ±1, −½∂h/∂z). GPU twin of
+// nimbus_physics::cloud_layer::surface_normal.
+fn stratus_surface_normal(position_m: vec3<f32>) -> vec3<f32> {
+    let half_texel_m = 0.5 * stratus.window.y / f32(i32(stratus.flags.w));
+    let dx = vec2<f32>(half_texel_m, 0.0);
+    let dz = vec2<f32>(0.0, half_texel_m);
+    let slope = vec2<f32>(
+        stratus_thickness_at(position_m.xz + dx) - stratus_thickness_at(position_m.xz - dx),
+        stratus_thickness_at(position_m.xz + dz) - stratus_thickness_at(position_m.xz - dz),
+    ) / (2.0 * half_texel_m);
+    let up = select(-1.0, 1.0, position_m.y >= stratus.window.x);
+    return normalize(vec3<f32>(-0.5 * slope.x, up, -0.5 * slope.y));
 }
 
 // The march of stratus_cloud_along_ray_m (twins of nimbus_physics::cloud_layer's

@@ -176,8 +176,10 @@ fn gpu_stratus_radiosity_matches_the_cpu_reference() {
     assert!(worst < 0.01, "largest relative difference {worst}");
 }
 
-/// A test kernel around `stratus_view_path_m`: one path length per ray
-/// (xyz: start, w: thickness offset; xyz: direction, w: range).
+/// A test kernel around `stratus_view_path_m` and the other marches: per
+/// ray (xyz: start, w: thickness offset; xyz: direction, w: range) the view
+/// path, the cloud along the ray, the first entry and the surface's normal
+/// at the start.
 const VIEW_PATH_KERNEL: &str = r"
 struct ViewPathRay {
     start: vec4<f32>,
@@ -192,9 +194,13 @@ fn view_path_kernel(@builtin(global_invocation_id) id: vec3<u32>) {
         return;
     }
     let ray = view_path_rays[id.x];
-    view_path_lengths[3u * id.x] = stratus_view_path_m(ray.start.xyz, ray.direction.xyz, ray.start.w, ray.direction.w);
-    view_path_lengths[3u * id.x + 1u] = stratus_cloud_along_ray_m(ray.start.xyz, ray.direction.xyz, ray.start.w, ray.direction.w);
-    view_path_lengths[3u * id.x + 2u] = stratus_view_entry_m(ray.start.xyz, ray.direction.xyz, ray.direction.w);
+    view_path_lengths[6u * id.x] = stratus_view_path_m(ray.start.xyz, ray.direction.xyz, ray.start.w, ray.direction.w);
+    view_path_lengths[6u * id.x + 1u] = stratus_cloud_along_ray_m(ray.start.xyz, ray.direction.xyz, ray.start.w, ray.direction.w);
+    view_path_lengths[6u * id.x + 2u] = stratus_view_entry_m(ray.start.xyz, ray.direction.xyz, ray.start.w, ray.direction.w);
+    let normal = stratus_surface_normal(ray.start.xyz);
+    view_path_lengths[6u * id.x + 3u] = normal.x;
+    view_path_lengths[6u * id.x + 4u] = normal.y;
+    view_path_lengths[6u * id.x + 5u] = normal.z;
 }
 ";
 
@@ -203,11 +209,16 @@ fn view_path_kernel(@builtin(global_invocation_id) id: vec3<u32>) {
 /// `cloud_layer::path_inside_layer_m`) for rays entering the tops, the
 /// bases and the cells' sides, and the cloud along the sun's ray
 /// (`stratus_cloud_along_ray_m`, `cloud_layer::cloud_along_ray_m`) for rays
-/// leaving the tops towards a low sun, and the first entry of a level
-/// camera's rays (`stratus_view_entry_m`, `cloud_layer::first_entry_m`).
+/// leaving the tops towards a low sun, the first entry of a level
+/// camera's rays (`stratus_view_entry_m`, `cloud_layer::first_entry_m`,
+/// with the cells thickened and thinned by an offset), and the surface's
+/// normal at the rays' starts (`stratus_surface_normal`,
+/// `cloud_layer::surface_normal`).
 #[test]
 fn gpu_layer_marches_match_the_cpu_marches() {
-    use nimbus_physics::cloud_layer::{cloud_along_ray_m, first_entry_m, path_inside_layer_m};
+    use nimbus_physics::cloud_layer::{
+        cloud_along_ray_m, first_entry_m, path_inside_layer_m, surface_normal,
+    };
     use nimbus_render::shader;
 
     let mut h = headless();
@@ -295,8 +306,8 @@ fn gpu_layer_marches_match_the_cpu_marches() {
         files.extend(nimbus_render::stratus::DRAWING_LIBRARIES);
         shader::compose(&files) + VIEW_PATH_KERNEL
     };
-    // One ray (two vec4) in, three f32 out: the view path, the cloud along
-    // the ray, the first entry.
+    // One ray (two vec4) in, six f32 out: the view path, the cloud along
+    // the ray, the first entry, the surface's normal.
     let marches_on_gpu = |rays: &[[[f32; 4]; 2]]| -> Vec<f32> {
         common::run_kernel(
             &h,
@@ -307,7 +318,7 @@ fn gpu_layer_marches_match_the_cpu_marches() {
                 input: bytemuck::cast_slice(rays),
                 input_stride: 32,
                 count: rays.len(),
-                outputs_per_item: 3,
+                outputs_per_item: 6,
                 extra: &[common::ExtraGroup {
                     index: 3,
                     layout: h.renderer.frame_resources().cloud_lighting.layout(),
@@ -320,7 +331,8 @@ fn gpu_layer_marches_match_the_cpu_marches() {
 
     let (mut worst, mut worst_along, mut side_entries_through_cloud, mut shaded_by_others) =
         (0.0f64, 0.0f64, 0, 0);
-    for (ray, gpu_lengths) in rays.iter().zip(gpu.chunks(3)) {
+    let (mut worst_normal, mut leaning_faces) = (0.0f64, 0);
+    for (ray, gpu_lengths) in rays.iter().zip(gpu.chunks(6)) {
         let [start, direction] = *ray;
         let start_m = [start[0] as f64, start[1] as f64, start[2] as f64];
         let direction_unit = [
@@ -346,7 +358,20 @@ fn gpu_layer_marches_match_the_cpu_marches() {
         if direction[1] > 0.0 && direction[1] < 0.1 && cpu_along > 50.0 {
             shaded_by_others += 1;
         }
+        // The surface's normal at the start, over one texel of the window.
+        let cpu_normal = surface_normal(thickness, mid_m, start_m, 0.5 * side_m / n as f64);
+        for k in 0..3 {
+            worst_normal = worst_normal.max((gpu_lengths[3 + k] as f64 - cpu_normal[k]).abs());
+        }
+        if cpu_normal[1].abs() < 0.95 {
+            leaning_faces += 1;
+        }
     }
+    assert!(
+        worst_normal < 1e-3,
+        "surface normal: GPU and CPU differ by {worst_normal} in a component"
+    );
+    assert!(leaning_faces > 5, "{leaning_faces} faces lean by over 18°");
     assert!(
         worst <= 0.0,
         "view path: GPU − CPU exceeds the tolerance by {worst} m"
@@ -354,7 +379,7 @@ fn gpu_layer_marches_match_the_cpu_marches() {
 
     // A camera level with the layer, 20 m above the mid-plane at the
     // window's centre, looking all round at slants within ±6°: where each
-    // ray first enters a cell.
+    // ray first enters a cell, the cells thinned, kept or thickened by 10 m.
     let centre = [corner[0] + 0.5 * side_m, mid_m, corner[1] + 0.5 * side_m];
     let level_rays: Vec<[[f32; 4]; 2]> = (0..360)
         .map(|k| {
@@ -365,7 +390,7 @@ fn gpu_layer_marches_match_the_cpu_marches() {
                     centre[0] as f32,
                     (centre[1] + 20.0) as f32,
                     centre[2] as f32,
-                    0.0,
+                    (10.0 * ((k % 3) as f64 - 1.0)) as f32,
                 ],
                 [
                     (slant.cos() * azimuth.cos()) as f32,
@@ -378,10 +403,11 @@ fn gpu_layer_marches_match_the_cpu_marches() {
         .collect();
     let gpu = marches_on_gpu(&level_rays);
     let (mut entries, mut misses, mut disagreements) = (0, 0, 0);
-    for (ray, gpu_lengths) in level_rays.iter().zip(gpu.chunks(3)) {
+    for (ray, gpu_lengths) in level_rays.iter().zip(gpu.chunks(6)) {
         let [start, direction] = *ray;
         let cpu = first_entry_m(
             thickness,
+            start[3] as f64,
             mid_m,
             [start[0] as f64, start[1] as f64, start[2] as f64],
             [

@@ -149,7 +149,7 @@ fn level_fragment(in: FullscreenOutput) -> LevelOutput {
         abs(direction.y) > 1e-6,
     );
     let range_m = max(min(leave_m, 0.5 * stratus.window.y), 0.0);
-    let entry_m = stratus_view_entry_m(camera, direction, range_m);
+    let entry_m = stratus_view_entry_m(camera, direction, 0.0, range_m);
     if (entry_m < 0.0) {
         discard;
     }

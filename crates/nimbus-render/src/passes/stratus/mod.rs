@@ -18,10 +18,13 @@
 //!    double, 3+ scattering, the forward peak, sky and ground light) and
 //!    blended with alpha 1 − τ(H_v).
 //! 5. `stratus_in_layer` (only with the camera inside a cell, or within
-//!    [`IN_LAYER_HANDOVER_M`] of its top or base): the layer marched from
-//!    the camera as the volume it stands for, lit by its cells' diffusion
-//!    light ([`nimbus_physics::transport::diffusion`]), over everything;
-//!    the faces (or the level view) fade out as the march takes over.
+//!    [`IN_LAYER_HANDOVER_M`] of its top or base; from every camera with
+//!    `stratus.model = "volume"`): the layer marched from where each ray
+//!    first enters a cell as the volume it stands for, lit by its cells'
+//!    diffusion light ([`nimbus_physics::transport::diffusion`]), over
+//!    everything (from below the layer with `"volume"`: where the faces
+//!    are drawn, under the rain's mist); the faces (or the level view) fade
+//!    out as the march takes over.
 //!
 //! The phase tables (P_S, P², P_F per RGB channel) come from
 //! [`nimbus_physics::optics::tables::CloudOpticsTables`], computed from the scene's droplet distribution and

@@ -46,9 +46,25 @@ impl StratusPass {
         (self.camera_height_m - mid).abs() <= reach
     }
 
+    /// Whether the march is drawn where the faces would be, before the
+    /// rain's mist and streaks and the cumulus fringes (`stratus.model =
+    /// "volume"` with the camera below the layer's height range: what lies
+    /// under the layer is then in front of it), rather than over
+    /// everything (the camera in or above the layer, where the mist under
+    /// it is behind it).
+    pub fn marches_before_overlays(&self) -> bool {
+        let Some(settings) = &self.settings else {
+            return false;
+        };
+        let mid = f64::from(self.current.window[0]);
+        settings.model == StratusShadingModel::Volume
+            && self.camera_height_m < mid - 0.5 * settings.thickness_m
+    }
+
     /// The in-layer march's weight this frame: 1 with the camera inside a
-    /// cell, falling (smoothstep) to 0 at [`IN_LAYER_HANDOVER_M`] above its
-    /// top or below its base; 0 without a layer.
+    /// cell (and everywhere with `stratus.model = "volume"`), falling
+    /// (smoothstep) to 0 at [`IN_LAYER_HANDOVER_M`] above its top or below
+    /// its base; 0 without a layer.
     pub fn in_layer_weight(&self) -> f32 {
         self.in_layer_weight
     }
@@ -164,7 +180,11 @@ impl StratusPass {
             .max(IN_LAYER_HANDOVER_M - h_m)
             .max(0.0);
         let x = (1.0 - outside_m / IN_LAYER_HANDOVER_M).clamp(0.0, 1.0);
-        self.in_layer_weight = (x * x * (3.0 - 2.0 * x)) as f32;
+        self.in_layer_weight = if settings.model == StratusShadingModel::Volume {
+            1.0
+        } else {
+            (x * x * (3.0 - 2.0 * x)) as f32
+        };
         let (threshold, ramp) = field.threshold_and_ramp();
         // Window: `extent_m` square around the camera, its corner snapped to
         // whole texels so that the grid does not swim as the camera moves.
@@ -224,7 +244,7 @@ impl StratusPass {
             flags: [1, field.fractal().octaves, settings.seed, n],
             sizes: [PHASE_TEXELS as u32, PEAK_TEXELS as u32, grid.size, 0],
             model: [
-                u32::from(settings.model == StratusShadingModel::Marched),
+                u32::from(settings.model != StratusShadingModel::Bnl2006),
                 0,
                 0,
                 0,
