@@ -310,7 +310,8 @@ fn in_layer_fragment(in: FullscreenOutput) -> @location(0) vec4<f32> {
         let light = lights[min(i * IN_LAYER_SEGMENTS / IN_LAYER_STEPS, IN_LAYER_SEGMENTS - 1u)];
         // The sun enters a cell by its top (depth below it, cosine μ₀) or,
         // low, by the side facing it (the sun ray's path through cloud
-        // shorter than the top's slant depth; the side's cosine √(1 − μ₀²)):
+        // shorter than the top's slant depth; the side's cosine from the
+        // relief's slope where the path enters the cell):
         // the point is in a slab across that face as thick as the cloud's
         // chord along the sun through it (towards and away from the sun).
         let lit_depth_m = select(above_base, below_top, sun_above);
