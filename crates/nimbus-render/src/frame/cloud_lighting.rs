@@ -114,7 +114,10 @@ pub struct StratusUniform {
     /// P_S/P² texels, P_F texels, radiosity texels per side, unused.
     pub sizes: [u32; 4],
     /// View and sun paths marched through the field (1, `stratus.model =
-    /// "marched"`) or the paper's slab (0, `"bnl2006"`); three unused.
+    /// "marched"` or `"volume"`) or the paper's slab (0, `"bnl2006"`); the
+    /// layer drawn as a volume (1, `"volume"`: the light under it leaves
+    /// the deck uniformly, as the marched deck is seen from below); two
+    /// unused.
     pub model: [u32; 4],
 }
 

@@ -400,13 +400,13 @@ fn stratus_ground_irradiance(position_m: vec3<f32>, n: vec3<f32>, clear: vec3<f3
 // CPU twin is nimbus_physics::atmosphere::under_layer::diffuse_inscatter):
 // the layer's light from above (R_G, the radiosity's irradiance on the
 // ground, leaving the deck by the escape function, or uniform with
-// stratus.model = "bnl2006") and the ground's from below.
+// stratus.model = "bnl2006" and "volume") and the ground's from below.
 fn stratus_air_diffuse_inscatter(parts: AirParts, position_m: vec3<f32>, sun_transmittance: vec3<f32>) -> vec3<f32> {
     let from_above = stratus_radiosity_sample(true, position_m.xz);
     let sun_on_ground = sun_irradiance_at(position_m) * max(frame.sun_direction.y, 0.0) * sun_transmittance;
     let from_below = atmosphere.near_ground_albedo * (from_above + sun_on_ground);
     var shape = vec2<f32>(3.0 / 7.0, 6.0 / 7.0);
-    if (stratus.model.x == 0u) {
+    if (stratus.model.x == 0u || stratus.model.y == 1u) {
         shape = vec2<f32>(1.0, 0.0);
     }
     return (from_above * (shape.x * parts.above + shape.y * parts.above_cosine)

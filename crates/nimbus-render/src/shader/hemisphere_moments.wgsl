@@ -68,3 +68,14 @@ fn rayleigh_hemisphere_moments(d_y: f32) -> vec2<f32> {
     let d = clamp(d_y, -1.0, 1.0);
     return vec2<f32>(0.5, 3.0 * (5.0 + d * d) / 64.0);
 }
+
+// The angular shape (a₀, a₁) of a cloud deck's light from above at a point
+// of the rain's mist under a deck drawn as a volume: uniform as the deck
+// sends it, for the part the mist of vertical optical depth `tau` lets
+// through unscattered (e^{−1.66 τ}), the escape function (3/7, 6/7) for
+// the part it has scattered. Twin of
+// nimbus_physics::rain::mist_light::deck_light_shape_through_mist.
+fn deck_light_shape_through_mist(tau: f32) -> vec2<f32> {
+    let unscattered = exp(-1.66 * max(tau, 0.0));
+    return mix(vec2<f32>(3.0 / 7.0, 6.0 / 7.0), vec2<f32>(1.0, 0.0), unscattered);
+}

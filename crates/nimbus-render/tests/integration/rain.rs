@@ -867,7 +867,8 @@ fn a_steps_splashes_fill_the_ring_in_the_order_of_the_drops() {
 
 /// A test kernel around the hemisphere moments: one (g, d_y) in; out the
 /// (M₀, M₁) of Henyey–Greenstein and Cornette–Shanks of that g, and of
-/// Rayleigh.
+/// Rayleigh, and the deck's light shape through mist of optical depth
+/// 3(d_y + 1).
 const MOMENTS_KERNEL: &str = r"
 @group(0) @binding(1) var<storage, read> moment_cases: array<vec2<f32>>;
 @group(0) @binding(2) var<storage, read_write> moments: array<f32>;
@@ -882,9 +883,10 @@ fn moments_kernel(@builtin(global_invocation_id) id: vec3<u32>) {
     let hg = hg_hemisphere_moments(g, d_y);
     let cs = cornette_shanks_hemisphere_moments(g, d_y);
     let rayleigh = rayleigh_hemisphere_moments(d_y);
-    let out = array<f32, 6>(hg.x, hg.y, cs.x, cs.y, rayleigh.x, rayleigh.y);
-    for (var k = 0u; k < 6u; k++) {
-        moments[6u * id.x + k] = out[k];
+    let deck = deck_light_shape_through_mist(3.0 * (d_y + 1.0));
+    let out = array<f32, 8>(hg.x, hg.y, cs.x, cs.y, rayleigh.x, rayleigh.y, deck.x, deck.y);
+    for (var k = 0u; k < 8u; k++) {
+        moments[8u * id.x + k] = out[k];
     }
 }
 ";
@@ -892,13 +894,16 @@ fn moments_kernel(@builtin(global_invocation_id) id: vec3<u32>) {
 /// The shaders' hemisphere moments of the mist's phase function and of the
 /// air's equal the CPU twins' (`nimbus_physics::rain::mist_light` and
 /// `nimbus_physics::atmosphere::under_layer`, themselves tested against
-/// brute-force integration) at every elevation.
+/// brute-force integration) at every elevation; so does the deck's light
+/// shape through the mist (`deck_light_shape_through_mist`).
 #[test]
 fn gpu_hemisphere_moments_match_the_cpu_twins() {
     use nimbus_physics::atmosphere::under_layer::{
         AEROSOL_MOMENT_SAMPLES, cornette_shanks_hemisphere_moments, rayleigh_hemisphere_moments,
     };
-    use nimbus_physics::rain::mist_light::{MIST_MOMENT_SAMPLES, hg_hemisphere_moments};
+    use nimbus_physics::rain::mist_light::{
+        MIST_MOMENT_SAMPLES, deck_light_shape_through_mist, hg_hemisphere_moments,
+    };
     let h = headless();
     let cases: Vec<[f32; 2]> = [0.85f32, 0.8, 0.5, 0.0]
         .iter()
@@ -914,11 +919,11 @@ fn gpu_hemisphere_moments_match_the_cpu_twins() {
             input: bytemuck::cast_slice(&cases),
             input_stride: 8,
             count: cases.len(),
-            outputs_per_item: 6,
+            outputs_per_item: 8,
             extra: &[],
         },
     );
-    for (case, m) in cases.iter().zip(gpu.chunks(6)) {
+    for (case, m) in cases.iter().zip(gpu.chunks(8)) {
         let (g, d_y) = (f64::from(case[0]), f64::from(case[1]));
         let cpu = [
             hg_hemisphere_moments(g, d_y, MIST_MOMENT_SAMPLES),
@@ -934,6 +939,15 @@ fn gpu_hemisphere_moments_match_the_cpu_twins() {
             assert!(
                 (g0 - m0).abs() < 2e-4 && (g1 - m1).abs() < 2e-4,
                 "{name}, g {g}, d_y {d_y}: GPU ({g0}, {g1}), CPU ({m0}, {m1})"
+            );
+        }
+        let deck = deck_light_shape_through_mist(3.0 * (d_y + 1.0));
+        for k in 0..2 {
+            assert!(
+                (f64::from(m[6 + k]) - deck[k]).abs() < 1e-5,
+                "deck light shape, τ {}: GPU {:?}, CPU {deck:?}",
+                3.0 * (d_y + 1.0),
+                &m[6..8]
             );
         }
     }

@@ -86,8 +86,21 @@ fn mist_ambient_radiance(position_m: vec3<f32>, direction: vec3<f32>) -> vec3<f3
         // stratus.model = "bnl2006": the field's mean radiance.
         return (from_above + from_below) / (2.0 * PI);
     }
-    // The escape function's shape, (3/7)(1 + 2μ).
-    return (from_above * (3.0 / 7.0 * m.x + 6.0 / 7.0 * m.y) + from_below * (1.0 - m.x)) / PI;
+    // The deck's light leaves it by the escape function's shape,
+    // (3/7)(1 + 2μ); where the layer is drawn as a volume (stratus.model =
+    // "volume") uniformly, as the march's broken deck seen from below is
+    // as bright towards the horizon as overhead (as the path-traced one
+    // is, docs/REALISM.md, "The stratus layer as a volume"), turning to the
+    // escape function's as the mist between here and the deck scatters it
+    // (deck_light_shape_through_mist): a thin mist must not veil the deck
+    // with a darker light than its own, a thick one is a scattering slab.
+    var shape = vec2<f32>(3.0 / 7.0, 6.0 / 7.0);
+    if (stratus.model.y == 1u) {
+        let intensity = rain.drops.x * zone_factor(position_m.x, position_m.z);
+        let tau = rain_extinction(intensity, 0.0, rain.drops.z) * max(rain.drops.w - position_m.y, 0.0);
+        shape = deck_light_shape_through_mist(tau);
+    }
+    return (from_above * (shape.x * m.x + shape.y * m.y) + from_below * (1.0 - m.x)) / PI;
 }
 
 // The layer's shadow on the mist at `position_m`: its directional

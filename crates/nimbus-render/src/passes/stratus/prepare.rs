@@ -245,7 +245,7 @@ impl StratusPass {
             sizes: [PHASE_TEXELS as u32, PEAK_TEXELS as u32, grid.size, 0],
             model: [
                 u32::from(settings.model != StratusShadingModel::Bnl2006),
-                0,
+                u32::from(settings.model == StratusShadingModel::Volume),
                 0,
                 0,
             ],
