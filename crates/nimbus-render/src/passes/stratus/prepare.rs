@@ -168,21 +168,23 @@ impl StratusPass {
             return Ok(());
         };
         let field = cloud_layer_field(scene, &settings);
-        // The camera's distance outside the cell over it (the layer spans
-        // |y − y_mid| < h(x, z)/2, h the field's fine thickness); in a thin
-        // part of a cell, its thinness (at a cell's rim h → 0: the camera
-        // passing from a gap into a cell at the mid-plane is then outside by
-        // the handover distance, and the weight grows with h, not at once).
         let drift = scene.cloud_drift_m(f64::from(time_s));
-        let camera = scene.camera.position_m;
-        let h_m = field.thickness_with_drift_m(camera[0], camera[2], drift, f64::from(time_s));
-        let outside_m = ((camera[1] - mid_plane_m).abs() - 0.5 * h_m)
-            .max(IN_LAYER_HANDOVER_M - h_m)
-            .max(0.0);
-        let x = (1.0 - outside_m / IN_LAYER_HANDOVER_M).clamp(0.0, 1.0);
         self.in_layer_weight = if settings.model == StratusShadingModel::Volume {
+            // The march draws the layer from every camera.
             1.0
         } else {
+            // The camera's distance outside the cell over it (the layer
+            // spans |y − y_mid| < h(x, z)/2, h the field's fine thickness);
+            // in a thin part of a cell, its thinness (at a cell's rim h → 0:
+            // the camera passing from a gap into a cell at the mid-plane is
+            // then outside by the handover distance, and the weight grows
+            // with h, not at once).
+            let camera = scene.camera.position_m;
+            let h_m = field.thickness_with_drift_m(camera[0], camera[2], drift, f64::from(time_s));
+            let outside_m = ((camera[1] - mid_plane_m).abs() - 0.5 * h_m)
+                .max(IN_LAYER_HANDOVER_M - h_m)
+                .max(0.0);
+            let x = (1.0 - outside_m / IN_LAYER_HANDOVER_M).clamp(0.0, 1.0);
             (x * x * (3.0 - 2.0 * x)) as f32
         };
         let (threshold, ramp) = field.threshold_and_ramp();
