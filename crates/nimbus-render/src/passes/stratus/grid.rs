@@ -45,25 +45,20 @@ impl RadiosityGrid {
 
     /// ρ_G: the ground's mean diffuse reflectance in each texel (row-major,
     /// z rows). Open water adds its mean Fresnel reflectance for diffuse
-    /// light (0.066; Cox & Munk's flat-sea value is 0.066 for a uniform sky).
-    /// Texels beyond the terrain take the terrain's mean.
+    /// light ([`WATER_DIFFUSE_FRESNEL`]).
+    /// Texels beyond the terrain take [`beyond_terrain_reflectance`].
     pub fn ground_reflectance(&self, terrain: &Terrain) -> Vec<[f32; 3]> {
-        const WATER_DIFFUSE_FRESNEL: f32 = 0.066;
         let n = self.size as usize;
         let mut sums = vec![[0.0f64; 4]; n * n];
         let side = terrain.vertices_per_side();
         let water = terrain.params.water_level_m as f32;
         let origin = self.origin_m();
-        let mut mean = [0.0f64; 3];
         for j in 0..side {
             for i in 0..side {
                 let k = j * side + i;
                 let mut rho = terrain.albedo[k];
                 if terrain.ground_height_m[k] < water {
                     rho = rho.map(|a| a + WATER_DIFFUSE_FRESNEL);
-                }
-                for c in 0..3 {
-                    mean[c] += rho[c] as f64;
                 }
                 let (x, z) = terrain.vertex_xz_m(i, j);
                 let u = ((x - origin[0]) / self.texel_m).floor();
@@ -78,16 +73,40 @@ impl RadiosityGrid {
                 cell[3] += 1.0;
             }
         }
-        let count = (side * side).max(1) as f64;
-        let mean = mean.map(|m| m / count);
+        let beyond = beyond_terrain_reflectance(terrain);
         sums.iter()
             .map(|s| {
                 if s[3] > 0.0 {
                     [0, 1, 2].map(|c| (s[c] / s[3]) as f32)
                 } else {
-                    mean.map(|m| m as f32)
+                    beyond
                 }
             })
             .collect()
+    }
+}
+
+/// Mean Fresnel reflectance of a flat water surface for diffuse light
+/// (0.066 for a uniform sky; Cox & Munk 1954's flat-sea value), added to deep
+/// water's diffuse albedo.
+const WATER_DIFFUSE_FRESNEL: f32 = 0.066;
+
+/// ρ_G beyond the terrain's square: what the renderer draws there, as the
+/// path-traced references have it (`nimbus export`'s sea plane or flat
+/// ground). A generated relief sinks below the water level over its outer
+/// fifth and the sky pass draws the open sea beyond it to the horizon: deep
+/// water's albedo plus its Fresnel reflectance. A flat ground
+/// (`ground.terrain = false`) has no water; it continues with its own (mean)
+/// albedo, which [`nimbus_physics::terrain::flat`] keeps as the water class's.
+pub fn beyond_terrain_reflectance(terrain: &Terrain) -> [f32; 3] {
+    let water = terrain.params.albedo.water;
+    let border_under_water = terrain
+        .ground_height_m
+        .first()
+        .is_some_and(|h| f64::from(*h) < terrain.params.water_level_m);
+    if border_under_water {
+        water.map(|a| a + WATER_DIFFUSE_FRESNEL)
+    } else {
+        water
     }
 }

@@ -187,6 +187,28 @@ mod tests {
     }
 
     #[test]
+    fn radiosity_grid_beyond_the_terrain_is_what_the_renderer_draws_there() {
+        // A generated relief ends in open sea: texels beyond it are sea.
+        let terrain = generate(&TerrainParams {
+            resolution: 32,
+            extent_m: 20_000.0,
+            ..Default::default()
+        });
+        let grid = RadiosityGrid::new(&terrain, 1300.0);
+        // The grid's corner texel lies wholly beyond the terrain.
+        assert!(grid.size as f64 * grid.texel_m > terrain.params.extent_m + 2.0 * grid.texel_m);
+        let rho = grid.ground_reflectance(&terrain);
+        let water = terrain.params.albedo.water;
+        let sea = water.map(|a| a + 0.066);
+        assert_eq!(rho[0], sea, "the grid's corner lies beyond the terrain");
+        assert_eq!(grid::beyond_terrain_reflectance(&terrain), sea);
+        // A flat ground continues with its own albedo.
+        let flat = nimbus_physics::terrain::flat(20_000.0, 16, 50.0, [0.3, 0.2, 0.1]);
+        let grid = RadiosityGrid::new(&flat, 1500.0);
+        assert_eq!(grid.ground_reflectance(&flat)[0], [0.3, 0.2, 0.1]);
+    }
+
+    #[test]
     fn forward_peak_spread_of_a_gaussian_table() {
         // A narrow Gaussian exp(−θ²/s²) has ⟨θ²⟩ = s² (small angles).
         let s: f64 = 1.0f64.to_radians();
