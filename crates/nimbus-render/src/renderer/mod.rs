@@ -529,6 +529,11 @@ impl Renderer {
             SkySettings {
                 water_level_m: scene.terrain.water_level_m as f32,
                 water_albedo: scene.terrain.albedo.water,
+                terrain_half_extent_m: if scene.ground.terrain {
+                    (0.5 * scene.terrain.extent_m) as f32
+                } else {
+                    0.0
+                },
             },
         );
         let ground = if scene.ground.terrain {

@@ -36,8 +36,9 @@ struct Stratus {
     // z: radiosity texels per side; w: unused.
     sizes: vec4<u32>,
     // x: 1 when the view and sun paths are marched through the field
-    // (stratus.model = "marched"), 0 for the paper's slab (bnl2006);
-    // yzw: unused.
+    // (stratus.model = "marched" and "volume"), 0 for the paper's slab
+    // (bnl2006); y: 1 when the layer is drawn as a volume ("volume");
+    // zw: unused.
     model: vec4<u32>,
 }
 

@@ -395,6 +395,19 @@ fn stratus_ground_irradiance(position_m: vec3<f32>, n: vec3<f32>, clear: vec3<f3
     return stratus_radiosity_sample(true, position_m.xz) * tilt;
 }
 
+// The angular shape of the deck's diffuse light seen from below, (a, b)
+// with the radiance at vertical cosine μ = (a + b μ) R_G/π: the escape
+// function u(μ) = (3/7)(1 + 2μ) of a slab's transmitted diffuse light where
+// the layer is drawn as faces (stratus.model = "marched"), uniform for the
+// paper's slab ("bnl2006") and for the volume ("volume", whose broken deck
+// is as bright towards the horizon as overhead; docs/REALISM.md).
+fn stratus_deck_light_shape() -> vec2<f32> {
+    if (stratus.model.x == 0u || stratus.model.y == 1u) {
+        return vec2<f32>(1.0, 0.0);
+    }
+    return vec2<f32>(3.0 / 7.0, 6.0 / 7.0);
+}
+
 // The light the air scatters towards the eye from the diffuse field under
 // the layer at `position_m`, by the air's weights for a diffuse field (the
 // CPU twin is nimbus_physics::atmosphere::under_layer::diffuse_inscatter):
@@ -405,10 +418,7 @@ fn stratus_air_diffuse_inscatter(parts: AirParts, position_m: vec3<f32>, sun_tra
     let from_above = stratus_radiosity_sample(true, position_m.xz);
     let sun_on_ground = sun_irradiance_at(position_m) * max(frame.sun_direction.y, 0.0) * sun_transmittance;
     let from_below = atmosphere.near_ground_albedo * (from_above + sun_on_ground);
-    var shape = vec2<f32>(3.0 / 7.0, 6.0 / 7.0);
-    if (stratus.model.x == 0u || stratus.model.y == 1u) {
-        shape = vec2<f32>(1.0, 0.0);
-    }
+    let shape = stratus_deck_light_shape();
     return (from_above * (shape.x * parts.above + shape.y * parts.above_cosine)
         + from_below * (parts.total - parts.above)) / PI;
 }

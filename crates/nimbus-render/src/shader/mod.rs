@@ -203,6 +203,14 @@ pub const WATER: WgslFile = WgslFile {
     source: include_str!("water.wgsl"),
 };
 
+/// Open water under the clouds: water.wgsl's hooks for the terrain's water
+/// and the open sea beyond it (the sky and the stratus layer reflected, the
+/// radiosity's diffuse light).
+pub const OPEN_WATER: WgslFile = WgslFile {
+    name: "shader/open_water.wgsl",
+    source: include_str!("open_water.wgsl"),
+};
+
 /// The atmosphere's parameters and its functions (optical depths,
 /// scattering): the LUT passes and every lookup build on it.
 pub const ATMOSPHERE: WgslFile = WgslFile {
@@ -278,11 +286,12 @@ pub fn lighting_include() -> String {
 }
 
 /// Every shared WGSL file: what imports resolve against.
-pub const LIBRARY: [WgslFile; 13] = [
+pub const LIBRARY: [WgslFile; 14] = [
     COMMON,
     FULLSCREEN,
     LIT_SURFACE,
     WATER,
+    OPEN_WATER,
     ATMOSPHERE,
     LIGHTING_TYPES,
     ATMOSPHERE_LOOKUP,

@@ -31,6 +31,10 @@ pub struct SkySettings {
     pub water_level_m: f32,
     /// Diffuse albedo of deep water.
     pub water_albedo: [f32; 3],
+    /// Half the side of the square, centred on the origin, that the
+    /// terrain pass covers once its mesh is ready, m (0 where no relief is
+    /// drawn): the sea under it is hidden, so it is shaded plainly there.
+    pub terrain_half_extent_m: f32,
 }
 
 /// GPU layout of WGSL `SkyPassParams`.
@@ -41,8 +45,10 @@ pub struct SkyPassUniform {
     pub water_level_m: f32,
     /// Limb-darkening coefficient.
     pub limb_darkening_u: f32,
+    /// Half the side of the terrain's square, m (0: none).
+    pub terrain_half_extent_m: f32,
     /// Padding to 16 bytes.
-    pub _padding: [f32; 2],
+    pub _padding: f32,
     /// Diffuse albedo of deep water (w unused).
     pub water_albedo: [f32; 4],
 }
@@ -53,7 +59,8 @@ impl From<SkySettings> for SkyPassUniform {
         Self {
             water_level_m: s.water_level_m,
             limb_darkening_u: SOLAR_LIMB_DARKENING_U,
-            _padding: [0.0; 2],
+            terrain_half_extent_m: s.terrain_half_extent_m,
+            _padding: 0.0,
             water_albedo: [r, g, b, 0.0],
         }
     }

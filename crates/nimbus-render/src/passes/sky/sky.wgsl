@@ -1,16 +1,22 @@
 // import shader/atmosphere_lookup.wgsl
 // import shader/fullscreen.wgsl
-// import shader/water.wgsl
+// import shader/open_water.wgsl
 // Sky pass: sky radiance from the sky-view LUT, the limb-darkened solar disk
 // seen through the atmosphere, and the open sea at the water level below the
-// horizon, beyond the terrain's edge, seen through the aerial perspective.
+// horizon, beyond the terrain's edge: shaded as the terrain's water is
+// (shader/open_water.wgsl: the sky and the stratus layer's base reflected,
+// the sun through the clouds' shadows, the air in front lit by the light
+// that is there).
 
 struct SkyPassParams {
     // Height of the open sea, m.
     water_level_m: f32,
     // Limb-darkening coefficient u of the linear law I(μ) = I(1) (1 − u (1 − μ)).
     limb_darkening_u: f32,
-    _padding: vec2<f32>,
+    // Half the side of the square, centred on the origin, that the terrain
+    // pass covers, m (0: no relief drawn).
+    terrain_half_extent_m: f32,
+    _padding: f32,
     // Diffuse albedo of deep water.
     water_albedo: vec4<f32>,
 }
@@ -39,16 +45,15 @@ fn sky_fragment(in: FullscreenOutput) -> @location(0) vec4<f32> {
     if (direction.y < 0.0 && height > 0.0) {
         let distance = height / -direction.y;
         let sea_point = origin + direction * distance;
-        let sea = water_radiance(sea_point, params.water_albedo.rgb, vec3<f32>(1.0));
-        return to_target(apply_aerial_perspective(sea, sea_point));
+        if (max(abs(sea_point.x), abs(sea_point.z)) < params.terrain_half_extent_m) {
+            // The terrain drawn next covers this (its own water included)
+            // once its mesh is ready: a plain sea until then, at a third of
+            // the cost of the shading below.
+            let plain = water_radiance(sea_point, params.water_albedo.rgb, vec3<f32>(1.0));
+            return to_target(apply_aerial_perspective(plain, sea_point));
+        }
+        let sea = water_radiance(sea_point, params.water_albedo.rgb, cloud_sun_visibility(sea_point));
+        return lit_surface_output(sea, sea_point);
     }
     return to_target(sky_radiance(direction) + solar_disk(direction));
-}
-
-// What the open sea beyond the terrain reflects: the clear sky (water.wgsl's hooks).
-fn water_reflection_source(position_m: vec3<f32>, direction: vec3<f32>) -> vec3<f32> {
-    return sky_radiance(direction);
-}
-fn water_sky_irradiance(position_m: vec3<f32>) -> vec3<f32> {
-    return lighting.sky_irradiance_up.xyz;
 }

@@ -1,5 +1,4 @@
-// import shader/lit_surface.wgsl
-// import shader/water.wgsl
+// import shader/open_water.wgsl
 // Terrain pass: the heightfield lit by the sun (Lambert, with terrain
 // shadows) and by the environment (sky and ground, from the lighting
 // inputs' spherical harmonics), with open water shaded by water.wgsl, seen
@@ -52,22 +51,3 @@ fn terrain_fragment(in: TerrainVarying) -> @location(0) vec4<f32> {
     return lit_surface_output(mix(land, water, texel.a), in.position_m);
 }
 
-// What the water reflects: the sky, behind the stratus layer where the
-// reflected ray meets it (the layer's base then seen with its opacity
-// 1 − τ and, as its radiance, the mean radiance R_G/π of the overcast
-// hemisphere); water.wgsl's hooks.
-fn water_reflection_source(position_m: vec3<f32>, direction: vec3<f32>) -> vec3<f32> {
-    let sky = sky_radiance(direction);
-    if (!stratus_enabled() || position_m.y >= stratus.window.x || direction.y <= 1e-3) {
-        return sky;
-    }
-    let crossing = position_m.xz + direction.xz * ((stratus.window.x - position_m.y) / direction.y);
-    let h = stratus_thickness_at(crossing);
-    let opacity = (1.0 - exp(-stratus.extinction.y * h / direction.y)) * stratus_window_fade(crossing);
-    let base = stratus_radiosity_sample(true, crossing) / PI;
-    return mix(sky, base, opacity);
-}
-fn water_sky_irradiance(position_m: vec3<f32>) -> vec3<f32> {
-    let up = vec3<f32>(0.0, 1.0, 0.0);
-    return stratus_ground_irradiance(position_m, up, lighting.sky_irradiance_up.xyz);
-}
