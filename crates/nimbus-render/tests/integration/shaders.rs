@@ -189,7 +189,13 @@ fn pass_uniforms_match_wgsl_layout() {
         module_named("sky"),
         "SkyPassParams",
         SkyPassUniform,
-        [water_level_m, limb_darkening_u, _padding, water_albedo,]
+        [
+            water_level_m,
+            limb_darkening_u,
+            terrain_half_extent_m,
+            _padding,
+            water_albedo,
+        ]
     );
     assert_layout!(
         module_named("tonemap"),
