@@ -52,7 +52,13 @@ fn sky_fragment(in: FullscreenOutput) -> @location(0) vec4<f32> {
             let plain = water_radiance(sea_point, params.water_albedo.rgb, vec3<f32>(1.0));
             return to_target(apply_aerial_perspective(plain, sea_point));
         }
-        let sea = water_radiance(sea_point, params.water_albedo.rgb, cloud_sun_visibility(sea_point));
+        // The stratus layer's shadow as far as the layer is drawn (its
+        // window, faded at the edge): beyond, the sea is the open sea
+        // under a clear sky that the camera sees there (and that the
+        // references have), its glitter path unshadowed.
+        let layer_shadow = mix(vec3<f32>(1.0), stratus_sun_transmittance(sea_point), stratus_window_fade(sea_point.xz));
+        let sun_visibility = cloud_shadow_transmittance(sea_point) * layer_shadow;
+        let sea = water_radiance(sea_point, params.water_albedo.rgb, sun_visibility);
         return lit_surface_output(sea, sea_point);
     }
     return to_target(sky_radiance(direction) + solar_disk(direction));

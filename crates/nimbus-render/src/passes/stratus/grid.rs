@@ -45,8 +45,9 @@ impl RadiosityGrid {
 
     /// ρ_G: the ground's mean diffuse reflectance in each texel (row-major,
     /// z rows). Open water adds its mean Fresnel reflectance for diffuse
-    /// light ([`WATER_DIFFUSE_FRESNEL`]).
-    /// Texels beyond the terrain take [`beyond_terrain_reflectance`].
+    /// light (`WATER_DIFFUSE_FRESNEL`, 0.066).
+    /// Texels beyond the terrain take `beyond_terrain_reflectance`: the
+    /// open sea, or a flat ground continued.
     pub fn ground_reflectance(&self, terrain: &Terrain) -> Vec<[f32; 3]> {
         let n = self.size as usize;
         let mut sums = vec![[0.0f64; 4]; n * n];
