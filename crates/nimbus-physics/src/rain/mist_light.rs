@@ -119,9 +119,155 @@ pub fn deck_light_shape_through_mist(mist_optical_depth: f64) -> [f64; 2] {
     [0, 1].map(|k| unscattered * UNIFORM_SKY[k] + (1.0 - unscattered) * ESCAPE_FUNCTION[k])
 }
 
+/// Eddington's two-stream coefficient γ₁ = γ₂ = ¾(1 − g) of a conservative
+/// medium of asymmetry g (Meador & Weaver 1980, table 1; for ω = 1 the
+/// δ-Eddington scaling leaves γτ unchanged).
+fn eddington_gamma(asymmetry: f64) -> f64 {
+    0.75 * (1.0 - asymmetry)
+}
+
+/// The diffuse reflectance of a cloud deck's base for light from below: a
+/// conservative slab of optical depth `optical_depth` and asymmetry
+/// `asymmetry` in Eddington's two-stream approximation, 1 − 1/(1 + γτ)
+/// (the complement of [`crate::cumulus::shading::two_stream_transmittance`]).
+pub fn deck_diffuse_reflectance(optical_depth: f64, asymmetry: f64) -> f64 {
+    1.0 - crate::cumulus::shading::two_stream_transmittance(optical_depth, asymmetry)
+}
+
+/// The diffuse light in a rain mist that fills the air from the ground to a
+/// cloud deck's base: the downward and upward fluxes `[F↓, F↑]` at optical
+/// depth `depth_optical_depth` below the deck, relative to the downward flux
+/// E the same column has without the mist.
+///
+/// Without mist the ground gets E (under a layer the radiosity's R_G: the
+/// deck's own light and the ground–cloud inter-reflections) and sends ρE
+/// back up: `[1, ρ]` at every height. Raindrops hardly absorb in the
+/// visible, so a mist of vertical optical depth τ_m (`column_optical_depth`,
+/// ground to base) diffuses that light without losing it. In Eddington's
+/// two-stream equations for a conservative medium (γ from
+/// `asymmetry`: γ = ¾(1 − g)) the net flux F = F↓ − F↑ is the
+/// same at every depth and F↓ falls linearly, F↓(τ) = E₀ − γFτ, E₀ the
+/// flux entering at the base. The ground, of albedo ρ (`ground_albedo`),
+/// absorbs F = (1 − ρ)F↓(τ_m), so F↓(τ_m) = aE₀ with
+/// a = 1/(1 + γ(1 − ρ)τ_m); the mist sends E₀ − F back up, more than the
+/// ground alone, and the deck's base (diffuse reflectance R_c,
+/// `deck_reflectance`, e.g. [`deck_diffuse_reflectance`]) returns R_c of
+/// it: E₀ = E_t + R_c(E₀ − F), E_t the deck's own light. Relative to the
+/// column without mist, E = E_t/(1 − R_c ρ):
+///
+/// F↓(τ)/E = s (1 − γ(1 − ρ)aτ), F↑(τ)/E = s (1 − γ(1 − ρ)aτ − (1 − ρ)a),
+/// s = (1 − R_c ρ)/(1 − R_c (1 − (1 − ρ)a)).
+///
+/// So a thick mist darkens the air near the ground (heavy rain's τ_m ≈ 3.7:
+/// 0.88 of the clear column's light at the ground under a deck of R_c 0.6
+/// over a ground of 0.1) and lightens it near the base. The ground and the
+/// base are taken as Lambertian and the fluxes as hemispherically
+/// isotropic between them, as the ground–cloud radiosity takes them
+/// (Bouthors et al. 2006, §5). The GPU twin is `mist_diffuse_fluxes` in
+/// `nimbus-render`'s `shader/hemisphere_moments.wgsl`.
+pub fn diffuse_fluxes_in_mist(
+    column_optical_depth: f64,
+    depth_optical_depth: f64,
+    asymmetry: f64,
+    ground_albedo: f64,
+    deck_reflectance: f64,
+) -> [f64; 2] {
+    let gamma = eddington_gamma(asymmetry);
+    let rho = ground_albedo.clamp(0.0, 1.0);
+    let deck = deck_reflectance.clamp(0.0, 1.0);
+    let column = column_optical_depth.max(0.0);
+    let depth = depth_optical_depth.clamp(0.0, column);
+    let absorbed = 1.0 - rho;
+    let a = 1.0 / (1.0 + gamma * absorbed * column);
+    let scale = (1.0 - deck * rho) / (1.0 - deck * (1.0 - absorbed * a)).max(1e-9);
+    let down = scale * (1.0 - gamma * absorbed * a * depth);
+    [down, down - scale * absorbed * a]
+}
+
 #[cfg(test)]
 pub(crate) mod tests {
     use super::*;
+
+    /// Without mist the column keeps its light, `[1, ρ]` at every depth;
+    /// with it the net flux is the same at every depth, the ground takes
+    /// (1 − ρ) of what reaches it, and the light falls from the base to the
+    /// ground.
+    #[test]
+    fn mist_diffuses_the_columns_light_without_losing_it() {
+        for rho in [0.0, 0.1, 0.8] {
+            let [down, up] = diffuse_fluxes_in_mist(0.0, 0.0, 0.85, rho, 0.6);
+            assert!((down - 1.0).abs() < 1e-12 && (up - rho).abs() < 1e-12);
+        }
+        let (column, g, rho, deck) = (3.7, 0.85, 0.1, 0.6);
+        let net = |t: f64| {
+            let [d, u] = diffuse_fluxes_in_mist(column, t, g, rho, deck);
+            d - u
+        };
+        let [bottom_down, bottom_up] = diffuse_fluxes_in_mist(column, column, g, rho, deck);
+        assert!((bottom_up - rho * bottom_down).abs() < 1e-12);
+        for t in [0.0, 1.0, 2.5, column] {
+            assert!((net(t) - (1.0 - rho) * bottom_down).abs() < 1e-12);
+        }
+        let top = diffuse_fluxes_in_mist(column, 0.0, g, rho, deck)[0];
+        assert!(top > 1.0 && bottom_down < 1.0, "{top} {bottom_down}");
+        // Flux into the column from above minus what leaves it upward is
+        // what the ground absorbs: nothing is lost in the mist.
+        let [top_down, top_up] = diffuse_fluxes_in_mist(column, 0.0, g, rho, deck);
+        assert!((top_down - top_up - (1.0 - rho) * bottom_down).abs() < 1e-12);
+    }
+
+    /// Against the adding–doubling reference: a Henyey–Greenstein mist slab
+    /// (its diffuse reflectance and transmittance averaged over a
+    /// cosine-weighted hemisphere of incidence) between a Lambertian ground
+    /// and a Lambertian deck base, composed by flux adding. The two-stream
+    /// light at the ground is within 5 % of it up to heavy rain's optical
+    /// depth and beyond.
+    #[test]
+    fn the_mists_light_at_the_ground_follows_the_adding_doubling_reference() {
+        use crate::transport::adding_doubling::{DoublingSettings, slab_fluxes};
+        use crate::transport::phase_model::PhaseModel;
+        let g = 0.85;
+        let phase = PhaseModel::HenyeyGreenstein { g };
+        // Gauss–Legendre nodes on μ₀ ∈ (0, 1) for ∫ 2μ₀ f(μ₀) dμ₀.
+        let nodes: [(f64, f64); 7] = [
+            (0.025_446_043_828_620_8, 0.064_742_483_084_434_8),
+            (0.129_234_407_200_302_8, 0.139_852_695_744_638_3),
+            (0.297_077_424_311_301_4, 0.190_915_025_252_559_5),
+            (0.5, 0.208_979_591_836_734_7),
+            (0.702_922_575_688_698_6, 0.190_915_025_252_559_5),
+            (0.870_765_592_799_697_2, 0.139_852_695_744_638_3),
+            (0.974_553_956_171_379_2, 0.064_742_483_084_434_8),
+        ];
+        for (column, rho, deck) in [
+            (1.0, 0.1, 0.6),
+            (3.7, 0.1, 0.6),
+            (3.7, 0.3, 0.5),
+            (8.0, 0.1, 0.7),
+        ] {
+            let (mut r_d, mut t_d) = (0.0, 0.0);
+            for (mu, w) in nodes {
+                let f = slab_fluxes(
+                    column,
+                    1.0,
+                    &phase,
+                    mu.acos().to_degrees(),
+                    DoublingSettings::default(),
+                );
+                r_d += 2.0 * mu * w * f.reflectance;
+                t_d += 2.0 * mu * w * f.transmittance;
+            }
+            // Deck's own light 1; E₀ = 1 + R_c F↑(top).
+            let system_up = r_d + t_d * t_d * rho / (1.0 - rho * r_d);
+            let entering = 1.0 / (1.0 - deck * system_up);
+            let ground_down = t_d * entering / (1.0 - rho * r_d);
+            let reference = ground_down * (1.0 - deck * rho);
+            let [model, _] = diffuse_fluxes_in_mist(column, column, g, rho, deck);
+            assert!(
+                (model / reference - 1.0).abs() < 0.05,
+                "τ_m {column} ρ {rho} R_c {deck}: two-stream {model:.4}, adding–doubling {reference:.4}"
+            );
+        }
+    }
 
     /// Clear air keeps the deck's uniform light, thick mist the escape
     /// function's, and every blend between carries the same flux,

@@ -867,8 +867,11 @@ fn a_steps_splashes_fill_the_ring_in_the_order_of_the_drops() {
 
 /// A test kernel around the hemisphere moments: one (g, d_y) in; out the
 /// (M₀, M₁) of Henyey–Greenstein and Cornette–Shanks of that g, and of
-/// Rayleigh, and the deck's light shape through mist of optical depth
-/// 3(d_y + 1).
+/// Rayleigh, the deck's light shape through mist of optical depth
+/// 3(d_y + 1), the mist's diffuse fluxes (red and blue down, red and blue
+/// up) in a column of 4(d_y + 1) at half its depth over a ground of albedo
+/// (0.05, 0.3, 0.8) under a base of reflectance 0.7 g, and the base's
+/// reflectance at optical depth 10(d_y + 1) and asymmetry g.
 const MOMENTS_KERNEL: &str = r"
 @group(0) @binding(1) var<storage, read> moment_cases: array<vec2<f32>>;
 @group(0) @binding(2) var<storage, read_write> moments: array<f32>;
@@ -884,9 +887,13 @@ fn moments_kernel(@builtin(global_invocation_id) id: vec3<u32>) {
     let cs = cornette_shanks_hemisphere_moments(g, d_y);
     let rayleigh = rayleigh_hemisphere_moments(d_y);
     let deck = deck_light_shape_through_mist(3.0 * (d_y + 1.0));
-    let out = array<f32, 8>(hg.x, hg.y, cs.x, cs.y, rayleigh.x, rayleigh.y, deck.x, deck.y);
-    for (var k = 0u; k < 8u; k++) {
-        moments[8u * id.x + k] = out[k];
+    let column = 4.0 * (d_y + 1.0);
+    let fluxes = mist_diffuse_fluxes(column, 0.5 * column, 0.85, vec3<f32>(0.05, 0.3, 0.8), 0.7 * g);
+    let base = mist_deck_reflectance(10.0 * (d_y + 1.0), g);
+    let out = array<f32, 13>(hg.x, hg.y, cs.x, cs.y, rayleigh.x, rayleigh.y, deck.x, deck.y,
+        fluxes.down.x, fluxes.down.z, fluxes.up.x, fluxes.up.z, base);
+    for (var k = 0u; k < 13u; k++) {
+        moments[13u * id.x + k] = out[k];
     }
 }
 ";
@@ -894,15 +901,18 @@ fn moments_kernel(@builtin(global_invocation_id) id: vec3<u32>) {
 /// The shaders' hemisphere moments of the mist's phase function and of the
 /// air's equal the CPU twins' (`nimbus_physics::rain::mist_light` and
 /// `nimbus_physics::atmosphere::under_layer`, themselves tested against
-/// brute-force integration) at every elevation; so does the deck's light
-/// shape through the mist (`deck_light_shape_through_mist`).
+/// brute-force integration) at every elevation; so do the deck's light
+/// shape through the mist (`deck_light_shape_through_mist`), the mist's
+/// diffuse fluxes (`mist_diffuse_fluxes`) and the deck's reflectance from
+/// below (`mist_deck_reflectance`).
 #[test]
 fn gpu_hemisphere_moments_match_the_cpu_twins() {
     use nimbus_physics::atmosphere::under_layer::{
         AEROSOL_MOMENT_SAMPLES, cornette_shanks_hemisphere_moments, rayleigh_hemisphere_moments,
     };
     use nimbus_physics::rain::mist_light::{
-        MIST_MOMENT_SAMPLES, deck_light_shape_through_mist, hg_hemisphere_moments,
+        MIST_MOMENT_SAMPLES, deck_diffuse_reflectance, deck_light_shape_through_mist,
+        diffuse_fluxes_in_mist, hg_hemisphere_moments,
     };
     let h = headless();
     let cases: Vec<[f32; 2]> = [0.85f32, 0.8, 0.5, 0.0]
@@ -919,11 +929,11 @@ fn gpu_hemisphere_moments_match_the_cpu_twins() {
             input: bytemuck::cast_slice(&cases),
             input_stride: 8,
             count: cases.len(),
-            outputs_per_item: 8,
+            outputs_per_item: 13,
             extra: &[],
         },
     );
-    for (case, m) in cases.iter().zip(gpu.chunks(8)) {
+    for (case, m) in cases.iter().zip(gpu.chunks(13)) {
         let (g, d_y) = (f64::from(case[0]), f64::from(case[1]));
         let cpu = [
             hg_hemisphere_moments(g, d_y, MIST_MOMENT_SAMPLES),
@@ -948,6 +958,25 @@ fn gpu_hemisphere_moments_match_the_cpu_twins() {
                 "deck light shape, τ {}: GPU {:?}, CPU {deck:?}",
                 3.0 * (d_y + 1.0),
                 &m[6..8]
+            );
+        }
+        let column = 4.0 * (d_y + 1.0);
+        let (g_f32, dy_f32) = (case[0], case[1]);
+        let deck_reflectance = f64::from(0.7 * g_f32);
+        let red = diffuse_fluxes_in_mist(column, 0.5 * column, 0.85, 0.05, deck_reflectance);
+        let blue = diffuse_fluxes_in_mist(column, 0.5 * column, 0.85, 0.8, deck_reflectance);
+        let cpu = [
+            red[0],
+            blue[0],
+            red[1],
+            blue[1],
+            deck_diffuse_reflectance(10.0 * f64::from(dy_f32 + 1.0), g),
+        ];
+        for (k, c) in cpu.iter().enumerate() {
+            assert!(
+                (f64::from(m[8 + k]) - c).abs() < 1e-5,
+                "mist fluxes and deck reflectance, g {g}, d_y {d_y}: GPU {:?}, CPU {cpu:?}",
+                &m[8..13]
             );
         }
     }

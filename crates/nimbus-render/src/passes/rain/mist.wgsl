@@ -36,6 +36,9 @@
 const MIST_STEPS: u32 = 32u;
 const MIST_MAX_DISTANCE_M: f32 = 30000.0;
 const MIST_PHASE_G: f32 = 0.85;
+// Asymmetry of the cloud droplets for the deck's diffuse reflectance from
+// below (nimbus_physics::cumulus::shading::CLOUD_ASYMMETRY).
+const MIST_DECK_ASYMMETRY: f32 = 0.85;
 // The layer's shadow is evaluated at four points of the ray (the middles of
 // its quarters of steps) before the march and held over each quarter:
 // texture lookups inside the march's loop cost llvmpipe about twice the
@@ -78,14 +81,28 @@ fn mist_ambient_radiance(position_m: vec3<f32>, direction: vec3<f32>) -> vec3<f3
         // The clear sky above, the sunlit ground below (the environment's SH).
         return (sh_irradiance(lighting, up) * m.x + sh_irradiance(lighting, -up) * (1.0 - m.x)) / PI;
     }
-    let from_above = stratus_radiosity_sample(true, position_m.xz);
+    let clear_column = stratus_radiosity_sample(true, position_m.xz);
     let sun_on_ground = sun_irradiance_at(position_m) * max(frame.sun_direction.y, 0.0)
         * mist_sun_shadow(position_m);
-    let from_below = atmosphere.near_ground_albedo * (from_above + sun_on_ground);
+    let rho = atmosphere.near_ground_albedo;
     if (stratus.model.x == 0u) {
         // stratus.model = "bnl2006": the field's mean radiance.
-        return (from_above + from_below) / (2.0 * PI);
+        return (clear_column + rho * (clear_column + sun_on_ground)) / (2.0 * PI);
     }
+    // The mist diffuses the column's light between the ground and the
+    // deck's base (nimbus_physics::rain::mist_light::diffuse_fluxes_in_mist):
+    // a thick mist darkens the air near the ground and lightens it near the
+    // base; R_G is the column's light without it. The sun's light on the
+    // ground is kept as it is.
+    let intensity = rain.drops.x * zone_factor(position_m.x, position_m.z);
+    let beta = rain_extinction(intensity, 0.0, rain.drops.z);
+    let column_m = max(rain.drops.w - stratus.radiosity.w, 0.0);
+    let deck_reflectance = mist_deck_reflectance(
+        stratus.extinction.y * stratus_thickness_at(position_m.xz), MIST_DECK_ASYMMETRY);
+    let fluxes = mist_diffuse_fluxes(beta * column_m, beta * clamp(rain.drops.w - position_m.y, 0.0, column_m),
+        MIST_PHASE_G, rho, deck_reflectance);
+    let from_above = clear_column * fluxes.down;
+    let from_below = clear_column * fluxes.up + rho * sun_on_ground;
     // The deck's light leaves it by the escape function's shape,
     // (3/7)(1 + 2μ); where the layer is drawn as a volume (stratus.model =
     // "volume") uniformly, as the march's broken deck seen from below is
@@ -96,9 +113,7 @@ fn mist_ambient_radiance(position_m: vec3<f32>, direction: vec3<f32>) -> vec3<f3
     // with a darker light than its own, a thick one is a scattering slab.
     var shape = vec2<f32>(3.0 / 7.0, 6.0 / 7.0);
     if (stratus.model.y == 1u) {
-        let intensity = rain.drops.x * zone_factor(position_m.x, position_m.z);
-        let tau = rain_extinction(intensity, 0.0, rain.drops.z) * max(rain.drops.w - position_m.y, 0.0);
-        shape = deck_light_shape_through_mist(tau);
+        shape = deck_light_shape_through_mist(beta * max(rain.drops.w - position_m.y, 0.0));
     }
     return (from_above * (shape.x * m.x + shape.y * m.y) + from_below * (1.0 - m.x)) / PI;
 }
@@ -177,6 +192,7 @@ fn mist_fragment(in: MistVarying) -> @location(0) vec4<f32> {
     shadows[1] = mist_sun_shadow(origin + direction * min(pow(ratio, 12.5), end_m));
     shadows[2] = mist_sun_shadow(origin + direction * min(pow(ratio, 20.5), end_m));
     shadows[3] = mist_sun_shadow(origin + direction * min(pow(ratio, 28.5), end_m));
+    var weighted_m = vec3<f32>(0.0);
     var previous = 0.0;
     for (var i = 1u; i <= MIST_STEPS; i++) {
         let s = min(pow(ratio, f32(i)), end_m);
@@ -199,6 +215,7 @@ fn mist_fragment(in: MistVarying) -> @location(0) vec4<f32> {
             // Exact for constant β over the step: T(0, s₀)·(1 − e^(−Δτ)).
             let step_transmittance = exp(-step_tau);
             sunlit += transmittance * (1.0 - step_transmittance) * shadow;
+            weighted_m += transmittance * (1.0 - step_transmittance) * p;
             transmittance *= step_transmittance;
         }
         previous = s;
@@ -209,7 +226,8 @@ fn mist_fragment(in: MistVarying) -> @location(0) vec4<f32> {
     let g = MIST_PHASE_G;
     let mu = dot(direction, frame.sun_direction);
     let phase = (1.0 - g * g) / (4.0 * PI * pow(1.0 + g * g - 2.0 * g * mu, 1.5));
-    let radiance = mist_ambient_radiance(origin, direction) * (1.0 - transmittance)
+    let scattering_point = select(origin, weighted_m / max(1.0 - transmittance, 1e-6), transmittance < 0.999);
+    let radiance = mist_ambient_radiance(scattering_point, direction) * (1.0 - transmittance)
         + lighting.sun_irradiance.xyz * phase * sunlit;
     let inscattered = min(radiance * pre_exposure(), vec3<f32>(frame.max_pre_exposed));
     // Premultiplied over: the frame behind is seen through the transmittance
