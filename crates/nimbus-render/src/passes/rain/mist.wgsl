@@ -192,7 +192,6 @@ fn mist_fragment(in: MistVarying) -> @location(0) vec4<f32> {
     shadows[1] = mist_sun_shadow(origin + direction * min(pow(ratio, 12.5), end_m));
     shadows[2] = mist_sun_shadow(origin + direction * min(pow(ratio, 20.5), end_m));
     shadows[3] = mist_sun_shadow(origin + direction * min(pow(ratio, 28.5), end_m));
-    var weighted_m = vec3<f32>(0.0);
     var previous = 0.0;
     for (var i = 1u; i <= MIST_STEPS; i++) {
         let s = min(pow(ratio, f32(i)), end_m);
@@ -215,7 +214,6 @@ fn mist_fragment(in: MistVarying) -> @location(0) vec4<f32> {
             // Exact for constant β over the step: T(0, s₀)·(1 − e^(−Δτ)).
             let step_transmittance = exp(-step_tau);
             sunlit += transmittance * (1.0 - step_transmittance) * shadow;
-            weighted_m += transmittance * (1.0 - step_transmittance) * p;
             transmittance *= step_transmittance;
         }
         previous = s;
@@ -226,8 +224,7 @@ fn mist_fragment(in: MistVarying) -> @location(0) vec4<f32> {
     let g = MIST_PHASE_G;
     let mu = dot(direction, frame.sun_direction);
     let phase = (1.0 - g * g) / (4.0 * PI * pow(1.0 + g * g - 2.0 * g * mu, 1.5));
-    let scattering_point = select(origin, weighted_m / max(1.0 - transmittance, 1e-6), transmittance < 0.999);
-    let radiance = mist_ambient_radiance(scattering_point, direction) * (1.0 - transmittance)
+    let radiance = mist_ambient_radiance(origin, direction) * (1.0 - transmittance)
         + lighting.sun_irradiance.xyz * phase * sunlit;
     let inscattered = min(radiance * pre_exposure(), vec3<f32>(frame.max_pre_exposed));
     // Premultiplied over: the frame behind is seen through the transmittance
