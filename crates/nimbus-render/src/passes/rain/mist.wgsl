@@ -103,15 +103,16 @@ fn mist_ambient_radiance(position_m: vec3<f32>, direction: vec3<f32>) -> vec3<f3
         MIST_PHASE_G, rho, deck_reflectance);
     let from_above = clear_column * fluxes.down;
     let from_below = clear_column * fluxes.up + rho * sun_on_ground;
-    // The deck's light leaves it by the escape function's shape,
-    // (3/7)(1 + 2μ); where the layer is drawn as a volume (stratus.model =
-    // "volume") uniformly, as the march's broken deck seen from below is
-    // as bright towards the horizon as overhead (as the path-traced one
-    // is, docs/REALISM.md, "The stratus layer as a volume"), turning to the
-    // escape function's as the mist between here and the deck scatters it
-    // (deck_light_shape_through_mist): a thin mist must not veil the deck
-    // with a darker light than its own, a thick one is a scattering slab.
-    var shape = vec2<f32>(3.0 / 7.0, 6.0 / 7.0);
+    // The deck's light leaves it in the deck's shape
+    // (stratus_deck_light_shape: the escape function (3/7)(1 + 2μ) for the
+    // faces; uniform where the layer is drawn as a volume, as the march's
+    // broken deck seen from below is as bright towards the horizon as
+    // overhead, docs/REALISM.md, "The stratus layer as a volume"). Under a
+    // volume it turns to the escape function's as the mist between here
+    // and the deck scatters it (deck_light_shape_through_mist): a thin mist
+    // must not veil the deck with a darker light than its own, a thick one
+    // is a scattering slab.
+    var shape = stratus_deck_light_shape();
     if (stratus.model.y == 1u) {
         shape = deck_light_shape_through_mist(beta * max(rain.drops.w - position_m.y, 0.0));
     }

@@ -47,8 +47,8 @@ fn sky_fragment(in: FullscreenOutput) -> @location(0) vec4<f32> {
         let sea_point = origin + direction * distance;
         if (max(abs(sea_point.x), abs(sea_point.z)) < params.terrain_half_extent_m) {
             // The terrain drawn next covers this (its own water included)
-            // once its mesh is ready: a plain sea until then, at a third of
-            // the cost of the shading below.
+            // once its mesh is ready: a plain sea until then, without the
+            // clouds' shadows and the air under the layer.
             let plain = water_radiance(sea_point, params.water_albedo.rgb, vec3<f32>(1.0));
             return to_target(apply_aerial_perspective(plain, sea_point));
         }
