@@ -395,6 +395,71 @@ fn stratus_ground_irradiance(position_m: vec3<f32>, n: vec3<f32>, clear: vec3<f3
     return stratus_radiosity_sample(true, position_m.xz) * tilt;
 }
 
+// The SH of a uniform lower hemisphere of unit exitance (radiance 1/π
+// below the horizon, 0 above), in the nine coefficients: only the constant
+// and the y terms are non-zero, and the irradiance they give on a plane of
+// normal n is exactly (1 − n_y)/2, the lower hemisphere's share.
+const STRATUS_GROUND_SH_0: f32 = 0.564190;
+const STRATUS_GROUND_SH_Y: f32 = -0.488603;
+// Rec. 709 luminance weights.
+const STRATUS_LUMA: vec3<f32> = vec3<f32>(0.2126, 0.7152, 0.0722);
+
+// The environment `l`'s light under the layer, as a change of its SH:
+// L' = α Y(L) + β G, G the lower hemisphere above and Y(L) the SH's
+// luminance. The clear environment's irradiance on an upward-facing plane
+// U becomes the layer's R_G (α = R_G / Y(U): the sky's part keeps its
+// angular shape and takes the deck's brightness and colour; a ratio per
+// channel, R_G/U, would turn the clear sky's white haze red where the
+// deck's grey replaces its blue), and its irradiance on a downward-facing
+// plane, D, the ground's light, becomes R_C, what the radiosity gives the
+// layer's base from the ground (lit by the sun through the gaps and the
+// shadows and by R_G): β = R_C − α Y(D). Scaling the whole clear environment by α (what
+// stratus_ground_irradiance does) lit a cumulus's base by the clear day's
+// sunlit ground times the deck's brightness over the blue sky: 1.5 times
+// too bright under the default scene's broken deck (docs/REALISM.md, "The
+// ground under a broken deck"). Identity without a layer or above its
+// mid-plane.
+struct StratusUnderLight {
+    sky_scale: vec3<f32>,
+    ground_add: vec3<f32>,
+    under: bool,
+}
+
+fn stratus_under_light(l: Lighting, position_m: vec3<f32>) -> StratusUnderLight {
+    var out: StratusUnderLight;
+    out.sky_scale = vec3<f32>(1.0);
+    out.ground_add = vec3<f32>(0.0);
+    out.under = stratus_enabled() && position_m.y < stratus.window.x;
+    if (out.under) {
+        let up = sh_irradiance(l, vec3<f32>(0.0, 1.0, 0.0));
+        let down = sh_irradiance(l, vec3<f32>(0.0, -1.0, 0.0));
+        out.sky_scale = stratus_radiosity_sample(true, position_m.xz) / max(dot(up, STRATUS_LUMA), 1e-6);
+        out.ground_add = stratus_radiosity_sample(false, position_m.xz) - out.sky_scale * dot(down, STRATUS_LUMA);
+    }
+    return out;
+}
+
+// `l` with its SH changed to L' = α L + β G (stratus_under_light).
+fn stratus_layered_lighting(l: Lighting, u: StratusUnderLight) -> Lighting {
+    var out = l;
+    if (!u.under) {
+        return out;
+    }
+    for (var k = 0u; k < 9u; k += 1u) {
+        out.sh[k] = vec4<f32>(u.sky_scale * dot(l.sh[k].xyz, STRATUS_LUMA), l.sh[k].w);
+    }
+    out.sh[0] = out.sh[0] + vec4<f32>(STRATUS_GROUND_SH_0 * u.ground_add, 0.0);
+    out.sh[1] = out.sh[1] + vec4<f32>(STRATUS_GROUND_SH_Y * u.ground_add, 0.0);
+    return out;
+}
+
+// Irradiance on a surface of unit normal n at `position_m` from the
+// environment `l`, under the layer the light that is there
+// (stratus_under_light).
+fn stratus_environment_irradiance(l: Lighting, position_m: vec3<f32>, n: vec3<f32>) -> vec3<f32> {
+    return sh_irradiance(stratus_layered_lighting(l, stratus_under_light(l, position_m)), n);
+}
+
 // The angular shape of the deck's diffuse light seen from below, (a, b)
 // with the radiance at vertical cosine μ = (a + b μ) R_G/π: the escape
 // function u(μ) = (3/7)(1 + 2μ) of a slab's transmitted diffuse light where

@@ -17,7 +17,7 @@ fn cloud_sun_visibility(position_m: vec3<f32>) -> vec3<f32> {
 // `sun_visibility` is the fraction of the sun's light reaching the point.
 fn lambert_radiance(albedo: vec3<f32>, position_m: vec3<f32>, n: vec3<f32>, sun_visibility: vec3<f32>) -> vec3<f32> {
     let direct = sun_irradiance_at(position_m) * max(dot(n, frame.sun_direction), 0.0) * sun_visibility;
-    let environment = stratus_ground_irradiance(position_m, n, sh_irradiance(lighting, n));
+    let environment = stratus_environment_irradiance(lighting, position_m, n);
     return albedo / PI * (direct + environment);
 }
 

@@ -61,19 +61,17 @@ fn cumulus_evaluate(in: CumulusVarying) -> CumulusShaded {
         forward_direct *= cumulus_direct_transmittance(at_entry);
     }
     let sun = cumulus_sun_radiance(in.world_m.y);
-    let clouds_environment = clouds_lighting(lighting);
-    let clear_irradiance = sh_irradiance(clouds_environment, terms.smoothed_normal);
-    let environment = stratus_ground_irradiance(in.world_m, terms.smoothed_normal, clear_irradiance);
+    // Under a stratus layer the environment is its light (the layer's R_G
+    // from above, the ground's R_C from below), not the clear sky's.
+    let clouds_environment = stratus_layered_lighting(clouds_lighting(lighting), stratus_under_light(clouds_lighting(lighting), in.world_m));
+    let environment = sh_irradiance(clouds_environment, terms.smoothed_normal);
     var radiance: vec3<f32>;
     if (cumulus_transport_on()) {
         var transfer: CumulusTransfer;
         transfer.c_b = in.transfer_c_b;
         transfer.diagonal_xy = in.transfer_diagonal_xy;
         transfer.yz_xz = in.transfer_yz_xz;
-        // Under a stratus layer the environment is its radiosity, not the
-        // clear sky of the SH: the sky's transfer scaled by their ratio.
-        let layer = environment / max(clear_irradiance, vec3<f32>(1e-6));
-        let environment_transfer = cumulus_transfer_environment(transfer, clouds_environment) * layer;
+        let environment_transfer = cumulus_transfer_environment(transfer, clouds_environment);
         // S_{l−1}'s normal: its blobs (~125 m) are the first above the
         // transport mean free path (~90 m).
         radiance = cumulus_transport_radiance(terms, p.base_normals[0], transfer, o, l, environment_transfer, sun, layer_shadow, direct, forward_direct, forward_shadow);

@@ -170,21 +170,34 @@ fn in_cloud_world(object_m: vec3<f32>) -> vec3<f32> {
     return in_cloud.offset_scale.xyz + cumulus_rotate(object_m * in_cloud.offset_scale.w, in_cloud.rotation.x, in_cloud.rotation.y);
 }
 
+// How far across the sun's beam the stratus layer's shadow on the light a
+// cloud scatters many times is averaged, m: about the transport mean free
+// path (~90 m), over which that light has spread.
+const IN_CLOUD_LAYER_SHADOW_SPREAD_M: f32 = 120.0;
+
 // The stratus layer's shadow on the sunlight that the cloud scatters many
-// times: the mean of its transmittance over five points of the box's top.
-// That light has spread over hundreds of metres (the transport mean free
-// path is ~90 m): the layer's shadow at each point of the ray drew its
-// cells' sharp shafts as dark columns through the fog.
-fn in_cloud_layer_shadow() -> vec3<f32> {
-    let lo = in_cloud.extinction_min.xyz;
-    let size = in_cloud.extinction_size.xyz;
-    let top = vec3<f32>(lo.x + 0.5 * size.x, lo.y + size.y, lo.z + 0.5 * size.z);
-    var sum = stratus_sun_transmittance(in_cloud_world(top));
-    for (var k = 0u; k < 4u; k += 1u) {
-        let sx = select(-0.25, 0.25, (k & 1u) != 0u);
-        let sz = select(-0.25, 0.25, (k & 2u) != 0u);
-        sum += stratus_sun_transmittance(in_cloud_world(top + vec3<f32>(sx * size.x, 0.0, sz * size.z)));
-    }
+// times, near `position_m`: its transmittance at the point and at four
+// points IN_CLOUD_LAYER_SHADOW_SPREAD_M away across the beam. The light a
+// point scatters many times entered the cloud near the sunlit surface in
+// front of it along the beam, whose rays cross the layer where the
+// point's own does; averaged across the beam, so the layer's cells draw
+// soft shafts through the fog rather than sharp dark columns. One mean
+// over the cloud (five points of its box's top, before) saw one cell where
+// a cloud's sunlit side was under another: under the default scene's
+// broken deck and a sun 22° high, a cumulus whose reference lost 61 % of
+// its sunlight to the deck kept all of it (docs/REALISM.md, "A cumulus
+// under a broken deck").
+fn in_cloud_layer_shadow(position_m: vec3<f32>) -> vec3<f32> {
+    let l = frame.sun_direction;
+    var across = vec3<f32>(-l.z, 0.0, l.x);
+    across = across / max(length(across), 1e-6);
+    let other = cross(l, across);
+    let r = IN_CLOUD_LAYER_SHADOW_SPREAD_M;
+    var sum = stratus_sun_transmittance(position_m);
+    sum += stratus_sun_transmittance(position_m + r * across);
+    sum += stratus_sun_transmittance(position_m - r * across);
+    sum += stratus_sun_transmittance(position_m + r * other);
+    sum += stratus_sun_transmittance(position_m - r * other);
     return 0.2 * sum;
 }
 
@@ -226,7 +239,17 @@ fn in_cloud_light_fragment(in: FullscreenOutput) -> @location(0) vec4<f32> {
         let sky_world = vec3<f32>(dot(lighting.clouds_sh[3].xyz, luma), dot(lighting.clouds_sh[1].xyz, luma), dot(lighting.clouds_sh[2].xyz, luma));
         let sky = in_cloud_object_direction(sky_world) * in_cloud.offset_scale.w;
         let flux = sky_0 * a.xyz + sky.y * vec3<f32>(a.w, b.xy) + sky.z * vec3<f32>(b.zw, c.x) + sky.x * c.yzw;
-        return vec4<f32>(cumulus_rotate(flux, in_cloud.rotation.x, in_cloud.rotation.y), 0.0);
+        // Beside it, the scattered fluence of a uniform lower hemisphere
+        // of unit exitance, Φ_G: what the march adds of the ground's light
+        // under a stratus layer (stratus_under_light).
+        var ground = lighting;
+        for (var k = 0u; k < 9u; k += 1u) {
+            ground.sh[k] = vec4<f32>(0.0);
+        }
+        ground.sh[0] = vec4<f32>(STRATUS_GROUND_SH_0);
+        ground.sh[1] = vec4<f32>(STRATUS_GROUND_SH_Y);
+        let ground_fluence = max(cumulus_transfer_environment(in_cloud_turned_form(at), ground).x, 0.0);
+        return vec4<f32>(cumulus_rotate(flux, in_cloud.rotation.x, in_cloud.rotation.y), ground_fluence);
     }
     if (texel.x >= dims.x) {
         let direct = in_cloud_turned_form(at + 6u);
@@ -265,18 +288,11 @@ fn in_cloud_march(origin_m: vec3<f32>, direction: vec3<f32>, t0: f32, t1: f32) -
     let steps = u32(in_cloud.rotation.w);
     let l = frame.sun_direction;
     let phase = cumulus_phase(dot(direction, l));
-    // Under a stratus layer the light from above is the layer's radiosity,
-    // not the clear sky's: the fluence keeps its size relative to the
-    // clear sky's irradiance on a level surface and takes the layer's
-    // colour (a ratio per channel, as the mesh's shading scales its
-    // transfer, turned the fluence's share of ground light brown).
-    let up = vec3<f32>(0.0, 1.0, 0.0);
-    let clear = sh_irradiance(clouds_lighting(lighting), up);
-    let under = stratus_ground_irradiance(origin_m + direction * t0, up, clear);
-    let layered = any(under != clear);
+    // Under a stratus layer the light that is there: the sky's part of the
+    // scattered fluence scaled to the layer's R_G, the ground's R_C added
+    // through Φ_G (stratus_under_light; the light pass's third part).
+    let under = stratus_under_light(clouds_lighting(lighting), origin_m + direction * t0);
     let luma = IN_CLOUD_LUMA;
-    let layer_scale = under / max(dot(clear, luma), 1e-6);
-    let layer_shadow = in_cloud_layer_shadow();
     // δ-M's peak-removed asymmetry g* = (g − f)/(1 − f).
     let truncation = in_cloud.extinction_min.w;
     let asymmetry = (cloud_shadow.params.z - (1.0 - truncation)) / truncation;
@@ -303,10 +319,11 @@ fn in_cloud_march(origin_m: vec3<f32>, direction: vec3<f32>, t0: f32, t1: f32) -
     let sky_direct_weight = in_cloud.light_min.w;
     var sky_kernel: SkyDirectKernel;
     if (sky_direct_weight > 0.0) {
-        sky_kernel = sky_direct_kernel(lighting.clouds_sh, asymmetry, -direction);
+        sky_kernel = sky_direct_kernel(stratus_layered_lighting(clouds_lighting(lighting), under).sh, asymmetry, -direction);
     }
     var sun_segments: array<vec4<f32>, IN_CLOUD_SHADOW_SEGMENTS>;
     var sun_lobes: array<f32, IN_CLOUD_SHADOW_SEGMENTS>;
+    var layer_shadows: array<vec3<f32>, IN_CLOUD_SHADOW_SEGMENTS>;
     var beyond = 1.0;
     for (var k = 0u; k < IN_CLOUD_SHADOW_SEGMENTS; k += 1u) {
         let f = (f32(k) + 0.5) / f32(IN_CLOUD_SHADOW_SEGMENTS);
@@ -320,6 +337,15 @@ fn in_cloud_march(origin_m: vec3<f32>, direction: vec3<f32>, t0: f32, t1: f32) -
             direct = own.w * beyond;
         }
         direct *= stratus_sun_transmittance(p).g;
+        // The layer's shadow on the multiply scattered sunlight, at every
+        // other point (it varies over the layer's cells).
+        if (!stratus_enabled()) {
+            layer_shadows[k] = vec3<f32>(1.0);
+        } else if ((k & 1u) == 0u) {
+            layer_shadows[k] = in_cloud_layer_shadow(p);
+        } else {
+            layer_shadows[k] = layer_shadows[k - 1u];
+        }
         sun_segments[k] = vec4<f32>(PI * cumulus_sun_radiance(p.y), direct);
         let depth = -log(max(direct, 1e-8));
         if (sun_cube) {
@@ -360,15 +386,15 @@ fn in_cloud_march(origin_m: vec3<f32>, direction: vec3<f32>, t0: f32, t1: f32) -
         let segment = min(i * IN_CLOUD_SHADOW_SEGMENTS / steps, IN_CLOUD_SHADOW_SEGMENTS - 1u);
         let sun = sun_segments[segment];
         var environment = light.rgb;
+        let flux_ground = in_cloud_light_at(texel, 2.0);
         if (sky_direct_weight > 0.0) {
             // Eddington's (Φ + 3 g* o·F)/(4π): the sky's scattered light
             // flows out through the faces (cumulus::interior's notes).
-            let flux = in_cloud_light_at(texel, 2.0).xyz;
-            let toward = 3.0 * asymmetry * dot(-direction, flux) / max(dot(light.rgb, luma), 1e-6);
+            let toward = 3.0 * asymmetry * dot(-direction, flux_ground.xyz) / max(dot(light.rgb, luma), 1e-6);
             environment *= max(1.0 + sky_direct_weight * toward, 0.0);
         }
-        if (layered) {
-            environment = layer_scale * dot(environment, luma);
+        if (under.under) {
+            environment = max(under.sky_scale * dot(environment, luma) + under.ground_add * flux_ground.w, vec3<f32>(0.0));
         }
         // The sun's scattered light towards the camera: from the sun cube
         // and its excess along the beam; until it is ready, what left the
@@ -376,19 +402,16 @@ fn in_cloud_march(origin_m: vec3<f32>, direction: vec3<f32>, t0: f32, t1: f32) -
         // (cumulus::interior's notes).
         var sun_toward = vec3<f32>(0.0);
         if (sun_cube) {
-            sun_toward = layer_shadow * in_cloud_sun_toward(object, toward_camera, sun_lobes[segment]);
+            sun_toward = layer_shadows[segment] * in_cloud_sun_toward(object, toward_camera, sun_lobes[segment]);
         } else {
-            let sun_fluence = layer_shadow * light.a;
+            let sun_fluence = layer_shadows[segment] * light.a;
             let forward = min(vec3<f32>(max(1.0 - sun.a, 0.0)), max(sun_fluence, vec3<f32>(0.0)));
             sun_toward = sun_fluence - forward + forward * sun_lobes[segment];
         }
         let scattered = sun.rgb * sun_toward + environment;
         var source = phase * sun.rgb * sun.a + scattered / (4.0 * PI);
         if (sky_direct_weight > 0.0) {
-            var sky_direct = max(sky_direct_source(sky_kernel, in_cloud_light_at(texel, 1.0)), vec3<f32>(0.0));
-            if (layered) {
-                sky_direct = layer_scale * dot(sky_direct, luma);
-            }
+            let sky_direct = max(sky_direct_source(sky_kernel, in_cloud_light_at(texel, 1.0)), vec3<f32>(0.0));
             source += sky_direct_weight * sky_direct;
         }
         let opacity = 1.0 - exp(-sigma * dt);
