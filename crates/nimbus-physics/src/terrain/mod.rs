@@ -15,7 +15,7 @@ mod params;
 mod shadow;
 
 pub use params::{SurfaceAlbedos, TerrainParams};
-pub use shadow::sun_visibility;
+pub use shadow::{SHADOW_CEILING_TEXELS, sun_shadow_ceiling_m, sun_visibility};
 
 use crate::noise::{Fractal, fbm, gradient_noise, ridged};
 use crate::photometry::srgb_encode;

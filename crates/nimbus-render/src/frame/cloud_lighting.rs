@@ -11,6 +11,8 @@
 //! | 4 | the layer's phase tables P_S, P², P_F; then the shape A of the reflected orders 3+ | stratus pass (when the droplets change); A once, here | idem |
 //! | 5 | R_G, the radiosity received by the ground | radiosity iterations | idem |
 //! | 6 | R_C, the radiosity received by the cloud base | radiosity iterations | idem |
+//! | 7 | the terrain's shadow ceiling over its square (R32Float, m: [`nimbus_physics::terrain::sun_shadow_ceiling_m`]) | renderer, when the terrain or the sun changed | `shader/terrain_shadow_lookup.wgsl` |
+//! | 8 | its uniform ([`TerrainShadowUniform`]) | idem | idem |
 //!
 //! The shadow map comes first for a measured reason: with it after the
 //! layer's bindings (at 8 and 9), lavapipe (Mesa 22.3) drew the stratus layer
@@ -31,10 +33,12 @@ use crate::scene::StratusSettings;
 use bytemuck::{Pod, Zeroable};
 use nimbus_physics::optics::dsd::SizeDistribution;
 use nimbus_physics::optics::tables::{CloudOpticsParams, CloudOpticsTables};
+use nimbus_physics::terrain::SHADOW_CEILING_TEXELS;
 use nimbus_physics::transport::{interior_source, reflected_exit};
 use std::collections::HashMap;
 use std::path::PathBuf;
 use std::sync::{Arc, Mutex, OnceLock};
+use wgpu::util::DeviceExt;
 
 /// Half-angle θ_f of the forward peak, degrees (Bouthors 2006, §4.1).
 pub const FORWARD_PEAK_DEG: f64 = 5.0;
@@ -121,6 +125,22 @@ pub struct StratusUniform {
     pub model: [u32; 4],
 }
 
+/// GPU layout of WGSL `TerrainShadow` (`shader/terrain_shadow_lookup.wgsl`).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct TerrainShadowUniform {
+    /// Half the side of the terrain's square (centred on the origin), m;
+    /// 1 when the ceiling map holds a relief, 0 without one (every point
+    /// sees the sun over the ground); the half-width of the shadow's edge
+    /// in height, m; unused.
+    pub square: [f32; 4],
+}
+
+/// Half-width in height of the terrain shadow's edge in the air, m: the
+/// solar disk's angular radius (4.65 mrad) at the ~5 km of a ridge from the
+/// clouds it shades, about one ceiling texel's rise under a low sun.
+pub const TERRAIN_SHADOW_EDGE_M: f32 = 25.0;
+
 /// The layer-sized resources of group 3, owned by the stratus pass.
 #[derive(Clone, Copy, Debug)]
 pub struct CloudLayerResources<'a> {
@@ -148,6 +168,9 @@ pub struct CloudLighting {
     uniform: wgpu::Buffer,
     phase_tables: wgpu::Buffer,
     shadow: CloudShadowMap,
+    terrain_ceiling: wgpu::Texture,
+    terrain_ceiling_view: wgpu::TextureView,
+    terrain_uniform: wgpu::Buffer,
     layout: wgpu::BindGroupLayout,
     placeholders: Placeholders,
     bind_group: wgpu::BindGroup,
@@ -213,6 +236,27 @@ impl CloudLighting {
             bytemuck::cast_slice(&source),
         );
         let shadow = CloudShadowMap::new(device, queue);
+        let side = SHADOW_CEILING_TEXELS as u32;
+        let terrain_ceiling = device.create_texture(&wgpu::TextureDescriptor {
+            label: Some("terrain shadow ceiling"),
+            size: wgpu::Extent3d {
+                width: side,
+                height: side,
+                depth_or_array_layers: 1,
+            },
+            mip_level_count: 1,
+            sample_count: 1,
+            dimension: wgpu::TextureDimension::D2,
+            format: wgpu::TextureFormat::R32Float,
+            usage: wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
+            view_formats: &[],
+        });
+        let terrain_ceiling_view = terrain_ceiling.create_view(&Default::default());
+        let terrain_uniform = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("terrain shadow uniform"),
+            contents: bytemuck::bytes_of(&TerrainShadowUniform::default()),
+            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+        });
         let draw = wgpu::ShaderStages::VERTEX_FRAGMENT;
         let compute = wgpu::ShaderStages::COMPUTE;
         let storage_read = wgpu::BufferBindingType::Storage { read_only: true };
@@ -229,6 +273,14 @@ impl CloudLighting {
                 binding::buffer_entry(6, storage_read, VEC4_BYTES, wgpu::ShaderStages::FRAGMENT),
                 shadow_uniform,
                 shadow_map,
+                // Also for compute: the tests' kernels read the terrain's
+                // shadow against its CPU reference.
+                binding::texture_entry(7, wgpu::TextureViewDimension::D2, false, draw | compute),
+                binding::uniform_layout_entry(
+                    8,
+                    draw | compute,
+                    std::mem::size_of::<TerrainShadowUniform>() as u64,
+                ),
             ],
         });
         let radiosity_texel = |label| {
@@ -258,6 +310,7 @@ impl CloudLighting {
             &uniform,
             &phase_tables,
             &shadow,
+            (&terrain_ceiling_view, &terrain_uniform),
             CloudLayerResources {
                 thickness: &placeholders.thickness,
                 ground_received: &placeholders.ground_received,
@@ -268,6 +321,9 @@ impl CloudLighting {
             uniform,
             phase_tables,
             shadow,
+            terrain_ceiling,
+            terrain_ceiling_view,
+            terrain_uniform,
             layout,
             placeholders,
             bind_group,
@@ -282,6 +338,7 @@ impl CloudLighting {
         uniform: &wgpu::Buffer,
         phase_tables: &wgpu::Buffer,
         shadow: &CloudShadowMap,
+        (terrain_ceiling, terrain_uniform): (&wgpu::TextureView, &wgpu::Buffer),
         layer: CloudLayerResources<'_>,
     ) -> wgpu::BindGroup {
         let [shadow_uniform, shadow_map] = shadow.bind_group_entries();
@@ -300,6 +357,16 @@ impl CloudLighting {
                 resource,
             })
             .chain([shadow_uniform, shadow_map])
+            .chain([
+                wgpu::BindGroupEntry {
+                    binding: 7,
+                    resource: wgpu::BindingResource::TextureView(terrain_ceiling),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 8,
+                    resource: terrain_uniform.as_entire_binding(),
+                },
+            ])
             .collect();
         device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("cloud lighting"),
@@ -322,8 +389,41 @@ impl CloudLighting {
             &self.uniform,
             &self.phase_tables,
             &self.shadow,
+            (&self.terrain_ceiling_view, &self.terrain_uniform),
             layer.unwrap_or(placeholders),
         );
+    }
+
+    /// Writes the terrain's shadow ceiling (bindings 7 and 8): the
+    /// [`SHADOW_CEILING_TEXELS`]² heights of
+    /// [`nimbus_physics::terrain::sun_shadow_ceiling_m`] over a square of
+    /// half side `half_extent_m` centred on the origin, or `None` without a
+    /// relief (nothing shades the air).
+    pub fn write_terrain_shadow(&self, queue: &wgpu::Queue, shadow: Option<(&[f32], f64)>) {
+        let mut uniform = TerrainShadowUniform::default();
+        if let Some((ceiling, half_extent_m)) = shadow {
+            let side = SHADOW_CEILING_TEXELS as u32;
+            debug_assert_eq!(ceiling.len(), SHADOW_CEILING_TEXELS * SHADOW_CEILING_TEXELS);
+            if ceiling.len() != SHADOW_CEILING_TEXELS * SHADOW_CEILING_TEXELS {
+                return;
+            }
+            queue.write_texture(
+                self.terrain_ceiling.as_image_copy(),
+                bytemuck::cast_slice(ceiling),
+                wgpu::TexelCopyBufferLayout {
+                    offset: 0,
+                    bytes_per_row: Some(4 * side),
+                    rows_per_image: Some(side),
+                },
+                wgpu::Extent3d {
+                    width: side,
+                    height: side,
+                    depth_or_array_layers: 1,
+                },
+            );
+            uniform.square = [half_extent_m as f32, 1.0, TERRAIN_SHADOW_EDGE_M, 0.0];
+        }
+        queue.write_buffer(&self.terrain_uniform, 0, bytemuck::bytes_of(&uniform));
     }
 
     /// Writes the layer's uniform (binding 0).

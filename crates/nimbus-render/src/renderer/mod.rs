@@ -230,6 +230,9 @@ pub struct Renderer {
     caller_occluders_generation: u64,
     /// Where precomputation runs ([`RendererDescriptor::precompute`]).
     precompute: Precompute,
+    /// The terrain pass's shadow ceiling last written to the cloud
+    /// lighting (its generation; 0: none yet).
+    terrain_shadow_written: u64,
 }
 
 impl Renderer {
@@ -283,6 +286,7 @@ impl Renderer {
             caller_occluders: None,
             caller_occluders_generation: 0,
             precompute: descriptor.precompute,
+            terrain_shadow_written: 0,
         }
     }
 
@@ -551,6 +555,16 @@ impl Renderer {
             .prepare(&self.device, &self.queue, &ground, precompute)?;
         self.terrain
             .prepare_sun(&self.queue, scene.sun.direction(), precompute);
+        // The terrain's shadow in the air, for the clouds and the rain
+        // behind its ridges (the frame's group 3).
+        if let Some((ceiling, half_extent_m, generation)) = self.terrain.sun_shadow_ceiling()
+            && generation != self.terrain_shadow_written
+        {
+            self.frame
+                .cloud_lighting
+                .write_terrain_shadow(&self.queue, Some((ceiling, half_extent_m)));
+            self.terrain_shadow_written = generation;
+        }
         // The near ground's albedo lights the clouds from below; until the
         // terrain is generated (in the background), the atmosphere's.
         let near_ground_albedo = self

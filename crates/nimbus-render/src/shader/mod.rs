@@ -252,6 +252,12 @@ pub const CLOUD_SHADOW_LOOKUP: WgslFile = WgslFile {
     source: include_str!("cloud_shadow_lookup.wgsl"),
 };
 
+/// The terrain's shadow in the air (clouds and rain behind its ridges).
+pub const TERRAIN_SHADOW_LOOKUP: WgslFile = WgslFile {
+    name: "shader/terrain_shadow_lookup.wgsl",
+    source: include_str!("terrain_shadow_lookup.wgsl"),
+};
+
 /// Hemisphere moments of phase functions (diffuse light scattered by the
 /// rain's mist and by the air under a cloud layer); self-contained.
 pub const HEMISPHERE_MOMENTS: WgslFile = WgslFile {
@@ -286,7 +292,7 @@ pub fn lighting_include() -> String {
 }
 
 /// Every shared WGSL file: what imports resolve against.
-pub const LIBRARY: [WgslFile; 14] = [
+pub const LIBRARY: [WgslFile; 15] = [
     COMMON,
     FULLSCREEN,
     LIT_SURFACE,
@@ -299,6 +305,7 @@ pub const LIBRARY: [WgslFile; 14] = [
     CLOUD_LAYER_LOOKUP,
     CLOUD_SHADOW_UNIFORM,
     CLOUD_SHADOW_LOOKUP,
+    TERRAIN_SHADOW_LOOKUP,
     HEMISPHERE_MOMENTS,
     DIFFUSION,
 ];

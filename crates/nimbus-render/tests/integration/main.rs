@@ -29,3 +29,4 @@ mod scene_schema;
 mod settings;
 mod shaders;
 mod stratus;
+mod terrain_shadow;

@@ -259,6 +259,12 @@ fn pass_uniforms_match_wgsl_layout() {
         nimbus_render::cumulus::CloudShadowUniform,
         [clip_from_world, params, flags,]
     );
+    assert_layout!(
+        module_named("cumulus"),
+        "TerrainShadow",
+        nimbus_render::frame::cloud_lighting::TerrainShadowUniform,
+        [square,]
+    );
 }
 
 #[test]

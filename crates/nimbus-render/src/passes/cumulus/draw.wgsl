@@ -1,7 +1,8 @@
 // import passes/cumulus/cumulus.wgsl
 // import shader/cloud_shadow_lookup.wgsl
+// import shader/terrain_shadow_lookup.wgsl
 // The camera's view of the cumulus (see cumulus.wgsl). Needs cumulus.wgsl
-// and shader/cloud_shadow_lookup.wgsl.
+// shader/cloud_shadow_lookup.wgsl and shader/terrain_shadow_lookup.wgsl.
 
 @vertex
 fn cumulus_vertex(v: CumulusVertex, i: CumulusInstance, t: CumulusTransferVertex) -> CumulusVarying {
@@ -41,7 +42,8 @@ fn cumulus_evaluate(in: CumulusVarying) -> CumulusShaded {
     let o = to_eye_world(in.world_m);
     let l = frame.sun_direction;
     let terms = cumulus_shade_terms(p, o, l);
-    let layer_shadow = stratus_sun_transmittance(in.world_m);
+    // The stratus layer's shadow and the terrain's (a cloud behind a ridge).
+    let layer_shadow = stratus_sun_transmittance(in.world_m) * terrain_sun_visibility(in.world_m);
     var shadow = layer_shadow;
     var forward_shadow = shadow;
     // The single scattering of the transport model needs the direct beam's

@@ -1,5 +1,6 @@
 // import passes/cumulus/cumulus.wgsl
 // import shader/cloud_shadow_lookup.wgsl
+// import shader/terrain_shadow_lookup.wgsl
 // import shader/diffusion.wgsl
 // import shader/fullscreen.wgsl
 // The view from inside a cumulus (or near enough that its mesh hands over):
@@ -175,9 +176,10 @@ fn in_cloud_world(object_m: vec3<f32>) -> vec3<f32> {
 // path (~90 m), over which that light has spread.
 const IN_CLOUD_LAYER_SHADOW_SPREAD_M: f32 = 120.0;
 
-// The stratus layer's shadow on the sunlight that the cloud scatters many
-// times, near `position_m`: its transmittance at the point and at four
-// points IN_CLOUD_LAYER_SHADOW_SPREAD_M away across the beam. The light a
+// The stratus layer's and the terrain's shadow on the sunlight that the
+// cloud scatters many times, near `position_m`: their transmittance at the
+// point and at four points IN_CLOUD_LAYER_SHADOW_SPREAD_M away across the
+// beam. The light a
 // point scatters many times entered the cloud near the sunlit surface in
 // front of it along the beam, whose rays cross the layer where the
 // point's own does; averaged across the beam, so the layer's cells draw
@@ -193,11 +195,15 @@ fn in_cloud_layer_shadow(position_m: vec3<f32>) -> vec3<f32> {
     across = across / max(length(across), 1e-6);
     let other = cross(l, across);
     let r = IN_CLOUD_LAYER_SHADOW_SPREAD_M;
-    var sum = stratus_sun_transmittance(position_m);
-    sum += stratus_sun_transmittance(position_m + r * across);
-    sum += stratus_sun_transmittance(position_m - r * across);
-    sum += stratus_sun_transmittance(position_m + r * other);
-    sum += stratus_sun_transmittance(position_m - r * other);
+    var sum = vec3<f32>(0.0);
+    for (var k = 0u; k < 5u; k += 1u) {
+        var p = position_m;
+        if (k > 0u) {
+            let sign = select(-1.0, 1.0, (k & 1u) == 1u);
+            p += sign * r * select(other, across, k < 3u);
+        }
+        sum += stratus_sun_transmittance(p) * terrain_sun_visibility(p);
+    }
     return 0.2 * sum;
 }
 
@@ -336,10 +342,10 @@ fn in_cloud_march(origin_m: vec3<f32>, direction: vec3<f32>, t0: f32, t1: f32) -
             }
             direct = own.w * beyond;
         }
-        direct *= stratus_sun_transmittance(p).g;
-        // The layer's shadow on the multiply scattered sunlight, at every
-        // other point (it varies over the layer's cells).
-        if (!stratus_enabled()) {
+        direct *= stratus_sun_transmittance(p).g * terrain_sun_visibility(p);
+        // The layer's and the terrain's shadow on the multiply scattered
+        // sunlight, at every other point (it varies over the layer's cells).
+        if (!stratus_enabled() && terrain_shadow.square.y == 0.0) {
             layer_shadows[k] = vec3<f32>(1.0);
         } else if ((k & 1u) == 0u) {
             layer_shadows[k] = in_cloud_layer_shadow(p);

@@ -145,6 +145,9 @@ struct TerrainMesh {
     sun_visibility: wgpu::Texture,
     /// Sun direction the visibility map was computed for.
     sun_direction: Option<[f64; 3]>,
+    /// The terrain's shadow in the air for that sun
+    /// ([`terrain::sun_shadow_ceiling_m`]), once computed.
+    sun_shadow_ceiling: Option<Arc<Vec<f32>>>,
     bind_group: wgpu::BindGroup,
 }
 
@@ -159,8 +162,20 @@ pub struct TerrainPass {
     generation: u64,
     /// The ground generated and meshed (a worker thread's work).
     generated: Deferred<Ground, GeneratedGround>,
-    /// The sun-visibility texels of (mesh generation, sun direction).
-    sun_visibility: Deferred<(u64, [f64; 3]), Vec<u8>>,
+    /// The sun-visibility texels and the shadow ceiling of (mesh
+    /// generation, sun direction).
+    sun_visibility: Deferred<(u64, [f64; 3]), SunShadows>,
+    /// Incremented whenever a new shadow ceiling is ready (the renderer
+    /// hands it to the frame's cloud lighting).
+    shadow_ceiling_generation: u64,
+}
+
+/// The terrain's shadows for one sun: on its surface (R8 visibility per
+/// vertex) and in the air above it (the shadow ceiling).
+#[derive(Debug)]
+struct SunShadows {
+    visibility: Vec<u8>,
+    ceiling: Arc<Vec<f32>>,
 }
 
 /// A ground generated and meshed on the CPU, ready to upload.
@@ -237,6 +252,7 @@ impl TerrainPass {
             generation: 0,
             generated: Deferred::new("terrain"),
             sun_visibility: Deferred::new("terrain sun visibility"),
+            shadow_ceiling_generation: 0,
         }
     }
 
@@ -341,6 +357,7 @@ impl TerrainPass {
             albedo_view,
             sun_visibility,
             sun_direction: None,
+            sun_shadow_ceiling: None,
             bind_group,
         });
         Ok(())
@@ -362,10 +379,13 @@ impl TerrainPass {
             return;
         }
         let key = (self.generation, sun_direction);
-        let Some(((generation, direction), visibility)) =
+        let Some(((generation, direction), shadows)) =
             self.sun_visibility.request(key, precompute, || {
                 let terrain = mesh.terrain.clone();
-                move || sun_visibility_texels(&terrain, sun_direction)
+                move || SunShadows {
+                    visibility: sun_visibility_texels(&terrain, sun_direction),
+                    ceiling: Arc::new(terrain::sun_shadow_ceiling_m(&terrain, sun_direction)),
+                }
             })
         else {
             return;
@@ -376,7 +396,7 @@ impl TerrainPass {
         let side = mesh.terrain.vertices_per_side() as u32;
         queue.write_texture(
             mesh.sun_visibility.as_image_copy(),
-            visibility,
+            &shadows.visibility,
             wgpu::TexelCopyBufferLayout {
                 offset: 0,
                 bytes_per_row: Some(side),
@@ -389,6 +409,23 @@ impl TerrainPass {
             },
         );
         mesh.sun_direction = Some(*direction);
+        mesh.sun_shadow_ceiling = Some(shadows.ceiling.clone());
+        self.shadow_ceiling_generation += 1;
+    }
+
+    /// The terrain's shadow in the air for the sun of the last
+    /// [`Self::prepare_sun`] ([`terrain::sun_shadow_ceiling_m`]: heights, m,
+    /// over [`terrain::SHADOW_CEILING_TEXELS`]² texels of the terrain's
+    /// square), half the square's side, m, and a number that changes
+    /// whenever the ceiling does; `None` until the first is ready.
+    pub fn sun_shadow_ceiling(&self) -> Option<(&[f32], f64, u64)> {
+        let mesh = self.mesh.as_ref()?;
+        let ceiling = mesh.sun_shadow_ceiling.as_ref()?;
+        Some((
+            ceiling.as_slice(),
+            0.5 * mesh.terrain.params.extent_m,
+            self.shadow_ceiling_generation,
+        ))
     }
 
     /// The work under way on a worker thread, if any.
