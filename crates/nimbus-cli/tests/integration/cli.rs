@@ -619,6 +619,7 @@ fn bench_prints_one_json_document_with_per_pass_times() {
                 "rain_simulation",
                 "rain_mist",
                 "rain",
+                "stratus_in_layer",
                 "exposure",
                 "tonemap",
             ];
