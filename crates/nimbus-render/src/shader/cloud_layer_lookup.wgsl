@@ -29,15 +29,7 @@ fn stratus_thickness_at(xz: vec2<f32>) -> f32 {
     if (any(p < vec2<f32>(0.0)) || any(p > vec2<f32>(f32(n - 1)))) {
         return layer_thickness_m(stratus, xz);
     }
-    let p0 = floor(p);
-    let f = p - p0;
-    let i0 = clamp(vec2<i32>(p0), vec2<i32>(0), vec2<i32>(n - 1));
-    let i1 = clamp(vec2<i32>(p0) + 1, vec2<i32>(0), vec2<i32>(n - 1));
-    let a = textureLoad(stratus_thickness, i0, 0).r;
-    let b = textureLoad(stratus_thickness, vec2<i32>(i1.x, i0.y), 0).r;
-    let c = textureLoad(stratus_thickness, vec2<i32>(i0.x, i1.y), 0).r;
-    let d = textureLoad(stratus_thickness, i1, 0).r;
-    return mix(mix(a, b, f.x), mix(c, d, f.x), f.y);
+    return load_bilinear_r(stratus_thickness, p, n);
 }
 
 // The march of stratus_view_path_m (twins of nimbus_physics::cloud_layer's

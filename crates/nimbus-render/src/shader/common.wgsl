@@ -98,3 +98,18 @@ fn pixel_footprint_m(distance_m: f32) -> f32 {
     }
     return distance_m * frame.pixel_angle_rad;
 }
+
+// The red channel of `t` at texel coordinates `p` (texel centres at
+// integers) interpolated bilinearly, clamped at the edge texels of an
+// `n` × `n` texture: the lookup of R32Float maps, which are not filterable.
+fn load_bilinear_r(t: texture_2d<f32>, p: vec2<f32>, n: i32) -> f32 {
+    let p0 = floor(p);
+    let f = p - p0;
+    let i0 = clamp(vec2<i32>(p0), vec2<i32>(0), vec2<i32>(n - 1));
+    let i1 = clamp(vec2<i32>(p0) + 1, vec2<i32>(0), vec2<i32>(n - 1));
+    let a = textureLoad(t, i0, 0).r;
+    let b = textureLoad(t, vec2<i32>(i1.x, i0.y), 0).r;
+    let c = textureLoad(t, vec2<i32>(i0.x, i1.y), 0).r;
+    let d = textureLoad(t, i1, 0).r;
+    return mix(mix(a, b, f.x), mix(c, d, f.x), f.y);
+}

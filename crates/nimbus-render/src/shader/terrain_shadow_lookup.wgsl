@@ -4,6 +4,7 @@
 // each vertical line sees the centre of the sun's disk
 // (nimbus_physics::terrain::sun_shadow_ceiling_m, computed when the
 // terrain or the sun changes; frame/cloud_lighting.rs, bindings 7 and 8).
+// Needs common.wgsl.
 
 struct TerrainShadow {
     // Half the side of the terrain's square, m; 1 with a relief, 0
@@ -20,16 +21,7 @@ struct TerrainShadow {
 fn terrain_shadow_ceiling_at(xz: vec2<f32>) -> f32 {
     let n = i32(textureDimensions(terrain_shadow_ceiling).x);
     let half = terrain_shadow.square.x;
-    let p = (xz + half) / (2.0 * half) * f32(n) - 0.5;
-    let p0 = floor(p);
-    let f = p - p0;
-    let i0 = clamp(vec2<i32>(p0), vec2<i32>(0), vec2<i32>(n - 1));
-    let i1 = clamp(vec2<i32>(p0) + 1, vec2<i32>(0), vec2<i32>(n - 1));
-    let a = textureLoad(terrain_shadow_ceiling, i0, 0).r;
-    let b = textureLoad(terrain_shadow_ceiling, vec2<i32>(i1.x, i0.y), 0).r;
-    let c = textureLoad(terrain_shadow_ceiling, vec2<i32>(i0.x, i1.y), 0).r;
-    let d = textureLoad(terrain_shadow_ceiling, i1, 0).r;
-    return mix(mix(a, b, f.x), mix(c, d, f.x), f.y);
+    return load_bilinear_r(terrain_shadow_ceiling, (xz + half) / (2.0 * half) * f32(n) - 0.5, n);
 }
 
 // Fraction of the sun's disk that `position_m` sees over the relief, in
