@@ -179,10 +179,9 @@ const IN_CLOUD_LAYER_SHADOW_SPREAD_M: f32 = 120.0;
 // The stratus layer's and the terrain's shadow on the sunlight that the
 // cloud scatters many times, near `position_m`: their transmittance at the
 // point and at four points IN_CLOUD_LAYER_SHADOW_SPREAD_M away across the
-// beam. The light a
-// point scatters many times entered the cloud near the sunlit surface in
-// front of it along the beam, whose rays cross the layer where the
-// point's own does; averaged across the beam, so the layer's cells draw
+// beam. The light a point scatters many times entered the cloud near the
+// sunlit surface in front of it along the beam, whose rays cross the layer
+// where the point's own do; averaged across the beam, so the layer's cells draw
 // soft shafts through the fog rather than sharp dark columns. One mean
 // over the cloud (five points of its box's top, before) saw one cell where
 // a cloud's sunlit side was under another: under the default scene's
@@ -392,7 +391,12 @@ fn in_cloud_march(origin_m: vec3<f32>, direction: vec3<f32>, t0: f32, t1: f32) -
         let segment = min(i * IN_CLOUD_SHADOW_SEGMENTS / steps, IN_CLOUD_SHADOW_SEGMENTS - 1u);
         let sun = sun_segments[segment];
         var environment = light.rgb;
-        let flux_ground = in_cloud_light_at(texel, 2.0);
+        // The net flux and Φ_G, read only where they are used (texture
+        // reads are what the march costs on llvmpipe).
+        var flux_ground = vec4<f32>(0.0);
+        if (sky_direct_weight > 0.0 || under.under) {
+            flux_ground = in_cloud_light_at(texel, 2.0);
+        }
         if (sky_direct_weight > 0.0) {
             // Eddington's (Φ + 3 g* o·F)/(4π): the sky's scattered light
             // flows out through the faces (cumulus::interior's notes).
