@@ -244,17 +244,7 @@ fn in_cloud_light_fragment(in: FullscreenOutput) -> @location(0) vec4<f32> {
         let sky_world = vec3<f32>(dot(lighting.clouds_sh[3].xyz, luma), dot(lighting.clouds_sh[1].xyz, luma), dot(lighting.clouds_sh[2].xyz, luma));
         let sky = in_cloud_object_direction(sky_world) * in_cloud.offset_scale.w;
         let flux = sky_0 * a.xyz + sky.y * vec3<f32>(a.w, b.xy) + sky.z * vec3<f32>(b.zw, c.x) + sky.x * c.yzw;
-        // Beside it, the scattered fluence of a uniform lower hemisphere
-        // of unit exitance, Φ_G: what the march adds of the ground's light
-        // under a stratus layer (stratus_under_light).
-        var ground = lighting;
-        for (var k = 0u; k < 9u; k += 1u) {
-            ground.sh[k] = vec4<f32>(0.0);
-        }
-        ground.sh[0] = vec4<f32>(STRATUS_GROUND_SH_0);
-        ground.sh[1] = vec4<f32>(STRATUS_GROUND_SH_Y);
-        let ground_fluence = max(cumulus_transfer_environment(in_cloud_turned_form(at), ground).x, 0.0);
-        return vec4<f32>(cumulus_rotate(flux, in_cloud.rotation.x, in_cloud.rotation.y), ground_fluence);
+        return vec4<f32>(cumulus_rotate(flux, in_cloud.rotation.x, in_cloud.rotation.y), 0.0);
     }
     if (texel.x >= dims.x) {
         let direct = in_cloud_turned_form(at + 6u);
@@ -293,9 +283,14 @@ fn in_cloud_march(origin_m: vec3<f32>, direction: vec3<f32>, t0: f32, t1: f32) -
     let steps = u32(in_cloud.rotation.w);
     let l = frame.sun_direction;
     let phase = cumulus_phase(dot(direction, l));
-    // Under a stratus layer the light that is there: the sky's part of the
-    // scattered fluence scaled to the layer's R_G, the ground's R_C added
-    // through Φ_G (stratus_under_light; the light pass's third part).
+    // Under a stratus layer the light that is there (stratus_under_light):
+    // the scattered fluence's luminance scaled to the layer's R_G, taking
+    // its colour; the sky's direct light from the layered SH. The ground's
+    // part is not replaced by R_C here as the mesh's shading does: added
+    // through the fluence of a lower hemisphere, it made the flight
+    // through a cumulus under a deck step at the mesh's hand-over to this
+    // march (thumbnail step 0.063 → 0.094 against the test's 0.08), not
+    // yet understood (docs/REALISM.md, "A cumulus under a broken deck").
     let under = stratus_under_light(clouds_lighting(lighting), origin_m + direction * t0);
     let luma = IN_CLOUD_LUMA;
     // δ-M's peak-removed asymmetry g* = (g − f)/(1 − f).
@@ -391,20 +386,15 @@ fn in_cloud_march(origin_m: vec3<f32>, direction: vec3<f32>, t0: f32, t1: f32) -
         let segment = min(i * IN_CLOUD_SHADOW_SEGMENTS / steps, IN_CLOUD_SHADOW_SEGMENTS - 1u);
         let sun = sun_segments[segment];
         var environment = light.rgb;
-        // The net flux and Φ_G, read only where they are used (texture
-        // reads are what the march costs on llvmpipe).
-        var flux_ground = vec4<f32>(0.0);
-        if (sky_direct_weight > 0.0 || under.under) {
-            flux_ground = in_cloud_light_at(texel, 2.0);
-        }
         if (sky_direct_weight > 0.0) {
             // Eddington's (Φ + 3 g* o·F)/(4π): the sky's scattered light
             // flows out through the faces (cumulus::interior's notes).
-            let toward = 3.0 * asymmetry * dot(-direction, flux_ground.xyz) / max(dot(light.rgb, luma), 1e-6);
+            let flux = in_cloud_light_at(texel, 2.0).xyz;
+            let toward = 3.0 * asymmetry * dot(-direction, flux) / max(dot(light.rgb, luma), 1e-6);
             environment *= max(1.0 + sky_direct_weight * toward, 0.0);
         }
         if (under.under) {
-            environment = max(under.sky_scale * dot(environment, luma) + under.ground_add * flux_ground.w, vec3<f32>(0.0));
+            environment = under.sky_scale * dot(environment, luma);
         }
         // The sun's scattered light towards the camera: from the sun cube
         // and its excess along the beam; until it is ready, what left the
