@@ -397,32 +397,31 @@ impl CloudLighting {
     /// Writes the terrain's shadow ceiling (bindings 7 and 8): the
     /// [`SHADOW_CEILING_TEXELS`]² heights of
     /// [`nimbus_physics::terrain::sun_shadow_ceiling_m`] over a square of
-    /// half side `half_extent_m` centred on the origin, or `None` without a
-    /// relief (nothing shades the air).
-    pub fn write_terrain_shadow(&self, queue: &wgpu::Queue, shadow: Option<(&[f32], f64)>) {
-        let mut uniform = TerrainShadowUniform::default();
-        if let Some((ceiling, half_extent_m)) = shadow {
-            let side = SHADOW_CEILING_TEXELS as u32;
-            debug_assert_eq!(ceiling.len(), SHADOW_CEILING_TEXELS * SHADOW_CEILING_TEXELS);
-            if ceiling.len() != SHADOW_CEILING_TEXELS * SHADOW_CEILING_TEXELS {
-                return;
-            }
-            queue.write_texture(
-                self.terrain_ceiling.as_image_copy(),
-                bytemuck::cast_slice(ceiling),
-                wgpu::TexelCopyBufferLayout {
-                    offset: 0,
-                    bytes_per_row: Some(4 * side),
-                    rows_per_image: Some(side),
-                },
-                wgpu::Extent3d {
-                    width: side,
-                    height: side,
-                    depth_or_array_layers: 1,
-                },
-            );
-            uniform.square = [half_extent_m as f32, 1.0, TERRAIN_SHADOW_EDGE_M, 0.0];
+    /// half side `half_extent_m` centred on the origin. Until the first
+    /// write nothing shades the air.
+    pub fn write_terrain_shadow(&self, queue: &wgpu::Queue, ceiling: &[f32], half_extent_m: f64) {
+        let side = SHADOW_CEILING_TEXELS as u32;
+        debug_assert_eq!(ceiling.len(), SHADOW_CEILING_TEXELS * SHADOW_CEILING_TEXELS);
+        if ceiling.len() != SHADOW_CEILING_TEXELS * SHADOW_CEILING_TEXELS {
+            return;
         }
+        queue.write_texture(
+            self.terrain_ceiling.as_image_copy(),
+            bytemuck::cast_slice(ceiling),
+            wgpu::TexelCopyBufferLayout {
+                offset: 0,
+                bytes_per_row: Some(4 * side),
+                rows_per_image: Some(side),
+            },
+            wgpu::Extent3d {
+                width: side,
+                height: side,
+                depth_or_array_layers: 1,
+            },
+        );
+        let uniform = TerrainShadowUniform {
+            square: [half_extent_m as f32, 1.0, TERRAIN_SHADOW_EDGE_M, 0.0],
+        };
         queue.write_buffer(&self.terrain_uniform, 0, bytemuck::bytes_of(&uniform));
     }
 

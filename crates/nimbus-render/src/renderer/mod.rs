@@ -562,7 +562,7 @@ impl Renderer {
         {
             self.frame
                 .cloud_lighting
-                .write_terrain_shadow(&self.queue, Some((ceiling, half_extent_m)));
+                .write_terrain_shadow(&self.queue, ceiling, half_extent_m);
             self.terrain_shadow_written = generation;
         }
         // The near ground's albedo lights the clouds from below; until the

@@ -405,12 +405,13 @@ const STRATUS_LUMA: vec3<f32> = vec3<f32>(0.2126, 0.7152, 0.0722);
 // deck's grey replaces its blue), and its irradiance on a downward-facing
 // plane, D, the ground's light, becomes R_C, what the radiosity gives the
 // layer's base from the ground (lit by the sun through the gaps and the
-// shadows and by R_G): β = R_C − α Y(D). Scaling the whole clear environment by α (what
-// stratus_ground_irradiance does) lit a cumulus's base by the clear day's
-// sunlit ground times the deck's brightness over the blue sky: 1.5 times
-// too bright under the default scene's broken deck (docs/REALISM.md, "The
-// ground under a broken deck"). Identity without a layer or above its
-// mid-plane.
+// shadows and by R_G): β = R_C − α Y(D). Scaling the whole clear
+// environment by R_G/U (what stratus_ground_irradiance does) lit a
+// cumulus's base by the clear day's sunlit ground times the deck's
+// brightness over the blue sky: 19 W m⁻² from below beside a cloud under
+// the default scene's broken deck where the reference has 3–4
+// (docs/REALISM.md, "A cumulus under a broken deck"). Identity without a
+// layer or above its mid-plane.
 struct StratusUnderLight {
     sky_scale: vec3<f32>,
     ground_add: vec3<f32>,
@@ -431,7 +432,7 @@ fn stratus_under_light(l: Lighting, position_m: vec3<f32>) -> StratusUnderLight 
     return out;
 }
 
-// `l` with its SH changed to L' = α L + β G (stratus_under_light).
+// `l` with its SH changed to L' = α Y(L) + β G (stratus_under_light).
 fn stratus_layered_lighting(l: Lighting, u: StratusUnderLight) -> Lighting {
     var out = l;
     if (!u.under) {

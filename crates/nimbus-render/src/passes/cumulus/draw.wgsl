@@ -65,7 +65,8 @@ fn cumulus_evaluate(in: CumulusVarying) -> CumulusShaded {
     let sun = cumulus_sun_radiance(in.world_m.y);
     // Under a stratus layer the environment is its light (the layer's R_G
     // from above, the ground's R_C from below), not the clear sky's.
-    let clouds_environment = stratus_layered_lighting(clouds_lighting(lighting), stratus_under_light(clouds_lighting(lighting), in.world_m));
+    let clear_environment = clouds_lighting(lighting);
+    let clouds_environment = stratus_layered_lighting(clear_environment, stratus_under_light(clear_environment, in.world_m));
     let environment = sh_irradiance(clouds_environment, terms.smoothed_normal);
     var radiance: vec3<f32>;
     if (cumulus_transport_on()) {
