@@ -124,7 +124,9 @@ fn in_layer_step_m(i: u32, t0: f32, span: f32) -> f32 {
 // The window's coarse relief; steps growing quadratically, each counted
 // by how deep its middle is in the cloud over a soft band as wide as the
 // step's rise (a step in or out made the path, and the light, jump where
-// a step's middle crossed a face: facets on the image).
+// a step's middle crossed a face: facets on the image). Where the window
+// fades out the cloud thins (see the march), so a metre there counts as
+// its fade's share of a metre.
 fn in_layer_sun_path_m(p: vec3<f32>, l: vec3<f32>) -> f32 {
     let mid = stratus.window.x;
     let half = 0.5 * stratus.shape.w;
@@ -141,7 +143,7 @@ fn in_layer_sun_path_m(p: vec3<f32>, l: vec3<f32>) -> f32 {
         let h = stratus_thickness_at(q.xz);
         let step_m = range * (b * b - a * a);
         let band_m = max(step_m * (abs(l.y) + 0.1), 1.0);
-        inside += step_m * saturate((0.5 * h - abs(q.y - mid)) / band_m + 0.5);
+        inside += step_m * stratus_window_fade(q.xz) * saturate((0.5 * h - abs(q.y - mid)) / band_m + 0.5);
     }
     return inside;
 }
@@ -304,9 +306,19 @@ fn in_layer_fragment(in: FullscreenOutput) -> @location(0) vec4<f32> {
             continue;
         }
         // A step partly inside whose middle is not: shaded at the surface.
-        let h = max(h_here, 1.0);
-        let below_top = clamp(mid + 0.5 * h - p.y, 0.0, h);
-        let above_base = clamp(p.y - (mid - 0.5 * h), 0.0, h);
+        // Over the window's outer fifth the cloud thins out: its extinction
+        // is κ times the fade (as `nimbus export` writes the layer's
+        // medium), so its depths and thickness below count as the fade's
+        // share of their metres and the sun gets through a faded cell. The
+        // fade taken as the opacity's alone shaded a faded cell as a dense
+        // one seen through a veil: the layer's far band 1.25× the
+        // reference's light under stratus-above-noon's high sun, 0.73×
+        // under stratus-sunset-plane's low one (docs/REALISM.md, "The
+        // window's edge thins the volume; the cells' lower halves").
+        let h_geometric = max(h_here, 1.0);
+        let below_top = clamp(mid + 0.5 * h_geometric - p.y, 0.0, h_geometric) * fade;
+        let above_base = clamp(p.y - (mid - 0.5 * h_geometric), 0.0, h_geometric) * fade;
+        let h = h_geometric * fade;
         let light = lights[min(i * IN_LAYER_SEGMENTS / IN_LAYER_STEPS, IN_LAYER_SEGMENTS - 1u)];
         // The sun enters a cell by its top (depth below it, cosine μ₀) or,
         // low, by the side facing it (the sun ray's path through cloud
@@ -348,8 +360,22 @@ fn in_layer_fragment(in: FullscreenOutput) -> @location(0) vec4<f32> {
             }
             let from_top = in_layer_beam_source(kappa_t * path_m, kappa_t * chord_m, mu0, dot(-direction, top_axis),
                 asymmetry_star);
-            let from_side = in_layer_beam_source(kappa_t * path_m, kappa_t * chord_m, mu_side,
+            // Through a side, the slab across the face is as thick as the
+            // chord along the sun: in a cell's lower half the beam leaves
+            // through the base a little way on, and that thin slab lets out
+            // the diffuse light that the cell's body beside the point, lit
+            // from above, holds in. The side's light is therefore at least
+            // what the local column would hold as a horizontal slab under
+            // the sun (the faces' slab, depth below the top and thickness
+            // h): with the chord's slab alone the cells' lower halves seen
+            // level from stratus-side's mid-plane were 0.52–0.66 of the
+            // reference's light (docs/REALISM.md, "The window's edge thins
+            // the volume; the cells' lower halves").
+            let from_chord = in_layer_beam_source(kappa_t * path_m, kappa_t * chord_m, mu_side,
                 dot(-direction, side_axis), asymmetry_star);
+            let from_column = in_layer_beam_source(kappa_t * below_top / mu0, kappa_t * h / mu0, mu0,
+                dot(-direction, top_axis), asymmetry_star);
+            let from_side = max(from_chord, from_column);
             // The light δ-Eddington's beam still holds beyond the
             // unscattered beam, scattered a few times within the droplets'
             // forward lobe: sent in the forward orders' lobe about the sun
@@ -389,7 +415,7 @@ fn in_layer_fragment(in: FullscreenOutput) -> @location(0) vec4<f32> {
             direct = light.sun * unscattered;
         }
         let source = phase * direct + diffuse;
-        let opacity = (1.0 - exp(-kappa_s * dt * inside)) * fade;
+        let opacity = 1.0 - exp(-kappa_s * dt * inside * fade);
         let scattered = transmittance * opacity;
         radiance += scattered * source;
         weighted += scattered * p;
