@@ -8,7 +8,7 @@ path-traced on its own and the reference takes channel c of render c.
 
     python3 tools/reference/air.py combine R.exr G.exr B.exr -o OUT.exr
         OUT.exr, OUT_a.exr, OUT_b.exr (half floats; halves kept independent)
-        and OUT.json from three render.py --halves outputs.
+        and OUT.json from three render.py --halves outputs (channels.py).
     python3 tools/reference/air.py measure REALTIME.exr... --halves A.exr B.exr
         Prints one JSON document: for each real-time EXR (nimbus render -o
         x.exr, its Z and cloud.A layers give the masks), over the terrain
@@ -47,27 +47,9 @@ def load(path, channels=("R", "G", "B")):
 
 
 def combine(a):
-    import numpy as np
-    import mitsuba as mi
+    from channels import combine as combine_channels
 
-    mi.set_variant("scalar_rgb")
-    stems = [f[: -len(".exr")] for f in (a.red, a.green, a.blue)]
-    infos = [json.load(open(f"{s}.json")) for s in stems]
-    out_stem = a.output[: -len(".exr")]
-    for suffix in ("", "_a", "_b"):
-        planes = [load(f"{s}{suffix}.exr")["RGB"[c]] for c, s in enumerate(stems)]
-        # Half floats, as the suite's references.
-        image = np.stack(planes, axis=-1).astype(np.float16)
-        mi.Bitmap(image, mi.Bitmap.PixelFormat.RGB).write(f"{out_stem}{suffix}.exr")
-    record = {
-        "channels": "channel c of render c (r, g, b): one grey air medium per channel",
-        "renders": infos,
-        "spp": infos[0]["spp"],
-        "halves": True,
-        "seconds": sum(i.get("seconds", 0.0) for i in infos),
-    }
-    json.dump(record, open(f"{out_stem}.json", "w"), indent=2)
-    print(f"air.py: wrote {a.output} and its halves")
+    combine_channels(a.red, a.green, a.blue, a.output, "one grey air medium per channel")
 
 
 def luminance(image):

@@ -191,7 +191,7 @@ fn export_gltf_bad_input_fails_with_one_line_and_writes_nothing() {
     let dir = temp_dir("gltf", "bad");
     std::fs::write(dir.join("empty.toml"), "[ground]\nterrain = false\n").expect("scene");
     std::fs::write(dir.join("scene.toml"), SCENE).expect("scene");
-    let cases: [(&[&str], &[&str]); 4] = [
+    let cases: [(&[&str], &[&str]); 5] = [
         (
             &["export", "scene.toml", "--gltf", "out.obj"],
             &["--gltf out.obj", ".glb"],
@@ -209,6 +209,17 @@ fn export_gltf_bad_input_fails_with_one_line_and_writes_nothing() {
             ],
         ),
         (&["export", "scene.toml"], &["--mitsuba", "--gltf"]),
+        // The phase function per channel: only with the full peak.
+        (
+            &[
+                "export",
+                "scene.toml",
+                "--mitsuba",
+                "mitsuba",
+                "--phase-per-channel",
+            ],
+            &["--phase-per-channel", "--phase-truncation-deg 0", "not 5"],
+        ),
     ];
     for (args, fragments) in cases {
         assert_fails_with(&nimbus(args, &dir), fragments);

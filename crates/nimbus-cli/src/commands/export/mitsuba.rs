@@ -147,13 +147,43 @@ pub fn truncate_forward_peak(values: &mut [f64], angle_deg: f64) -> f64 {
     }
 }
 
-fn droplet_optics(settings: &StratusSettings, truncation_deg: f64) -> DropletOptics {
-    let dsd = SizeDistribution::ModifiedGamma {
+/// The droplets' size distribution of `settings`.
+fn droplet_sizes(settings: &StratusSettings) -> SizeDistribution {
+    SizeDistribution::ModifiedGamma {
         number_density_per_m3: settings.droplet_concentration_cm3 * 1e6,
         gamma: 2.0,
         effective_radius_m: settings.effective_radius_um * 1e-6,
-    };
+    }
+}
+
+/// The droplets' phase function at `wavelength_nm` as Mitsuba's `tabphase`
+/// takes it: [`PHASE_SAMPLES`] values over cos θ from −1 (back scattering)
+/// to +1 (forward), θ the scattering angle (it normalises them itself);
+/// and their extinction there, m⁻¹.
+fn droplet_phase(settings: &StratusSettings, wavelength_nm: f64) -> (Vec<f64>, f64) {
     let angles = nimbus_physics::optics::tables::computation_angles(5.0);
+    let optics = bulk_optics(
+        &droplet_sizes(settings),
+        wavelength_nm,
+        water_refractive_index(wavelength_nm),
+        &angles,
+        1e-3,
+    );
+    let table = nimbus_physics::optics::phase::PhaseTable::new(
+        optics.angles_deg.clone(),
+        optics.phase.clone(),
+    );
+    let values = (0..PHASE_SAMPLES)
+        .map(|i| {
+            let mu = -1.0 + 2.0 * i as f64 / (PHASE_SAMPLES - 1) as f64;
+            table.at(mu.clamp(-1.0, 1.0).acos().to_degrees())
+        })
+        .collect();
+    (values, optics.extinction_per_m)
+}
+
+fn droplet_optics(settings: &StratusSettings, truncation_deg: f64) -> DropletOptics {
+    let dsd = droplet_sizes(settings);
     let mut albedo_rgb = [1.0; 3];
     for (c, wavelength) in CHANNEL_WAVELENGTHS_NM.iter().enumerate() {
         let optics = bulk_optics(
@@ -165,25 +195,7 @@ fn droplet_optics(settings: &StratusSettings, truncation_deg: f64) -> DropletOpt
         );
         albedo_rgb[c] = optics.single_scattering_albedo();
     }
-    let optics = bulk_optics(
-        &dsd,
-        PHASE_WAVELENGTH_NM,
-        water_refractive_index(PHASE_WAVELENGTH_NM),
-        &angles,
-        1e-3,
-    );
-    let table = nimbus_physics::optics::phase::PhaseTable::new(
-        optics.angles_deg.clone(),
-        optics.phase.clone(),
-    );
-    // Mitsuba's `tabphase` takes the values over cos θ from −1 (back
-    // scattering) to +1 (forward), θ the scattering angle, and normalises them.
-    let mut phase_values: Vec<f64> = (0..PHASE_SAMPLES)
-        .map(|i| {
-            let mu = -1.0 + 2.0 * i as f64 / (PHASE_SAMPLES - 1) as f64;
-            table.at(mu.clamp(-1.0, 1.0).acos().to_degrees())
-        })
-        .collect();
+    let (mut phase_values, extinction_per_m) = droplet_phase(settings, PHASE_WAVELENGTH_NM);
     let fraction = truncate_forward_peak(&mut phase_values, truncation_deg);
     // One extinction grid serves all channels (Mitsuba's `scale` is a
     // scalar): its scale takes ω at 550 nm (the green channel), and each
@@ -195,7 +207,7 @@ fn droplet_optics(settings: &StratusSettings, truncation_deg: f64) -> DropletOpt
     let albedo_rgb = albedo_rgb.map(|w| (w * (1.0 - fraction) / extinction_scale).clamp(0.0, 1.0));
     DropletOptics {
         phase_values,
-        extinction_per_m: optics.extinction_per_m,
+        extinction_per_m,
         albedo_rgb,
         truncation: Truncation {
             angle_deg: truncation_deg,
@@ -301,6 +313,13 @@ pub struct Options {
     /// Whether to export the air below the clouds as a medium
     /// ([`super::air`]).
     pub air: bool,
+    /// Whether to declare the droplets' phase function at each channel's
+    /// wavelength ([`CHANNEL_WAVELENGTHS_NM`]), chosen by the scene's
+    /// `$phase` parameter (r, g or b), instead of once at
+    /// [`PHASE_WAVELENGTH_NM`]: the diffraction peak's width goes with the
+    /// wavelength, which colours a lining seen a few degrees from the sun.
+    /// Only with the full phase function (`phase_truncation_deg` 0).
+    pub phase_per_channel: bool,
 }
 
 /// Writes the scene.
@@ -317,7 +336,12 @@ pub fn export(
         time_s,
         phase_truncation_deg,
         air,
+        phase_per_channel,
     } = options;
+    anyhow::ensure!(
+        !phase_per_channel || phase_truncation_deg == 0.0,
+        "--phase-per-channel: needs --phase-truncation-deg 0 (the truncated fraction, and with it the extinction's scale, would differ per channel), not {phase_truncation_deg}"
+    );
     anyhow::ensure!(
         !air || !scene.rain.as_ref().is_some_and(|r| r.mist),
         "--air: the scene's rain mist would share the air's box (Mitsuba tracks one medium at a time); set rain.mist = false"
@@ -328,7 +352,11 @@ pub fn export(
         } else {
             "no atmosphere between the camera and the clouds or terrain (nimbus's aerial perspective is left out); the sky is an environment map at infinity, seen from the camera".to_string()
         },
-        format!("volumes: extinction and phase function at {PHASE_WAVELENGTH_NM} nm for every channel (droplet extinction varies < 2 % over the visible), albedo per channel; phase function tabulated at {PHASE_SAMPLES} values uniform in cos θ (the diffraction peak is averaged over the first ~0.9°)"),
+        if phase_per_channel {
+            format!("volumes: extinction at {PHASE_WAVELENGTH_NM} nm for every channel (droplet extinction varies < 2 % over the visible), albedo per channel; the phase function at each channel's wavelength ({:.0}, {:.0}, {:.0} nm), one per render (`$phase` = r, g, b: render each and take its channel, tools/reference/channels.py), tabulated at {PHASE_SAMPLES} values uniform in cos θ (the diffraction peak is averaged over the first ~0.9°)", CHANNEL_WAVELENGTHS_NM[0], CHANNEL_WAVELENGTHS_NM[1], CHANNEL_WAVELENGTHS_NM[2])
+        } else {
+            format!("volumes: extinction and phase function at {PHASE_WAVELENGTH_NM} nm for every channel (droplet extinction varies < 2 % over the visible; the diffraction peak's width, which goes with the wavelength, is green's in every channel: `--phase-per-channel` keeps each channel's), albedo per channel; phase function tabulated at {PHASE_SAMPLES} values uniform in cos θ (the diffraction peak is averaged over the first ~0.9°)")
+        },
         "the sun is a directional emitter (no disc seen by the camera); the water has no waves: a rough dielectric coat over its diffuse body, with nimbus's GGX glint lobe (whose shadowing darkens the sky's reflection at grazing views, where nimbus reflects it as a rippled mirror)".to_string(),
         if scene.ground.terrain {
             "the environment map's lower half is the terrain and sea as seen from the camera (for rays that leave the exported terrain)".to_string()
@@ -426,10 +454,12 @@ pub fn export(
         <transform name="to_world"><rotate y="1" angle="180"/></transform>
     </emitter>
 "#,
-        air_channel = if air {
-            "\n    <default name=\"air\" value=\"g\"/>"
-        } else {
-            ""
+        air_channel = match (air, phase_per_channel) {
+            (true, true) =>
+                "\n    <default name=\"air\" value=\"g\"/>\n    <default name=\"phase\" value=\"g\"/>",
+            (true, false) => "\n    <default name=\"air\" value=\"g\"/>",
+            (false, true) => "\n    <default name=\"phase\" value=\"g\"/>",
+            (false, false) => "",
         },
         fov = scene.camera.fov_deg,
         origin = vector(camera.position_m),
@@ -452,9 +482,14 @@ pub fn export(
     // cumulus shader has none of its own, so the same droplets).
     let droplet_settings = scene.stratus.clone().unwrap_or_default();
     let optics = droplet_optics(&droplet_settings, phase_truncation_deg);
-    // Every cumulus and the stratus: the phase function declared once below.
+    // Every cumulus and the stratus: the phase function declared once below
+    // (once per channel, chosen by `$phase`, with --phase-per-channel).
     let droplets = MediumMaterial {
-        phase_xml: r#"<ref id="droplets"/>"#.to_string(),
+        phase_xml: if phase_per_channel {
+            r#"<ref id="droplets_$phase"/>"#.to_string()
+        } else {
+            r#"<ref id="droplets"/>"#.to_string()
+        },
         albedo_rgb: optics.albedo_rgb,
         extinction_scale: optics.truncation.extinction_scale,
     };
@@ -467,20 +502,37 @@ pub fn export(
     } else {
         "droplets (every cumulus and stratus medium): full phase function, forward peak not truncated (f = 0)".to_string()
     });
-    let values: Vec<String> = optics
-        .phase_values
-        .iter()
-        .map(|v| format!("{v:.6e}"))
-        .collect();
+    let phase_values = |values: &[f64]| -> String {
+        values
+            .iter()
+            .map(|v| format!("{v:.6e}"))
+            .collect::<Vec<_>>()
+            .join(", ")
+    };
     // Media (and their phase function) are declared before the sensor,
     // which may start its rays in one of them.
     let mut media = String::new();
     let mut camera_medium: Option<String> = None;
-    let _ = write!(
-        media,
-        "    <phase type=\"tabphase\" id=\"droplets\">\n        <string name=\"values\" value=\"{}\"/>\n    </phase>\n",
-        values.join(", ")
-    );
+    if phase_per_channel {
+        for (name, wavelength_nm) in ["r", "g", "b"].iter().zip(CHANNEL_WAVELENGTHS_NM) {
+            // Green's is the shared one (the same wavelength, untruncated).
+            let values = if wavelength_nm == PHASE_WAVELENGTH_NM {
+                phase_values(&optics.phase_values)
+            } else {
+                phase_values(&droplet_phase(&droplet_settings, wavelength_nm).0)
+            };
+            let _ = write!(
+                media,
+                "    <phase type=\"tabphase\" id=\"droplets_{name}\">\n        <string name=\"values\" value=\"{values}\"/>\n    </phase>\n"
+            );
+        }
+    } else {
+        let _ = write!(
+            media,
+            "    <phase type=\"tabphase\" id=\"droplets\">\n        <string name=\"values\" value=\"{}\"/>\n    </phase>\n",
+            phase_values(&optics.phase_values)
+        );
+    }
 
     // 7. Cumulus.
     let mut cumulus_count = 0;
@@ -1068,6 +1120,37 @@ mod tests {
             assert!((values[n - 1] - hg(g, mu_t)).abs() < 1e-3 * hg(g, mu_t));
             assert_eq!(values[0], hg(g, -1.0));
         }
+    }
+
+    /// `--phase-per-channel`: the green channel's phase function is the one
+    /// exported for every channel without it, and the diffraction peak
+    /// narrows as the
+    /// wavelength falls (its width goes as λ / r): blue's phase function is
+    /// higher than red's in the exact forward direction and lower a few
+    /// degrees off it.
+    #[test]
+    fn the_phase_function_per_channel_keeps_each_wavelengths_peak() {
+        let settings = StratusSettings::default();
+        let shared = droplet_optics(&settings, 0.0);
+        let [red, green, blue] =
+            CHANNEL_WAVELENGTHS_NM.map(|wavelength| droplet_phase(&settings, wavelength).0);
+        // (The size integrals are summed in parallel: equal to rounding.)
+        let largest_difference = |a: &[f64], b: &[f64]| {
+            a.iter()
+                .zip(b)
+                .map(|(x, y)| (x - y).abs() / x.abs().max(y.abs()).max(1e-30))
+                .fold(0.0, f64::max)
+        };
+        assert!(largest_difference(&green, &shared.phase_values) < 1e-9);
+        assert!(largest_difference(&red, &green) > 0.01);
+        assert!(largest_difference(&blue, &green) > 0.01);
+        // The samples are uniform in cos θ from −1 to 1: θ = 0 is the last.
+        let at_deg = |values: &[f64], angle_deg: f64| {
+            let mu = angle_deg.to_radians().cos();
+            values[((mu + 1.0) / 2.0 * (PHASE_SAMPLES - 1) as f64).round() as usize]
+        };
+        assert!(at_deg(&blue, 0.0) > 1.2 * at_deg(&red, 0.0));
+        assert!(at_deg(&red, 4.0) > 1.2 * at_deg(&blue, 4.0));
     }
 
     /// The mist's grid is nimbus's map of where it rains: a rain area's

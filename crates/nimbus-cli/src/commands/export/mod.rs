@@ -71,6 +71,14 @@ pub struct ExportArgs {
     /// the three and combines them).
     #[arg(long)]
     air: bool,
+    /// With --mitsuba and --phase-truncation-deg 0: the droplets' phase
+    /// function at each channel's wavelength (680, 550, 440 nm), chosen by
+    /// the scene's `$phase` parameter (r, g or b; render the three and take
+    /// channel c of render c, tools/reference/channels.py), not green's in
+    /// every channel: the diffraction peak's width goes with the
+    /// wavelength, which colours a lining seen a few degrees from the sun.
+    #[arg(long, requires = "mitsuba")]
+    phase_per_channel: bool,
 }
 
 /// Runs the subcommand.
@@ -86,6 +94,11 @@ pub fn run(args: &ExportArgs) -> anyhow::Result<()> {
         "--phase-truncation-deg {}: must be a number of degrees in [0, {}] (0: the full phase function)",
         args.phase_truncation_deg,
         mitsuba::MAX_PHASE_TRUNCATION_DEG
+    );
+    anyhow::ensure!(
+        !args.phase_per_channel || args.phase_truncation_deg == 0.0,
+        "--phase-per-channel: needs --phase-truncation-deg 0, not {} (the truncated fraction, and with it the extinction's scale, would differ per channel)",
+        args.phase_truncation_deg
     );
     if let Some(path) = &args.gltf {
         gltf::check_output(path)?;
@@ -144,6 +157,7 @@ pub fn run(args: &ExportArgs) -> anyhow::Result<()> {
             time_s: args.time_s,
             phase_truncation_deg: args.phase_truncation_deg,
             air: args.air,
+            phase_per_channel: args.phase_per_channel,
         },
         mitsuba_dir,
         &mut files,
