@@ -60,9 +60,17 @@ def combine(red, green, blue, output, what):
     record = {
         "channels": f"channel c of render c (r, g, b): {what}",
         "renders": infos,
-        "spp": infos[0]["spp"],
         "halves": True,
-        "seconds": sum(i.get("seconds", 0.0) for i in infos),
+        # The fields of a plain render.py output, for the scripts that read
+        # one (composite_near_sun.py, suite.sh): the samples and seeds per
+        # channel, the seconds of all three.
+        "spp": [i.get("spp") for i in infos],
+        "seed": [i.get("seed") for i in infos],
+        "threads": infos[0].get("threads"),
+        "variant": infos[0].get("variant"),
+        "render_seconds": round(sum(i.get("render_seconds", 0.0) for i in infos), 1),
+        "total_seconds": round(sum(i.get("total_seconds", 0.0) for i in infos), 1),
+        "seconds": round(sum(i.get("total_seconds", i.get("seconds", 0.0)) for i in infos), 1),
     }
     json.dump(record, open(f"{out_stem}.json", "w"), indent=2)
     print(f"channels.py: wrote {output} and its halves")
