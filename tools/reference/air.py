@@ -22,6 +22,8 @@ import argparse
 import json
 import os
 
+from channels import combine as combine_channels, load
+
 os.environ.setdefault("DRJIT_LIBLLVM_PATH", "/usr/lib/x86_64-linux-gnu/libLLVM.so.19.1")
 
 LUMINANCE = (0.2126, 0.7152, 0.0722)
@@ -29,26 +31,7 @@ BANDS_M = [(0.0, 2000.0), (2000.0, 5000.0), (5000.0, 10000.0), (10000.0, 40000.0
 BLOCK = 4
 
 
-def load(path, channels=("R", "G", "B")):
-    import numpy as np
-    import mitsuba as mi
-
-    bitmap = mi.Bitmap(path)
-    names = [f.name for f in bitmap.struct_()]
-    data = np.array(bitmap, dtype=np.float64)
-    if data.ndim == 2:
-        data = data[:, :, None]
-    out = {}
-    for name in channels:
-        if name not in names:
-            raise SystemExit(f"air.py: {path}: no channel {name}")
-        out[name] = data[:, :, names.index(name)]
-    return out
-
-
 def combine(a):
-    from channels import combine as combine_channels
-
     combine_channels(a.red, a.green, a.blue, a.output, "one grey air medium per channel")
 
 

@@ -23,19 +23,23 @@ import os
 os.environ.setdefault("DRJIT_LIBLLVM_PATH", "/usr/lib/x86_64-linux-gnu/libLLVM.so.19.1")
 
 
-def plane(path, channel):
-    """One channel ("R", "G" or "B") of an EXR as a float64 array."""
+def load(path, channels=("R", "G", "B")):
+    """The named channels of an EXR (e.g. "R", "Z", "cloud.A") as float64
+    arrays, by name."""
     import numpy as np
     import mitsuba as mi
 
     bitmap = mi.Bitmap(path)
     names = [f.name for f in bitmap.struct_()]
-    if channel not in names:
-        raise SystemExit(f"channels.py: {path}: no channel {channel}")
     data = np.array(bitmap, dtype=np.float64)
     if data.ndim == 2:
         data = data[:, :, None]
-    return data[:, :, names.index(channel)]
+    out = {}
+    for name in channels:
+        if name not in names:
+            raise SystemExit(f"{path}: no channel {name}")
+        out[name] = data[:, :, names.index(name)]
+    return out
 
 
 def combine(red, green, blue, output, what):
@@ -54,7 +58,7 @@ def combine(red, green, blue, output, what):
     infos = [json.load(open(f"{s}.json")) for s in stems]
     out_stem = output[: -len(".exr")]
     for suffix in ("", "_a", "_b"):
-        planes = [plane(f"{s}{suffix}.exr", "RGB"[c]) for c, s in enumerate(stems)]
+        planes = [load(f"{s}{suffix}.exr", ("RGB"[c],))["RGB"[c]] for c, s in enumerate(stems)]
         image = np.stack(planes, axis=-1).astype(np.float16)
         mi.Bitmap(image, mi.Bitmap.PixelFormat.RGB).write(f"{out_stem}{suffix}.exr")
     record = {

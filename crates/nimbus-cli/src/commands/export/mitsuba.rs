@@ -338,10 +338,9 @@ pub fn export(
         air,
         phase_per_channel,
     } = options;
-    anyhow::ensure!(
-        !phase_per_channel || phase_truncation_deg == 0.0,
-        "--phase-per-channel: needs --phase-truncation-deg 0 (the truncated fraction, and with it the extinction's scale, would differ per channel), not {phase_truncation_deg}"
-    );
+    // The caller checks the arguments (`--phase-per-channel` needs the full
+    // phase function: green's table below is the shared, untruncated one).
+    debug_assert!(!phase_per_channel || phase_truncation_deg == 0.0);
     anyhow::ensure!(
         !air || !scene.rain.as_ref().is_some_and(|r| r.mist),
         "--air: the scene's rain mist would share the air's box (Mitsuba tracks one medium at a time); set rain.mist = false"
@@ -420,7 +419,7 @@ pub fn export(
 <scene version="3.0.0">
     <default name="spp" value="64"/>
     <default name="seed" value="0"/>
-    <default name="max_depth" value="-1"/>{air_channel}
+    <default name="max_depth" value="-1"/>{air_channel}{phase_channel}
     <integrator type="volpath">
         <integer name="max_depth" value="$max_depth"/>
         <integer name="rr_depth" value="100000"/>
@@ -454,12 +453,15 @@ pub fn export(
         <transform name="to_world"><rotate y="1" angle="180"/></transform>
     </emitter>
 "#,
-        air_channel = match (air, phase_per_channel) {
-            (true, true) =>
-                "\n    <default name=\"air\" value=\"g\"/>\n    <default name=\"phase\" value=\"g\"/>",
-            (true, false) => "\n    <default name=\"air\" value=\"g\"/>",
-            (false, true) => "\n    <default name=\"phase\" value=\"g\"/>",
-            (false, false) => "",
+        air_channel = if air {
+            "\n    <default name=\"air\" value=\"g\"/>"
+        } else {
+            ""
+        },
+        phase_channel = if phase_per_channel {
+            "\n    <default name=\"phase\" value=\"g\"/>"
+        } else {
+            ""
         },
         fov = scene.camera.fov_deg,
         origin = vector(camera.position_m),
@@ -1124,10 +1126,9 @@ mod tests {
 
     /// `--phase-per-channel`: the green channel's phase function is the one
     /// exported for every channel without it, and the diffraction peak
-    /// narrows as the
-    /// wavelength falls (its width goes as λ / r): blue's phase function is
-    /// higher than red's in the exact forward direction and lower a few
-    /// degrees off it.
+    /// narrows as the wavelength falls (its width goes as λ / r): blue's
+    /// phase function is higher than red's in the exact forward direction
+    /// and lower a few degrees off it.
     #[test]
     fn the_phase_function_per_channel_keeps_each_wavelengths_peak() {
         let settings = StratusSettings::default();
