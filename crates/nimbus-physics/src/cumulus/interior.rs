@@ -21,7 +21,8 @@
 //! beam stays analytic (below), so the sun reads Φ_k alone. Taken
 //! isotropic it also sent the light arriving sideways down to a camera
 //! under a base: the march scatters it through the phase function instead
-//! ([`SkyDirectKernel`], T's orders ≤ 1).
+//! ([`SkyDirectKernel`]: T's orders ≤ 1 as a cap of open sky,
+//! [`transmittance_cap`]).
 //!
 //! And F_k (k ≤ 3): the scattered light's net flux, ∫ Φ(x, s, ω) ω dω
 //! projected on the harmonics of order ≤ 1 over s, the first moment of the
@@ -709,40 +710,47 @@ pub fn march_fog(ray: &FogRay, light: impl Fn(f64) -> FogLight) -> ([f64; 3], f6
     (radiance, transmittance)
 }
 
-/// The 26-point rule of Lebedev (1976, "Quadratures on a sphere", USSR
-/// Comput. Math. Math. Phys. 16(2)): the octahedron's 6 vertices (weight
-/// 1/21), its 12 edge midpoints (4/105) and 8 face centres (9/280), weights
-/// summing to 1; exact for polynomials of degree ≤ 7 on the sphere. Twin of
-/// WGSL `lebedev_26`.
-pub fn lebedev_26() -> [(DVec3, f64); 26] {
-    let mut points = [(DVec3::ZERO, 0.0); 26];
+/// The 38-point rule of Lebedev (1975, "Values of the nodes and weights of
+/// ninth to seventeenth order Gauss–Markov quadrature formulae invariant
+/// under the octahedron group with inversion", USSR Comput. Math. Math.
+/// Phys. 15(1)): the octahedron's 6 vertices (weight 1/105), the cube's 8
+/// vertices (9/280) and 24 points (±p, ±q, 0) and their permutations
+/// (1/35), weights summing to 1; exact for polynomials of degree ≤ 9 on
+/// the sphere. Twin of WGSL `lebedev_38`.
+pub fn lebedev_38() -> [(DVec3, f64); 38] {
+    const P: f64 = 0.888_073_833_977_115;
+    const Q: f64 = 0.459_700_843_380_983;
+    let mut points = [(DVec3::ZERO, 0.0); 38];
     let mut n = 0;
     let mut push = |d: DVec3, w: f64| {
-        points[n] = (d.normalize(), w);
+        points[n] = (d, w);
         n += 1;
     };
     for a in 0..3 {
         for sign in [1.0, -1.0] {
             let mut d = DVec3::ZERO;
             d[a] = sign;
-            push(d, 1.0 / 21.0);
+            push(d, 1.0 / 105.0);
+        }
+    }
+    let corner = 1.0 / 3f64.sqrt();
+    for sx in [1.0, -1.0] {
+        for sy in [1.0, -1.0] {
+            for sz in [1.0, -1.0] {
+                push(DVec3::new(sx, sy, sz) * corner, 9.0 / 280.0);
+            }
         }
     }
     for a in 0..3 {
         let (b, c) = ((a + 1) % 3, (a + 2) % 3);
-        for sb in [1.0, -1.0] {
-            for sc in [1.0, -1.0] {
-                let mut d = DVec3::ZERO;
-                d[b] = sb;
-                d[c] = sc;
-                push(d, 4.0 / 105.0);
-            }
-        }
-    }
-    for sx in [1.0, -1.0] {
-        for sy in [1.0, -1.0] {
-            for sz in [1.0, -1.0] {
-                push(DVec3::new(sx, sy, sz), 9.0 / 280.0);
+        for (u, v) in [(P, Q), (Q, P)] {
+            for su in [1.0, -1.0] {
+                for sv in [1.0, -1.0] {
+                    let mut d = DVec3::ZERO;
+                    d[b] = su * u;
+                    d[c] = sv * v;
+                    push(d, 1.0 / 35.0);
+                }
             }
         }
     }
@@ -765,41 +773,65 @@ fn phase_orders_3(asymmetry: f64, mu: f64) -> f64 {
 }
 
 /// The sky's light scattered once towards the camera, for one view: with
-/// the direct transmittance from the sky to a point T(s) ≈ t̄ + b·s (its
-/// projection on the harmonics of order ≤ 1, [`direct_transmittance`]) and
-/// the sky's radiance L(s) (nine harmonics), the source per unit σ* is
-/// ∫ L(s) T(s) p(−s·o) ds = t̄ `mean` + b · `moment`, o the direction
+/// the direct transmittance from the sky to a point T(s) known by its mean
+/// t̄ and first moment b (its projection on the harmonics of order ≤ 1,
+/// [`direct_transmittance`]) and the sky's radiance L(s) (nine harmonics),
+/// the source per unit σ* is ∫ L(s) T(s) p(−s·o) ds, o the direction
 /// towards the camera and p the droplets' peak-removed phase function,
 /// Henyey–Greenstein of its asymmetry g*. Where the sky's light crosses
 /// little cloud from the sides and above but the camera looks up from
 /// below, the droplets send little of it down: taken as isotropic (T's
 /// fluence over 4π), the sky's direct light made the view from just under
 /// a base 21 % too bright (docs/REALISM.md, "The volume model").
+///
+/// T itself is taken as the cap of open sky of [`transmittance_cap`] with
+/// that mean and moment, not as the linear t̄ + b·s: inside a base T is ~1
+/// from below and ~0 above, and the linear form is ½ at the horizon and
+/// positive up to 42° above it, where the sky is brightest, and negative
+/// overhead (docs/REALISM.md, "The sky's light under a base"). The cap's
+/// orders ≤ 1 are the linear form's, so the source is the linear form's
+/// (t̄ `mean` + b · `moment`, exact) plus the cap's orders 2 and 3 against
+/// the kernel's (`order_2`, `order_3`; Funk–Hecke). Its orders 4 and 5,
+/// the last the kernel holds, are dropped: a half-space's order 4 is zero
+/// and its order 5 a sixteenth of its order 0.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct SkyDirectKernel {
     /// ∫ L(s) p(−s·o) ds, W sr⁻¹ m⁻² (RGB).
     pub mean: [f64; 3],
     /// ∫ L(s) p(−s·o) s ds along x, y, z, W sr⁻¹ m⁻² (RGB each).
     pub moment: [[f64; 3]; 3],
+    /// ∫ L(s) p(−s·o) Y_k(s) ds for the order-2 harmonics k = 4 … 8 of
+    /// [`crate::sh::basis`], W sr⁻¹ m⁻² (RGB each).
+    pub order_2: [[f64; 3]; 5],
+    /// The same for the order-3 harmonics of [`order_3_basis`].
+    pub order_3: [[f64; 3]; 7],
 }
 
 impl SkyDirectKernel {
     /// The kernel of the sky `sky` (the nine harmonics of its radiance,
     /// [`crate::sh`]), droplets of peak-removed asymmetry `asymmetry` and
     /// the direction `toward` the camera (unit: the light's travel after
-    /// scattering). L T is of order ≤ 3, so only p's orders ≤ 3 count and
-    /// the integrand is a polynomial of degree ≤ 6: [`lebedev_26`] is exact.
-    /// Twin of WGSL `sky_direct_kernel` (nimbus-render's
-    /// `shader/diffusion.wgsl`).
+    /// scattering). Only p's orders ≤ 3 are kept (the whole function's
+    /// would add orders the cap's dropped ones meet), so the integrands are
+    /// polynomials of degree ≤ 8: [`lebedev_38`] is exact. Twin of WGSL
+    /// `sky_direct_kernel` (nimbus-render's `shader/diffusion.wgsl`).
     pub fn new(sky: &[[f64; 3]; 9], asymmetry: f64, toward: DVec3) -> Self {
         let mut kernel = Self::default();
-        for (s, w) in lebedev_26() {
+        for (s, w) in lebedev_38() {
             let l = crate::sh::radiance(sky, s.to_array());
             let weight = 4.0 * PI * w * phase_orders_3(asymmetry, -s.dot(toward));
+            let y2 = crate::sh::basis(s.to_array());
+            let y3 = order_3_basis(s);
             for (c, l) in l.iter().enumerate() {
                 kernel.mean[c] += weight * l;
                 for a in 0..3 {
                     kernel.moment[a][c] += weight * l * s[a];
+                }
+                for (k, y) in kernel.order_2.iter_mut().zip(&y2[4..]) {
+                    k[c] += weight * l * y;
+                }
+                for (k, y) in kernel.order_3.iter_mut().zip(&y3) {
+                    k[c] += weight * l * y;
                 }
             }
         }
@@ -807,15 +839,110 @@ impl SkyDirectKernel {
     }
 
     /// The source per unit σ*, W sr⁻¹ m⁻² (RGB), of a point whose direct
-    /// transmittance is `transmittance` (t̄, b).
+    /// transmittance has mean and first moment `transmittance` (t̄, b),
+    /// at least 0.
     pub fn source(&self, (mean, gradient): (f64, DVec3)) -> [f64; 3] {
-        std::array::from_fn(|c| {
+        let mut source: [f64; 3] = std::array::from_fn(|c| {
             mean * self.mean[c]
                 + gradient.x * self.moment[0][c]
                 + gradient.y * self.moment[1][c]
                 + gradient.z * self.moment[2][c]
-        })
+        });
+        if let Some(cap) = transmittance_cap(mean, gradient) {
+            let y2 = crate::sh::basis(cap.axis.to_array());
+            let y3 = order_3_basis(cap.axis);
+            let [_, _, order_2, order_3] = cap.orders();
+            for (c, out) in source.iter_mut().enumerate() {
+                let k2: f64 = (0..5).map(|k| self.order_2[k][c] * y2[4 + k]).sum();
+                let k3: f64 = (0..7).map(|k| self.order_3[k][c] * y3[k]).sum();
+                *out += cap.amplitude * (order_2 * k2 + order_3 * k3);
+            }
+        }
+        // Orders ≤ 3 of a narrow cap turned from the sky's light can dip
+        // below zero, which light cannot.
+        source.map(|v| v.max(0.0))
     }
+}
+
+/// The seven real spherical harmonics of order 3 (orthonormal; their
+/// constants as in Sloan 2008, "Stupid spherical harmonics tricks"), in
+/// the order of WGSL `order_3_basis`.
+pub fn order_3_basis(d: DVec3) -> [f64; 7] {
+    let DVec3 { x, y, z } = d;
+    [
+        0.590_044 * y * (3.0 * x * x - y * y),
+        2.890_611 * x * y * z,
+        0.457_046 * y * (5.0 * z * z - 1.0),
+        0.373_176 * z * (5.0 * z * z - 3.0),
+        0.457_046 * x * (5.0 * z * z - 1.0),
+        1.445_306 * z * (x * x - y * y),
+        0.590_044 * x * (x * x - 3.0 * y * y),
+    ]
+}
+
+/// A transmittance over directions that is A within a cap of half-angle
+/// arccos μ₀ about n and 0 outside: a point that sees the sky through one
+/// opening ([`transmittance_cap`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TransmittanceCap {
+    /// A.
+    pub amplitude: f64,
+    /// μ₀, the cosine of the cap's half-angle (−1: the whole sphere, 0: a
+    /// half-space).
+    pub cos_half_angle: f64,
+    /// n (unit).
+    pub axis: DVec3,
+}
+
+impl TransmittanceCap {
+    /// T towards `s` (unit).
+    pub fn at(&self, s: DVec3) -> f64 {
+        if self.axis.dot(s) > self.cos_half_angle {
+            self.amplitude
+        } else {
+            0.0
+        }
+    }
+
+    /// λ_l = 2π ∫_{μ₀}^1 P_l(μ) dμ for l = 0 … 3, per unit amplitude
+    /// (Funk–Hecke): 2π(1 − μ₀), π(1 − μ₀²), π μ₀(1 − μ₀²) and
+    /// (π/4)(6μ₀² − 5μ₀⁴ − 1).
+    pub fn orders(&self) -> [f64; 4] {
+        let m = self.cos_half_angle;
+        [
+            2.0 * PI * (1.0 - m),
+            PI * (1.0 - m * m),
+            PI * m * (1.0 - m * m),
+            0.25 * PI * (6.0 * m * m - 5.0 * m.powi(4) - 1.0),
+        ]
+    }
+}
+
+/// The largest ratio |b|/t̄ a cap takes (3 is a single direction's):
+/// beyond it the cap is held at this width (μ₀ ≤ 0.93, 21°).
+const CAP_MOMENT_RATIO_MAX: f64 = 2.9;
+
+/// The cap ([`TransmittanceCap`]) whose mean over directions is `mean`
+/// (t̄) and whose first moment 3⟨T s⟩ is `gradient` (b): the orders ≤ 1
+/// of [`direct_transmittance`]. Its mean is A(1 − μ₀)/2 and its moment
+/// 3A(1 − μ₀²)/4 along n, so r = |b|/t̄ = 3(1 + μ₀)/2: isotropic light
+/// (r → 0) is the whole sphere, a half-space (r = 1.5, inside a flat base
+/// or face) exactly itself, a narrow opening a narrow cap; no part of T is
+/// negative or open in every direction. `None` where T has no direction
+/// (b = 0) or no light (t̄ ≤ 0). Twin of WGSL `transmittance_cap`
+/// (nimbus-render's `shader/diffusion.wgsl`).
+pub fn transmittance_cap(mean: f64, gradient: DVec3) -> Option<TransmittanceCap> {
+    let length = gradient.length();
+    if mean <= 1e-9 || length <= 1e-9 {
+        return None;
+    }
+    let ratio = (length / mean).min(CAP_MOMENT_RATIO_MAX);
+    let cos_half_angle = 2.0 * ratio / 3.0 - 1.0;
+    Some(TransmittanceCap {
+        amplitude: 2.0 * mean / (1.0 - cos_half_angle),
+        cos_half_angle,
+        axis: gradient / length,
+    })
 }
 
 /// The direct transmittance from the sky, T(s) ≈ t̄ + b·s, from its

@@ -95,57 +95,101 @@ fn henyey_greenstein_relative(g: f32, cos_theta: f32) -> f32 {
     return (1.0 - g * g) / (d * sqrt(d));
 }
 
-// The 26-point rule of Lebedev (1976): the octahedron's vertices (weight
-// 1/21), edge midpoints (4/105) and face centres (9/280), exact for
-// polynomials of degree ≤ 7 on the sphere. Twin of
-// nimbus_physics::cumulus::interior::lebedev_26 (same points, same order).
-const LEBEDEV_EDGE: f32 = 0.70710678;
+// The 38-point rule of Lebedev (1975): the octahedron's 6 vertices (weight
+// 1/105), the cube's 8 vertices (9/280) and the 24 points (±p, ±q, 0) and
+// their permutations (1/35), exact for polynomials of degree ≤ 9 on the
+// sphere. Twin of nimbus_physics::cumulus::interior::lebedev_38 (same
+// points, same order).
 const LEBEDEV_CORNER: f32 = 0.57735027;
-fn lebedev_26(k: u32) -> vec4<f32> {
+const LEBEDEV_P: f32 = 0.88807383;
+const LEBEDEV_Q: f32 = 0.45970084;
+fn lebedev_38(k: u32) -> vec4<f32> {
     if (k < 6u) {
         var d = vec3<f32>(0.0);
         d[k / 2u] = select(1.0, -1.0, (k & 1u) != 0u);
-        return vec4<f32>(d, 1.0 / 21.0);
+        return vec4<f32>(d, 1.0 / 105.0);
     }
-    if (k < 18u) {
+    if (k < 14u) {
         let j = k - 6u;
-        let a = j / 4u;
-        var d = vec3<f32>(0.0);
-        d[(a + 1u) % 3u] = select(LEBEDEV_EDGE, -LEBEDEV_EDGE, (j & 2u) != 0u);
-        d[(a + 2u) % 3u] = select(LEBEDEV_EDGE, -LEBEDEV_EDGE, (j & 1u) != 0u);
-        return vec4<f32>(d, 4.0 / 105.0);
+        let d = vec3<f32>(
+            select(LEBEDEV_CORNER, -LEBEDEV_CORNER, (j & 4u) != 0u),
+            select(LEBEDEV_CORNER, -LEBEDEV_CORNER, (j & 2u) != 0u),
+            select(LEBEDEV_CORNER, -LEBEDEV_CORNER, (j & 1u) != 0u));
+        return vec4<f32>(d, 9.0 / 280.0);
     }
-    let j = k - 18u;
-    let d = vec3<f32>(
-        select(LEBEDEV_CORNER, -LEBEDEV_CORNER, (j & 4u) != 0u),
-        select(LEBEDEV_CORNER, -LEBEDEV_CORNER, (j & 2u) != 0u),
-        select(LEBEDEV_CORNER, -LEBEDEV_CORNER, (j & 1u) != 0u));
-    return vec4<f32>(d, 9.0 / 280.0);
+    // Per axis a: (u, v) = (p, q) then (q, p) on the two other axes, each
+    // with the four sign pairs.
+    let j = k - 14u;
+    let a = j / 8u;
+    let swap = (j & 4u) != 0u;
+    let u = select(LEBEDEV_P, LEBEDEV_Q, swap);
+    let v = select(LEBEDEV_Q, LEBEDEV_P, swap);
+    var d = vec3<f32>(0.0);
+    d[(a + 1u) % 3u] = select(u, -u, (j & 2u) != 0u);
+    d[(a + 2u) % 3u] = select(v, -v, (j & 1u) != 0u);
+    return vec4<f32>(d, 1.0 / 35.0);
+}
+
+// The seven real spherical harmonics of order 3 (twin of
+// nimbus_physics::cumulus::interior::order_3_basis).
+fn order_3_basis(d: vec3<f32>) -> array<f32, 7> {
+    let x = d.x;
+    let y = d.y;
+    let z = d.z;
+    return array<f32, 7>(
+        0.590044 * y * (3.0 * x * x - y * y),
+        2.890611 * x * y * z,
+        0.457046 * y * (5.0 * z * z - 1.0),
+        0.373176 * z * (5.0 * z * z - 3.0),
+        0.457046 * x * (5.0 * z * z - 1.0),
+        1.445306 * z * (x * x - y * y),
+        0.590044 * x * (x * x - 3.0 * y * y));
+}
+
+// sh_evaluate's five order-2 harmonics (its basis functions 4 … 8).
+fn order_2_basis(d: vec3<f32>) -> array<f32, 5> {
+    return array<f32, 5>(
+        1.092548 * d.x * d.y,
+        1.092548 * d.y * d.z,
+        0.315392 * (3.0 * d.z * d.z - 1.0),
+        1.092548 * d.x * d.z,
+        0.546274 * (d.x * d.x - d.y * d.y));
 }
 
 // The sky's light scattered once towards the camera, for one view (twin of
 // nimbus_physics::cumulus::interior::SkyDirectKernel): with the direct
-// transmittance T(s) ≈ t̄ + b·s, the source per unit σ* is
-// t̄ mean + b·(x, y, z).
+// transmittance T known by its mean t̄ and first moment b, taken as the
+// cap of open sky of transmittance_cap, the source per unit σ* is
+// t̄ mean + b·(x, y, z) (the cap's orders ≤ 1) plus the cap's orders 2
+// and 3 against order_2 and order_3 (Funk–Hecke).
 struct SkyDirectKernel {
     mean: vec3<f32>,
     x: vec3<f32>,
     y: vec3<f32>,
     z: vec3<f32>,
+    order_2: array<vec3<f32>, 5>,
+    order_3: array<vec3<f32>, 7>,
 }
 
 // The kernel of the sky of nine harmonics `sh` (radiance, rgb), droplets of
 // peak-removed asymmetry `asymmetry` and the direction `toward` the camera:
-// ∫ L(s) HG₃(−s·o) (1, s) ds by the 26-point rule (exact: HG's orders ≤ 3).
+// ∫ L(s) HG₃(−s·o) (1, s, Y₂(s), Y₃(s)) ds by the 38-point rule (exact:
+// HG's orders ≤ 3, integrands of degree ≤ 8).
 fn sky_direct_kernel(sh: array<vec4<f32>, 9>, asymmetry: f32, toward: vec3<f32>) -> SkyDirectKernel {
     var out: SkyDirectKernel;
     out.mean = vec3<f32>(0.0);
     out.x = vec3<f32>(0.0);
     out.y = vec3<f32>(0.0);
     out.z = vec3<f32>(0.0);
+    for (var k = 0u; k < 5u; k += 1u) {
+        out.order_2[k] = vec3<f32>(0.0);
+    }
+    for (var k = 0u; k < 7u; k += 1u) {
+        out.order_3[k] = vec3<f32>(0.0);
+    }
     let g = asymmetry;
-    for (var k = 0u; k < 26u; k += 1u) {
-        let point = lebedev_26(k);
+    for (var k = 0u; k < 38u; k += 1u) {
+        let point = lebedev_38(k);
         let s = point.xyz;
         // Unclamped: the rule is exact for the harmonics themselves.
         let l = sh_evaluate(sh, s, vec3<f32>(1.0));
@@ -159,13 +203,70 @@ fn sky_direct_kernel(sh: array<vec4<f32>, 9>, asymmetry: f32, toward: vec3<f32>)
         out.x += weighted * s.x;
         out.y += weighted * s.y;
         out.z += weighted * s.z;
+        let y2 = order_2_basis(s);
+        for (var i = 0u; i < 5u; i += 1u) {
+            out.order_2[i] += weighted * y2[i];
+        }
+        let y3 = order_3_basis(s);
+        for (var i = 0u; i < 7u; i += 1u) {
+            out.order_3[i] += weighted * y3[i];
+        }
     }
     return out;
 }
 
-// The source per unit σ* of a point whose direct transmittance is
-// (t̄, b) = (transmittance.x, transmittance.yzw).
+// The cap of open sky with mean `mean` and first moment `gradient` (twin of
+// nimbus_physics::cumulus::interior::transmittance_cap): its amplitude A,
+// μ₀, its orders λ₂, λ₃ per unit amplitude, and its axis n; A = 0 where T
+// has no direction.
+struct TransmittanceCap {
+    amplitude_cos_order_2_order_3: vec4<f32>,
+    axis: vec3<f32>,
+}
+
+const CAP_MOMENT_RATIO_MAX: f32 = 2.9;
+
+fn transmittance_cap(mean: f32, gradient: vec3<f32>) -> TransmittanceCap {
+    var out: TransmittanceCap;
+    out.amplitude_cos_order_2_order_3 = vec4<f32>(0.0, -1.0, 0.0, 0.0);
+    out.axis = vec3<f32>(0.0, 1.0, 0.0);
+    let length_b = length(gradient);
+    if (mean <= 1e-9 || length_b <= 1e-9) {
+        return out;
+    }
+    out.axis = gradient / length_b;
+    let ratio = min(length_b / mean, CAP_MOMENT_RATIO_MAX);
+    let m = 2.0 * ratio / 3.0 - 1.0;
+    let pi = 3.14159265;
+    out.amplitude_cos_order_2_order_3 = vec4<f32>(
+        2.0 * mean / (1.0 - m),
+        m,
+        pi * m * (1.0 - m * m),
+        0.25 * pi * (6.0 * m * m - 5.0 * m * m * m * m - 1.0));
+    return out;
+}
+
+// The source per unit σ* of a point whose direct transmittance has mean
+// and first moment (t̄, b) = (transmittance.x, transmittance.yzw), at least 0.
 fn sky_direct_source(kernel: SkyDirectKernel, transmittance: vec4<f32>) -> vec3<f32> {
     let b = transmittance.yzw;
-    return transmittance.x * kernel.mean + b.x * kernel.x + b.y * kernel.y + b.z * kernel.z;
+    var source = transmittance.x * kernel.mean + b.x * kernel.x + b.y * kernel.y + b.z * kernel.z;
+    let cap = transmittance_cap(transmittance.x, b);
+    let c = cap.amplitude_cos_order_2_order_3;
+    if (c.x > 0.0) {
+        let y2 = order_2_basis(cap.axis);
+        let y3 = order_3_basis(cap.axis);
+        var k2 = vec3<f32>(0.0);
+        for (var i = 0u; i < 5u; i += 1u) {
+            k2 += kernel.order_2[i] * y2[i];
+        }
+        var k3 = vec3<f32>(0.0);
+        for (var i = 0u; i < 7u; i += 1u) {
+            k3 += kernel.order_3[i] * y3[i];
+        }
+        source += c.x * (c.z * k2 + c.w * k3);
+    }
+    // Orders ≤ 3 of a narrow cap turned from the sky's light can dip below
+    // zero, which light cannot.
+    return max(source, vec3<f32>(0.0));
 }

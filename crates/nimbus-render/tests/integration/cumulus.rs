@@ -956,8 +956,8 @@ fn sky_direct_test_kernel(@builtin(global_invocation_id) id: vec3<u32>) {
 /// The in-cloud march's sky direct light (`sky_direct_kernel` and
 /// `sky_direct_source`, `shader/diffusion.wgsl`) against its CPU twin
 /// (`nimbus_physics::cumulus::interior::SkyDirectKernel`) over views all
-/// round, asymmetries and transmittances, within 1e-4 of the sky's mean
-/// radiance.
+/// round, asymmetries and transmittances from isotropic to a narrow cap,
+/// within 1e-4 of the sky's mean radiance.
 #[test]
 fn gpu_sky_direct_kernel_matches_the_cpu_twin() {
     use nimbus_physics::cumulus::interior::SkyDirectKernel;
@@ -987,6 +987,9 @@ fn gpu_sky_direct_kernel_matches_the_cpu_twin() {
             (0.0f32, [1.0f32, 0.0, 0.0, 0.0]),
             (0.74, [0.5, 0.0, -0.4, 0.1]),
             (0.85, [0.2, 0.15, 0.05, -0.1]),
+            // A half-space open below (inside a base) and a narrow cap.
+            (0.74, [0.5, 0.0, -0.75, 0.0]),
+            (0.74, [0.1, 0.0, -0.25, 0.05]),
         ] {
             cases.push((toward, g, t));
         }

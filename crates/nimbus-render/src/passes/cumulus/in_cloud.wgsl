@@ -42,7 +42,7 @@ struct InCloud {
 // The light's cells as an atlas of z slices stacked in y: rgb the sky's
 // scattered fluence Σ Φ_k L_k (W m⁻², pre-exposure not applied), a the
 // sun's per unit irradiance Σ Φ_k Y_k(l); beside them (x + nx) the direct
-// transmittance from the sky, t̄ and b of T(s) ≈ t̄ + b·s, then (x + 2 nx)
+// transmittance from the sky, its mean t̄ and first moment b, then (x + 2 nx)
 // the sky's scattered light's net flux Σ_k F_k L_k (luminance, world).
 @group(1) @binding(5) var in_cloud_light: texture_2d<f32>;
 @group(1) @binding(6) var in_cloud_sampler: sampler;
@@ -221,9 +221,10 @@ fn in_cloud_turned_form(index: u32) -> CumulusTransfer {
 // The light pass: one fragment per cell of the atlas, the forms at the
 // cloud's scale turned to the world (b → R b, A → R A Rᵀ) and integrated
 // against the sun and the sky. The atlas's second part holds each cell's
-// direct transmittance from the sky, T(s) ≈ t̄ + b·s (the direct fluence's
-// orders ≤ 1: its mean over directions c + tr A/3 and b), which the march
-// scatters towards the camera through the phase function; its third the
+// direct transmittance from the sky by its orders ≤ 1 (the direct fluence's:
+// its mean over directions c + tr A/3 and first moment b), which the march
+// scatters towards the camera through the phase function as a cap of open
+// sky (transmittance_cap); its third the
 // sky's scattered light's net flux.
 @fragment
 fn in_cloud_light_fragment(in: FullscreenOutput) -> @location(0) vec4<f32> {
@@ -314,8 +315,9 @@ fn in_cloud_march(origin_m: vec3<f32>, direction: vec3<f32>, t0: f32, t1: f32) -
     // The light towards the camera, in the object frame (the sun cube's).
     let toward_camera = -normalize(in_cloud_object_direction(direction));
     let sun_cube = in_cloud.light_dims.w != 0u;
-    // The sky's direct light scattered towards the camera, by the
-    // transmittance's orders ≤ 1 (cumulus::interior::SkyDirectKernel).
+    // The sky's direct light scattered towards the camera, the
+    // transmittance taken as a cap of open sky of its orders ≤ 1
+    // (cumulus::interior::SkyDirectKernel).
     let sky_direct_weight = in_cloud.light_min.w;
     var sky_kernel: SkyDirectKernel;
     if (sky_direct_weight > 0.0) {
@@ -411,7 +413,7 @@ fn in_cloud_march(origin_m: vec3<f32>, direction: vec3<f32>, t0: f32, t1: f32) -
         let scattered = sun.rgb * sun_toward + environment;
         var source = phase * sun.rgb * sun.a + scattered / (4.0 * PI);
         if (sky_direct_weight > 0.0) {
-            let sky_direct = max(sky_direct_source(sky_kernel, in_cloud_light_at(texel, 1.0)), vec3<f32>(0.0));
+            let sky_direct = sky_direct_source(sky_kernel, in_cloud_light_at(texel, 1.0));
             source += sky_direct_weight * sky_direct;
         }
         let opacity = 1.0 - exp(-sigma * dt);
