@@ -146,22 +146,13 @@ fn order_3_basis(d: vec3<f32>) -> array<f32, 7> {
         0.590044 * x * (x * x - 3.0 * y * y));
 }
 
-// sh_evaluate's five order-2 harmonics (its basis functions 4 … 8).
-fn order_2_basis(d: vec3<f32>) -> array<f32, 5> {
-    return array<f32, 5>(
-        1.092548 * d.x * d.y,
-        1.092548 * d.y * d.z,
-        0.315392 * (3.0 * d.z * d.z - 1.0),
-        1.092548 * d.x * d.z,
-        0.546274 * (d.x * d.x - d.y * d.y));
-}
-
 // The sky's light scattered once towards the camera, for one view (twin of
 // nimbus_physics::cumulus::interior::SkyDirectKernel): with the direct
 // transmittance T known by its mean t̄ and first moment b, taken as the
 // cap of open sky of transmittance_cap, the source per unit σ* is
 // t̄ mean + b·(x, y, z) (the cap's orders ≤ 1) plus the cap's orders 2
-// and 3 against order_2 and order_3 (Funk–Hecke).
+// and 3 against order_2 (sh_basis's functions 4 … 8) and order_3
+// (Funk–Hecke).
 struct SkyDirectKernel {
     mean: vec3<f32>,
     x: vec3<f32>,
@@ -203,9 +194,9 @@ fn sky_direct_kernel(sh: array<vec4<f32>, 9>, asymmetry: f32, toward: vec3<f32>)
         out.x += weighted * s.x;
         out.y += weighted * s.y;
         out.z += weighted * s.z;
-        let y2 = order_2_basis(s);
+        let y2 = sh_basis(s);
         for (var i = 0u; i < 5u; i += 1u) {
-            out.order_2[i] += weighted * y2[i];
+            out.order_2[i] += weighted * y2[4u + i];
         }
         let y3 = order_3_basis(s);
         for (var i = 0u; i < 7u; i += 1u) {
@@ -254,11 +245,11 @@ fn sky_direct_source(kernel: SkyDirectKernel, transmittance: vec4<f32>) -> vec3<
     let cap = transmittance_cap(transmittance.x, b);
     let c = cap.amplitude_cos_order_2_order_3;
     if (c.x > 0.0) {
-        let y2 = order_2_basis(cap.axis);
+        let y2 = sh_basis(cap.axis);
         let y3 = order_3_basis(cap.axis);
         var k2 = vec3<f32>(0.0);
         for (var i = 0u; i < 5u; i += 1u) {
-            k2 += kernel.order_2[i] * y2[i];
+            k2 += kernel.order_2[i] * y2[4u + i];
         }
         var k3 = vec3<f32>(0.0);
         for (var i = 0u; i < 7u; i += 1u) {

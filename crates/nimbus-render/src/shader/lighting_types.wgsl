@@ -24,6 +24,22 @@ fn clouds_lighting(l: Lighting) -> Lighting {
     return c;
 }
 
+// The nine real spherical harmonics of order ≤ 2 towards d, in the order
+// of sh_evaluate's coefficients (twin of nimbus_physics::sh::basis).
+fn sh_basis(d: vec3<f32>) -> array<f32, 9> {
+    return array<f32, 9>(
+        0.282095,
+        0.488603 * d.y,
+        0.488603 * d.z,
+        0.488603 * d.x,
+        1.092548 * d.x * d.y,
+        1.092548 * d.y * d.z,
+        0.315392 * (3.0 * d.z * d.z - 1.0),
+        1.092548 * d.x * d.z,
+        0.546274 * (d.x * d.x - d.y * d.y),
+    );
+}
+
 // Nine SH coefficients' function (rgb) towards n, band l scaled by
 // `band[l]`, not clamped. Twin of nimbus_physics::sh::radiance (bands 1).
 fn sh_evaluate(sh: array<vec4<f32>, 9>, n: vec3<f32>, band: vec3<f32>) -> vec3<f32> {

@@ -36,20 +36,6 @@ fn lighting_direction(index: u32) -> vec3<f32> {
     return vec3<f32>(radius * cos(phi), y, radius * sin(phi));
 }
 
-fn sh_basis(d: vec3<f32>) -> array<f32, 9> {
-    return array<f32, 9>(
-        0.282095,
-        0.488603 * d.y,
-        0.488603 * d.z,
-        0.488603 * d.x,
-        1.092548 * d.x * d.y,
-        1.092548 * d.y * d.z,
-        0.315392 * (3.0 * d.z * d.z - 1.0),
-        1.092548 * d.x * d.z,
-        0.546274 * (d.x * d.x - d.y * d.y),
-    );
-}
-
 // The air's transmittance from radius r along a ray of cosine μ that hits
 // the ground, to the ground: T(ground → top)/T(r → top) along the reversed
 // ray (both upwards, in the transmittance LUT). Twin of
