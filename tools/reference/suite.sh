@@ -61,7 +61,8 @@ export DRJIT_LIBLLVM_PATH
 # 4096 samples for its fireflies (scatterings in the peak towards the sun)
 # to fall to the level of the rest of the noise. The stored references of
 # the scenes marked * were rendered in two parts of different seeds
-# (1: 1024, 2: 3072 for back-lit; 1: 128 and 2: the rest for the others)
+# (1: 1024, 2: 3072 for back-lit; 1: 256 and 2: 512 for cumulus-field;
+# 1: 128 and 2: the rest for the others)
 # merged by merge_halves.py, which is statistically the same as one render
 # at the total (their records list both seeds).
 settings() {
@@ -72,8 +73,9 @@ settings() {
         rain-heavy) echo "448 5" ;;                     # *
         stratus-overcast-below) echo "320 5" ;;         # *
         rain-drizzle | stratus-snow) echo "192 5" ;;    # *
-        cumulus-front-lit | cumulus-field | cumulus-sunset) echo "256 5" ;;
-        default) echo "128 5" ;;
+        cumulus-front-lit | cumulus-sunset) echo "256 5" ;;
+        cumulus-field) echo "768 5" ;;                  # *
+        default) echo "192 5" ;;                        # *
         # The in-cloud views (camera anywhere issue, requirement 2).
         in-cumulus-sunward | in-overcast-up) echo "128 5" ;;
         below-base-30m | in-overcast-along) echo "256 5" ;;

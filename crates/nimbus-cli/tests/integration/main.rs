@@ -12,6 +12,7 @@ mod bench_table;
 mod cli;
 mod conventions;
 mod export_gltf;
+mod export_mitsuba;
 mod plots;
 mod realism;
 // Runs the binary under `ulimit -v` through `sh`.

@@ -408,6 +408,22 @@ impl ExtinctionGrid {
         }
     }
 
+    /// The grid cut to its non-zero cells and one layer of cells around
+    /// them (within the grid), so that the interpolation falls to zero at
+    /// its faces as it did before; an empty grid is kept as it is.
+    pub fn trimmed(self) -> Self {
+        match self.nonzero_bounds() {
+            Some((lo, hi)) => {
+                let dims = self.dims;
+                self.cropped(
+                    lo.map(|i| i.saturating_sub(1)),
+                    std::array::from_fn(|a| (hi[a] + 1).min(dims[a] - 1)),
+                )
+            }
+            None => self,
+        }
+    }
+
     /// The lowest and highest index of a non-zero cell along each axis.
     fn nonzero_bounds(&self) -> Option<([usize; 3], [usize; 3])> {
         let [nx, ny, _] = self.dims;

@@ -4,6 +4,7 @@
 //! meshes, OpenEXR and PNG images; the XML follows Mitsuba 3's scene format
 //! (version 3.0.0).
 
+use super::overlap;
 use crate::output::FileSet;
 use anyhow::Context;
 use glam::{DMat4, DVec3};
@@ -539,11 +540,16 @@ pub fn export(
     // 7. Cumulus.
     let mut cumulus_count = 0;
     let mut cumulus_bottom_m = f64::INFINITY;
+    // The cumulus media's boxes (world from the unit cube).
+    let mut cumulus_boxes: Vec<DMat4> = Vec::new();
     if let (Some(settings), Some(params)) = (&scene.cumulus, &variant_params) {
         // Each variant's grid and origin, built (and its .vol written) once.
         let mut variants: Vec<Option<(ExtinctionGrid, DVec3)>> =
             (0..params.count).map(|_| None).collect();
-        for (index, cloud) in placed.iter().enumerate() {
+        // Each placed cloud: its variant and the world transform of its
+        // grid's unit cube.
+        let mut clouds: Vec<(usize, DMat4)> = Vec::with_capacity(placed.len());
+        for cloud in &placed {
             let slot = variants
                 .get_mut(cloud.variant)
                 .context("a placed cloud refers to a variant that does not exist")?;
@@ -570,9 +576,53 @@ pub fn export(
                 * DMat4::from_rotation_y(cloud.yaw_rad)
                 * DMat4::from_scale(DVec3::splat(cloud.scale))
                 * DMat4::from_translation(-*origin_m);
-            let file = format!("cumulus_{}.vol", cloud.variant);
-            let id = format!("cumulus_{index}");
-            let world_from_grid = world_from_field * box_from_unit(grid);
+            clouds.push((cloud.variant, world_from_field * box_from_unit(grid)));
+        }
+        // Clouds whose boxes overlap are one medium (Mitsuba follows one
+        // at a time: see `overlap`).
+        let boxes: Vec<DMat4> = clouds
+            .iter()
+            .map(|(_, world_from_grid)| *world_from_grid)
+            .collect();
+        let (mut merged_groups, mut merged_clouds) = (0, 0);
+        for group in overlap::overlap_groups(&boxes) {
+            let first = group[0];
+            let (id, world_from_grid, file) = if let [index] = group[..] {
+                let (variant, world_from_grid) = clouds[index];
+                (
+                    format!("cumulus_{index}"),
+                    world_from_grid,
+                    format!("cumulus_{variant}.vol"),
+                )
+            } else {
+                let members: Vec<overlap::PlacedGrid> = group
+                    .iter()
+                    .filter_map(|&index| {
+                        let (variant, world_from_unit) = clouds[index];
+                        variants[variant]
+                            .as_ref()
+                            .map(|(grid, _)| overlap::PlacedGrid {
+                                grid,
+                                world_from_unit,
+                            })
+                    })
+                    .collect();
+                let (grid, world_from_grid) =
+                    overlap::merged_grid(&members, overlap::MAX_MERGED_CELLS);
+                let file = format!("cumulus_merged_{first}.vol");
+                files.write_bytes(&dir.join(&file), "--mitsuba", &grid.to_mitsuba_vol())?;
+                merged_groups += 1;
+                merged_clouds += group.len();
+                if grid.coarsened {
+                    approximations.push(format!(
+                        "cumulus group {first} ({} clouds whose boxes overlap) resampled on cells of {:.1} m to keep within {} cells",
+                        group.len(),
+                        grid.cell_m,
+                        overlap::MAX_MERGED_CELLS
+                    ));
+                }
+                (format!("cumulus_merged_{first}"), world_from_grid, file)
+            };
             let world_from_cube = medium_shape(
                 &mut xml,
                 &mut media,
@@ -584,19 +634,27 @@ pub fn export(
             if inside_cube(&world_from_cube, camera.position_m) {
                 camera_medium = Some(id);
             }
-            // The box turns about the vertical only: its floor is the unit
-            // cube's.
+            cumulus_boxes.push(world_from_grid);
+            // The box turns about the vertical only (a merged box does not
+            // turn): its floor is the unit cube's.
             cumulus_bottom_m = cumulus_bottom_m.min(
                 world_from_cube
                     .transform_point3(DVec3::new(0.0, -1.0, 0.0))
                     .y,
             );
-            cumulus_count += 1;
         }
+        cumulus_count = clouds.len();
         if placed.iter().any(|c| (c.scale - 1.0).abs() > 1e-6) {
             approximations.push("cumulus scaled by their instance scale keep the variant's corona thickness scaled too (the shader keeps it in world metres)".into());
         }
-        approximations.push("cumulus boxes that overlap one another or the stratus grid are not merged (Mitsuba takes one medium at a time)".into());
+        if merged_groups > 0 {
+            let noun = if merged_groups == 1 {
+                "medium"
+            } else {
+                "media"
+            };
+            approximations.push(format!("cumulus whose boxes overlap are merged ({merged_clouds} clouds in {merged_groups} {noun}): each group is one grid in the world's axes on its finest member's cells, holding the sum of the members' extinctions resampled trilinearly (Mitsuba follows one medium at a time)"));
+        }
     }
 
     // 8. Stratus.
@@ -610,6 +668,13 @@ pub fn export(
             optics.extinction_per_m,
         );
         stratus_bottom_m = grid.origin_m.y;
+        let crossing = cumulus_boxes
+            .iter()
+            .filter(|cumulus| overlap::boxes_overlap(cumulus, &box_m))
+            .count();
+        if crossing > 0 {
+            approximations.push(format!("{crossing} cumulus media's boxes overlap the stratus grid's and are not merged with it (Mitsuba follows one medium at a time: a ray leaving one inside the other loses the other)"));
+        }
         files.write_bytes(
             &dir.join("stratus.vol"),
             "--mitsuba",

@@ -18,7 +18,9 @@
 //!   the sea as a plane of water (a diffuse body under a smooth dielectric
 //!   coat of n = 1.333: nimbus's Fresnel-weighted sky reflection and body);
 //! - each placed cumulus as a grid of droplet extinction (the shader's
-//!   core α_ρ and corona, `nimbus_physics::cumulus::volume`);
+//!   core α_ρ and corona, `nimbus_physics::cumulus::volume`); clouds whose
+//!   boxes overlap as one grid holding the sum of their extinctions
+//!   (Mitsuba follows one medium at a time: `overlap`);
 //! - the stratus layer as a grid of its thickness field at that time, with
 //!   the extinction of its droplet size distribution;
 //! - the droplets' phase function (Mie, integrated over the layer's size
@@ -33,6 +35,7 @@
 mod air;
 mod gltf;
 mod mitsuba;
+mod overlap;
 
 use crate::output::FileSet;
 use anyhow::Context;

@@ -362,3 +362,37 @@ fn bump_modulates_the_core() {
     }
     assert!(seen.iter().any(|&v| (v - seen[0]).abs() > 1e-3 * ALPHA));
 }
+
+#[test]
+fn trimming_keeps_the_non_zero_cells_and_one_layer_around_them() {
+    let grid_with = |cells: &[[usize; 3]]| {
+        let mut values = vec![0.0f32; 1000];
+        for &[i, j, k] in cells {
+            values[(k * 10 + j) * 10 + i] = 0.05;
+        }
+        ExtinctionGrid {
+            origin_m: DVec3::new(100.0, 200.0, 300.0),
+            cell_m: 10.0,
+            dims: [10, 10, 10],
+            values_per_m: values,
+            coarsened: false,
+        }
+    };
+    let full = grid_with(&[[3, 4, 5], [5, 4, 6]]);
+    let trimmed = full.clone().trimmed();
+    assert_eq!(trimmed.dims, [5, 3, 4]);
+    assert_eq!(trimmed.origin_m, DVec3::new(120.0, 230.0, 340.0));
+    assert_eq!(trimmed.optical_mass_m2(), full.optical_mass_m2());
+    // The same medium wherever the trimmed grid reaches.
+    for p in [
+        DVec3::new(135.0, 245.0, 355.0),
+        DVec3::new(151.0, 247.0, 362.0),
+        DVec3::new(128.0, 241.0, 349.0),
+    ] {
+        let (a, b) = (trimmed.lookup_per_m(p), full.lookup_per_m(p));
+        assert!(b > 0.0 && (a - b).abs() < 1e-9, "{p}: {a} against {b}");
+    }
+    // At the grid's edge there is no layer to keep; an empty grid stays.
+    assert_eq!(grid_with(&[[0, 9, 0]]).trimmed().dims, [2, 2, 2]);
+    assert_eq!(grid_with(&[]).trimmed().dims, [10, 10, 10]);
+}
