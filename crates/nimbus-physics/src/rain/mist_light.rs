@@ -98,27 +98,6 @@ pub const UNIFORM_SKY: [f64; 2] = [1.0, 0.0];
 /// escape function (3/7)(1 + 2μ).
 pub const ESCAPE_FUNCTION: [f64; 2] = [3.0 / 7.0, 6.0 / 7.0];
 
-/// The angular shape (a₀, a₁) of the light from above at a point of the
-/// rain's mist under a deck drawn as a volume (`stratus.model = "volume"`),
-/// whose base sends its light down uniformly ([`UNIFORM_SKY`]: the marched
-/// broken deck seen from below is as bright towards the horizon as
-/// overhead, as the path-traced one is; docs/REALISM.md, "The stratus layer
-/// as a volume"), through mist of vertical optical depth
-/// `mist_optical_depth` between the point and the deck. The part that
-/// comes through unscattered, 2E₃(τ) for a uniform field (taken as
-/// e^{−1.66 τ}, the diffusivity approximation the layer model uses for its
-/// own unscattered part), keeps the deck's shape; the rest has been
-/// scattered in the mist, itself a scattering slab, and takes the diffusion
-/// field's [`ESCAPE_FUNCTION`] (Chandrasekhar 1960, §46; heavy rain's mist
-/// follows it, docs/REALISM.md, "The rain mist's light"). Both shapes carry
-/// unit flux, and so does the blend. The GPU twin is
-/// `deck_light_shape_through_mist` in `nimbus-render`'s
-/// `shader/hemisphere_moments.wgsl`.
-pub fn deck_light_shape_through_mist(mist_optical_depth: f64) -> [f64; 2] {
-    let unscattered = (-1.66 * mist_optical_depth.max(0.0)).exp();
-    [0, 1].map(|k| unscattered * UNIFORM_SKY[k] + (1.0 - unscattered) * ESCAPE_FUNCTION[k])
-}
-
 /// Eddington's two-stream coefficient γ₁ = γ₂ = ¾(1 − g) of a conservative
 /// medium of asymmetry g (Meador & Weaver 1980, table 1; for ω = 1 the
 /// δ-Eddington scaling leaves γτ unchanged).
@@ -163,8 +142,10 @@ pub fn deck_diffuse_reflectance(optical_depth: f64, asymmetry: f64) -> f64 {
 /// over a ground of 0.1) and lightens it near the base. The ground and the
 /// base are taken as Lambertian and the fluxes as hemispherically
 /// isotropic between them, as the ground–cloud radiosity takes them
-/// (Bouthors et al. 2006, §5). The GPU twin is `mist_diffuse_fluxes` in
-/// `nimbus-render`'s `shader/hemisphere_moments.wgsl`.
+/// (Bouthors et al. 2006, §5). The mist's fluxes agree with the
+/// adding–doubling slab's; the angular shapes the shader once gave them
+/// did not (the slab's own field replaced them: [`super::mist_slab`]), and
+/// the function stays as the closed-form two-stream check of the slab.
 pub fn diffuse_fluxes_in_mist(
     column_optical_depth: f64,
     depth_optical_depth: f64,
@@ -266,33 +247,6 @@ pub(crate) mod tests {
                 (model / reference - 1.0).abs() < 0.05,
                 "τ_m {column} ρ {rho} R_c {deck}: two-stream {model:.4}, adding–doubling {reference:.4}"
             );
-        }
-    }
-
-    /// Clear air keeps the deck's uniform light, thick mist the escape
-    /// function's, and every blend between carries the same flux,
-    /// 2∫(a₀ + a₁μ)μ dμ = a₀ + ⅔a₁ = 1.
-    #[test]
-    fn the_deck_light_turns_from_uniform_to_the_escape_function_in_thick_mist() {
-        assert_eq!(deck_light_shape_through_mist(0.0), UNIFORM_SKY);
-        let thick = deck_light_shape_through_mist(20.0);
-        assert!(
-            (thick[0] - ESCAPE_FUNCTION[0]).abs() < 1e-9
-                && (thick[1] - ESCAPE_FUNCTION[1]).abs() < 1e-9
-        );
-        let mut last = 0.0;
-        for tau in [0.1, 0.3, 1.0, 3.0] {
-            let [a0, a1] = deck_light_shape_through_mist(tau);
-            assert!(
-                (a0 + 2.0 / 3.0 * a1 - 1.0).abs() < 1e-12,
-                "{tau}: flux {}",
-                a0 + 2.0 / 3.0 * a1
-            );
-            assert!(
-                a1 > last,
-                "{tau}: the zenith gains on the horizon as the mist thickens"
-            );
-            last = a1;
         }
     }
 

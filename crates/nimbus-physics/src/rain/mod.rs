@@ -5,7 +5,8 @@
 //! drops around the camera and its recycling ([`rain_box`]), the rain zones
 //! under the clouds ([`zones`]), what a drop refracts and reflects
 //! ([`drop_optics`]), the overcast's light scattered by the rain mist
-//! ([`mist_light`]), and the CPU reference of the drop dynamics
+//! ([`mist_light`], and under a layer the column's own light as a slab,
+//! [`mist_slab`]), and the CPU reference of the drop dynamics
 //! that the GPU simulation runs step for step ([`simulation`]).
 //!
 //! Units: metres, seconds, m/s; drop diameters in millimetres where a name
@@ -15,6 +16,7 @@ pub mod drag;
 pub mod drop_optics;
 pub mod dsd;
 pub mod mist_light;
+pub mod mist_slab;
 pub mod rain_box;
 pub mod random;
 pub mod simulation;

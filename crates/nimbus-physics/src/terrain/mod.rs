@@ -97,6 +97,34 @@ impl Terrain {
         mean_rgb(&self.albedo)
     }
 
+    /// The mean linear albedo of the vertices within `radius_m` of world
+    /// (x, z), water included; the nearest vertex's when the disc holds
+    /// none (a radius below the cell size, or a point off the grid).
+    pub fn mean_albedo_within(&self, x_m: f64, z_m: f64, radius_m: f64) -> [f64; 3] {
+        let n = self.vertices_per_side();
+        let half = self.params.extent_m * 0.5;
+        let cell = self.cell_size_m();
+        let index = |v: f64| ((v + half) / cell).round().clamp(0.0, (n - 1) as f64) as usize;
+        let reach = (radius_m.max(0.0) / cell).ceil() as usize;
+        let (ci, cj) = (index(x_m), index(z_m));
+        let (mut sum, mut count) = ([0.0f64; 3], 0usize);
+        for j in cj.saturating_sub(reach)..=(cj + reach).min(n - 1) {
+            for i in ci.saturating_sub(reach)..=(ci + reach).min(n - 1) {
+                let (x, z) = self.vertex_xz_m(i, j);
+                if (x - x_m).powi(2) + (z - z_m).powi(2) <= radius_m * radius_m {
+                    for (s, &c) in sum.iter_mut().zip(&self.albedo[j * n + i]) {
+                        *s += f64::from(c);
+                    }
+                    count += 1;
+                }
+            }
+        }
+        if count == 0 {
+            return self.albedo[cj * n + ci].map(f64::from);
+        }
+        sum.map(|s| s / count as f64)
+    }
+
     /// The albedo map as RGBA8 texels: sRGB-encoded albedo in RGB and the
     /// water mask in alpha (255 = water), ready for an `Rgba8UnormSrgb` texture.
     pub fn albedo_rgba8(&self) -> Vec<[u8; 4]> {
@@ -413,6 +441,38 @@ pub fn classify(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The mean albedo within a disc takes the vertices inside it: on a flat
+    /// ground whose east half is bright, a disc on the seam sees half of
+    /// each, one well inside a half sees that half's, and a disc smaller
+    /// than a cell the nearest vertex's.
+    #[test]
+    fn the_mean_albedo_within_a_disc_takes_the_vertices_inside_it() {
+        let mut terrain = flat(1000.0, 100, 0.0, [0.1, 0.1, 0.1]);
+        let n = terrain.vertices_per_side();
+        for j in 0..n {
+            for i in 0..n {
+                if terrain.vertex_xz_m(i, j).0 > 0.0 {
+                    terrain.albedo[j * n + i] = [0.5, 0.3, 0.1];
+                }
+            }
+        }
+        let seam = terrain.mean_albedo_within(0.0, 0.0, 200.0);
+        assert!(
+            (seam[0] - 0.3).abs() < 0.01 && (seam[2] - 0.1).abs() < 1e-6,
+            "{seam:?}"
+        );
+        assert_eq!(
+            terrain.mean_albedo_within(-300.0, 0.0, 150.0),
+            [0.1f32 as f64; 3]
+        );
+        let east = terrain.mean_albedo_within(300.0, 100.0, 150.0);
+        assert!((east[0] - 0.5).abs() < 1e-6 && (east[1] - 0.3).abs() < 1e-6);
+        assert_eq!(
+            terrain.mean_albedo_within(251.0, 0.0, 1.0),
+            [0.5f32 as f64, 0.3f32 as f64, 0.1f32 as f64]
+        );
+    }
 
     #[test]
     fn a_flat_grounds_albedo_follows_its_map() {

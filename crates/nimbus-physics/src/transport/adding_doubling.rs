@@ -74,6 +74,32 @@ impl Matrix {
         self.a[i * self.n + j]
     }
 
+    fn diagonal(d: &[f64]) -> Self {
+        let n = d.len();
+        let mut out = Matrix::zeros(n);
+        for (i, x) in d.iter().enumerate() {
+            out.a[i * n + i] = *x;
+        }
+        out
+    }
+
+    /// An n×n matrix whose first column is `v` (a right-hand side for
+    /// [`Matrix::solve_identity_minus`]; the other columns solve to zero).
+    fn column(v: &[f64]) -> Self {
+        let n = v.len();
+        let mut out = Matrix::zeros(n);
+        for (i, x) in v.iter().enumerate() {
+            out.a[i * n] = *x;
+        }
+        out
+    }
+
+    /// Σ_j self(i, j) w_j v_j: row i of self · W · v.
+    fn apply_weighted(&self, i: usize, w: &[f64], v: &[f64]) -> f64 {
+        let row = &self.a[i * self.n..(i + 1) * self.n];
+        row.iter().zip(w).zip(v).map(|((k, w), x)| k * w * x).sum()
+    }
+
     fn product(&self, other: &Matrix) -> Matrix {
         let n = self.n;
         let mut out = Matrix::zeros(n);
@@ -169,6 +195,131 @@ fn transmission_quotient(x: f64, y: f64) -> f64 {
     x * (-x).exp() * ratio
 }
 
+/// Azimuth-averaged phase kernels p₀(±μ_i, μ_j) on a set of nodes, each
+/// column scaled so that every incidence direction scatters exactly its
+/// energy on the discrete grid; without that, thick conservative slabs
+/// would lose energy.
+struct PhaseKernels {
+    /// p₀(μ_i, μ_j): scattering that keeps the vertical sense of travel.
+    forward: Matrix,
+    /// p₀(−μ_i, μ_j): scattering that turns it.
+    backward: Matrix,
+}
+
+/// p₀(μ, μ′) = 4π · (1/π) ∫₀^π p(μμ′ + √(1−μ²)√(1−μ′²) cos φ) dφ by the
+/// trapezoid rule over the azimuth difference (the integrand is even and
+/// periodic), for cos of the polar part `cos_polar` = μμ′ and
+/// `sin_polar` = √(1−μ²)√(1−μ′²).
+fn azimuth_mean(phase: &PhaseModel, samples: usize, cos_polar: f64, sin_polar: f64) -> f64 {
+    let mut sum = 0.0;
+    for k in 0..=samples {
+        let end = if k == 0 || k == samples { 0.5 } else { 1.0 };
+        let c = (PI * k as f64 / samples as f64).cos();
+        sum += end * phase.value((cos_polar + sin_polar * c).clamp(-1.0, 1.0));
+    }
+    4.0 * sum / samples as f64
+}
+
+impl PhaseKernels {
+    fn new(phase: &PhaseModel, mu: &[f64], weight: &[f64], azimuth_samples: usize) -> Self {
+        let samples = azimuth_samples.max(8);
+        let n = mu.len();
+        let sine: Vec<f64> = mu.iter().map(|m| (1.0 - m * m).max(0.0).sqrt()).collect();
+        let mut forward = Matrix::zeros(n);
+        let mut backward = Matrix::zeros(n);
+        for i in 0..n {
+            for j in 0..n {
+                let s = sine[i] * sine[j];
+                forward.a[i * n + j] = azimuth_mean(phase, samples, mu[i] * mu[j], s);
+                backward.a[i * n + j] = azimuth_mean(phase, samples, -mu[i] * mu[j], s);
+            }
+        }
+        for j in 0..n {
+            let total: f64 = (0..n)
+                .map(|i| weight[i] * (forward.at(i, j) + backward.at(i, j)))
+                .sum::<f64>()
+                * 0.5;
+            for i in 0..n {
+                forward.a[i * n + j] /= total;
+                backward.a[i * n + j] /= total;
+            }
+        }
+        Self { forward, backward }
+    }
+}
+
+/// A homogeneous layer's response on the nodes: the diffuse reflection and
+/// transmission kernels r(μ_i, μ_j), t(μ_i, μ_j) (column j: the response to
+/// a collimated beam along node j; seen from above and below alike) and the
+/// unscattered beam e^{−τ/μ_i}.
+struct Layer {
+    r: Matrix,
+    t: Matrix,
+    beam: Vec<f64>,
+}
+
+impl Layer {
+    /// The layer of optical depth `optical_depth` and single-scattering
+    /// albedo `albedo` by doubling a thin one.
+    fn new(
+        optical_depth: f64,
+        albedo: f64,
+        mu: &[f64],
+        weight: &[f64],
+        kernels: &PhaseKernels,
+    ) -> Self {
+        let n = mu.len();
+        if optical_depth <= 0.0 {
+            return Self {
+                r: Matrix::zeros(n),
+                t: Matrix::zeros(n),
+                beam: vec![1.0; n],
+            };
+        }
+        let PhaseKernels { forward, backward } = kernels;
+        // Exact single scattering in the starting layer.
+        let doublings = (optical_depth / 2f64.powi(-32)).log2().ceil().max(0.0) as i32;
+        let delta = optical_depth / 2f64.powi(doublings);
+        let mut r = Matrix::zeros(n);
+        let mut t = Matrix::zeros(n);
+        for i in 0..n {
+            for j in 0..n {
+                let (xi, xj) = (delta / mu[i], delta / mu[j]);
+                r.a[i * n + j] = 0.5 * albedo * backward.at(i, j) * mu[j] * -(-(xi + xj)).exp_m1()
+                    / (mu[i] + mu[j]);
+                t.a[i * n + j] = 0.5 * albedo * forward.at(i, j) * transmission_quotient(xi, xj);
+            }
+        }
+        let mut beam: Vec<f64> = mu.iter().map(|m| (-delta / m).exp()).collect();
+
+        // Doubling, with W = diag(weights), E = diag(beam), Q = (I − rWrW)⁻¹:
+        //   r′ = r + (E + tW) Q (rE + rWt),
+        //   t′ = tE + (E + tW) Q (rWrE + t),
+        // each column being the response to a collimated beam along that node
+        // (derived by following the beam's unscattered part apart from the
+        // diffuse field through the adding equations R₁₂ = R + T(1 − RR)⁻¹RT,
+        // T₁₂ = T(1 − RR)⁻¹T).
+        for _ in 0..doublings {
+            let rw = r.scale_columns(weight);
+            let rwr = rw.product(&r);
+            let rwrw = rwr.scale_columns(weight);
+            let e_plus_tw = t.scale_columns(weight).plus(&Matrix::diagonal(&beam));
+            let reflect_source = r.scale_columns(&beam).plus(&rw.product(&t));
+            let transmit_source = rwr.scale_columns(&beam).plus(&t);
+            let r_next = r.plus(&e_plus_tw.product(&rwrw.solve_identity_minus(&reflect_source)));
+            let t_next = t
+                .scale_columns(&beam)
+                .plus(&e_plus_tw.product(&rwrw.solve_identity_minus(&transmit_source)));
+            r = r_next;
+            t = t_next;
+            for b in &mut beam {
+                *b *= *b;
+            }
+        }
+        Self { r, t, beam }
+    }
+}
+
 /// Reflectance and transmittance of a slab of optical depth `optical_depth`
 /// with single-scattering albedo `albedo` and phase function `phase`, lit
 /// at `sun_zenith_deg` (in [0, 90)).
@@ -189,96 +340,13 @@ pub fn slab_fluxes(
         };
     }
     // Nodes: Gauss–Legendre on (0, 1), then the sun's direction with weight 0.
-    let (x, w) = gauss_legendre(settings.streams_per_hemisphere.max(2));
-    let mut mu: Vec<f64> = x.iter().map(|x| 0.5 * (x + 1.0)).collect();
-    let mut weight: Vec<f64> = w.iter().map(|w| 0.5 * w).collect();
+    let (mut mu, mut weight) = hemisphere_nodes(settings.streams_per_hemisphere);
     mu.push(mu0);
     weight.push(0.0);
     let n = mu.len();
     let sun = n - 1;
-
-    // p₀(±μ_i, μ_j) by the trapezoid rule over the azimuth difference in
-    // [0, π] (the integrand is even and periodic), then scaled so that every
-    // incidence direction scatters exactly ϖ of its energy on the discrete
-    // grid; without that, thick conservative slabs would lose energy.
-    let samples = settings.azimuth_samples.max(8);
-    let cosines: Vec<f64> = (0..=samples)
-        .map(|k| (PI * k as f64 / samples as f64).cos())
-        .collect();
-    let azimuth_mean = |cos_polar: f64, sin_polar: f64| {
-        let mut sum = 0.0;
-        for (k, c) in cosines.iter().enumerate() {
-            let end = if k == 0 || k == samples { 0.5 } else { 1.0 };
-            sum += end * phase.value((cos_polar + sin_polar * c).clamp(-1.0, 1.0));
-        }
-        // p₀ = 4π · (1/π) ∫₀^π p dφ.
-        4.0 * sum / samples as f64
-    };
-    let sine: Vec<f64> = mu.iter().map(|m| (1.0 - m * m).max(0.0).sqrt()).collect();
-    let mut forward = Matrix::zeros(n);
-    let mut backward = Matrix::zeros(n);
-    for i in 0..n {
-        for j in 0..n {
-            let s = sine[i] * sine[j];
-            forward.a[i * n + j] = azimuth_mean(mu[i] * mu[j], s);
-            backward.a[i * n + j] = azimuth_mean(-mu[i] * mu[j], s);
-        }
-    }
-    for j in 0..n {
-        let total: f64 = (0..n)
-            .map(|i| weight[i] * (forward.at(i, j) + backward.at(i, j)))
-            .sum::<f64>()
-            * 0.5;
-        for i in 0..n {
-            forward.a[i * n + j] /= total;
-            backward.a[i * n + j] /= total;
-        }
-    }
-
-    // Exact single scattering in the starting layer.
-    let doublings = (optical_depth / 2f64.powi(-32)).log2().ceil().max(0.0) as i32;
-    let delta = optical_depth / 2f64.powi(doublings);
-    let mut r = Matrix::zeros(n);
-    let mut t = Matrix::zeros(n);
-    for i in 0..n {
-        for j in 0..n {
-            let (xi, xj) = (delta / mu[i], delta / mu[j]);
-            r.a[i * n + j] =
-                0.5 * albedo * backward.at(i, j) * mu[j] * -(-(xi + xj)).exp_m1() / (mu[i] + mu[j]);
-            t.a[i * n + j] = 0.5 * albedo * forward.at(i, j) * transmission_quotient(xi, xj);
-        }
-    }
-    let mut beam: Vec<f64> = mu.iter().map(|m| (-delta / m).exp()).collect();
-
-    // Doubling, with W = diag(weights), E = diag(beam), Q = (I − rWrW)⁻¹:
-    //   r′ = r + (E + tW) Q (rE + rWt),
-    //   t′ = tE + (E + tW) Q (rWrE + t),
-    // each column being the response to a collimated beam along that node
-    // (derived by following the beam's unscattered part apart from the
-    // diffuse field through the adding equations R₁₂ = R + T(1 − RR)⁻¹RT,
-    // T₁₂ = T(1 − RR)⁻¹T).
-    for _ in 0..doublings {
-        let rw = r.scale_columns(&weight);
-        let rwr = rw.product(&r);
-        let rwrw = rwr.scale_columns(&weight);
-        let e_plus_tw = t.scale_columns(&weight).plus(&Matrix {
-            n,
-            a: (0..n * n)
-                .map(|k| if k / n == k % n { beam[k / n] } else { 0.0 })
-                .collect(),
-        });
-        let reflect_source = r.scale_columns(&beam).plus(&rw.product(&t));
-        let transmit_source = rwr.scale_columns(&beam).plus(&t);
-        let r_next = r.plus(&e_plus_tw.product(&rwrw.solve_identity_minus(&reflect_source)));
-        let t_next = t
-            .scale_columns(&beam)
-            .plus(&e_plus_tw.product(&rwrw.solve_identity_minus(&transmit_source)));
-        r = r_next;
-        t = t_next;
-        for b in &mut beam {
-            *b *= *b;
-        }
-    }
+    let kernels = PhaseKernels::new(phase, &mu, &weight, settings.azimuth_samples);
+    let Layer { r, t, .. } = Layer::new(optical_depth, albedo, &mu, &weight, &kernels);
 
     // Flux out per unit incident flux μ₀: Σ w_i μ_i k(μ_i, μ₀) / μ₀.
     let flux = |k: &Matrix| {
@@ -291,6 +359,130 @@ pub fn slab_fluxes(
         reflectance: flux(&r),
         transmittance: flux(&t) + direct_transmittance,
         direct_transmittance,
+    }
+}
+
+/// Gauss–Legendre nodes and weights on (0, 1) (weights summing to 1).
+fn hemisphere_nodes(streams: usize) -> (Vec<f64>, Vec<f64>) {
+    let (x, w) = gauss_legendre(streams.max(2));
+    (
+        x.iter().map(|x| 0.5 * (x + 1.0)).collect(),
+        w.iter().map(|w| 0.5 * w).collect(),
+    )
+}
+
+/// The light inside a conservative-or-absorbing homogeneous slab lit
+/// diffusely from above, the ground below black: the azimuth-averaged
+/// radiance at any depth by adding the layers above and below it (van de
+/// Hulst 1980, §4.3: the internal field of two adjoining layers, D =
+/// (1 − R₁R₂)⁻¹T₁I₀ going down, U = R₂D going up), and the scattering
+/// source S(μ) = ∫ p I dΩ it makes for any direction. Fields that do not
+/// depend on the azimuth (a diffuse sky, a Lambertian ground or cloud base)
+/// need only the azimuthal mean of the phase function.
+pub struct SlabInterior {
+    phase: PhaseModel,
+    albedo: f64,
+    azimuth_samples: usize,
+    mu: Vec<f64>,
+    weight: Vec<f64>,
+    kernels: PhaseKernels,
+}
+
+/// The radiance at one depth of a slab on the nodes of a [`SlabInterior`],
+/// W·sr⁻¹·m⁻² per unit incident flux.
+pub struct InteriorRadiance {
+    /// Radiance travelling down, at the nodes μ_i (light arriving from above).
+    pub down: Vec<f64>,
+    /// Radiance travelling up, at the nodes μ_i (light arriving from below).
+    pub up: Vec<f64>,
+}
+
+impl SlabInterior {
+    /// The solver for a phase function and single-scattering albedo.
+    pub fn new(phase: &PhaseModel, albedo: f64, settings: DoublingSettings) -> Self {
+        let (mu, weight) = hemisphere_nodes(settings.streams_per_hemisphere);
+        let kernels = PhaseKernels::new(phase, &mu, &weight, settings.azimuth_samples);
+        Self {
+            phase: phase.clone(),
+            albedo,
+            azimuth_samples: settings.azimuth_samples.max(8),
+            mu,
+            weight,
+            kernels,
+        }
+    }
+
+    /// The direction cosines of the nodes, in (0, 1).
+    pub fn nodes(&self) -> &[f64] {
+        &self.mu
+    }
+
+    /// The radiance at optical depth `above` below the top of a slab whose
+    /// remaining `below` lies under the point, lit from above by the
+    /// azimuth-independent radiance `incident(μ)` (μ the cosine from the
+    /// downward vertical), nothing from below.
+    pub fn radiance(
+        &self,
+        above: f64,
+        below: f64,
+        incident: impl Fn(f64) -> f64,
+    ) -> InteriorRadiance {
+        let (mu, weight) = (&self.mu, &self.weight);
+        let top = Layer::new(above, self.albedo, mu, weight, &self.kernels);
+        let bottom = Layer::new(below, self.albedo, mu, weight, &self.kernels);
+        let source: Vec<f64> = mu.iter().map(|&m| incident(m)).collect();
+        // T₁I₀ with T = E + tW.
+        let transmitted: Vec<f64> = (0..mu.len())
+            .map(|i| top.beam[i] * source[i] + top.t.apply_weighted(i, weight, &source))
+            .collect();
+        // D = (1 − R₁R₂)⁻¹ T₁I₀, R = rW.
+        let r1r2 = top
+            .r
+            .scale_columns(weight)
+            .product(&bottom.r.scale_columns(weight));
+        let solved = r1r2.solve_identity_minus(&Matrix::column(&transmitted));
+        let down: Vec<f64> = (0..mu.len()).map(|i| solved.at(i, 0)).collect();
+        let up: Vec<f64> = (0..mu.len())
+            .map(|i| bottom.r.apply_weighted(i, weight, &down))
+            .collect();
+        InteriorRadiance { down, up }
+    }
+
+    /// The flux 2π ∫ I μ dμ of a hemisphere of `radiance` on the nodes.
+    pub fn flux(&self, radiance: &[f64]) -> f64 {
+        2.0 * PI
+            * self
+                .mu
+                .iter()
+                .zip(&self.weight)
+                .zip(radiance)
+                .map(|((m, w), l)| m * w * l)
+                .sum::<f64>()
+    }
+
+    /// The scattering source ϖ ∫ p(ω·ω′) I(ω′) dω′ of `field` for light
+    /// leaving towards a direction whose vertical component (up positive) is
+    /// `travel_y`, W·sr⁻¹·m⁻² per unit of the field's radiance (its kernel
+    /// row scaled as the columns are, so that a uniform field is its own
+    /// source).
+    pub fn source(&self, field: &InteriorRadiance, travel_y: f64) -> f64 {
+        let sin_out = (1.0 - travel_y * travel_y).max(0.0).sqrt();
+        let (mut sum, mut norm) = (0.0, 0.0);
+        for ((m, w), (d, u)) in self
+            .mu
+            .iter()
+            .zip(&self.weight)
+            .zip(field.down.iter().zip(&field.up))
+        {
+            let s = sin_out * (1.0 - m * m).max(0.0).sqrt();
+            // Arriving travelling down (vertical −μ), up (+μ).
+            let p_down = azimuth_mean(&self.phase, self.azimuth_samples, -travel_y * m, s);
+            let p_up = azimuth_mean(&self.phase, self.azimuth_samples, travel_y * m, s);
+            sum += w * (p_down * d + p_up * u);
+            norm += w * (p_down + p_up);
+        }
+        // ½ Σ w p₀ I with the row scaled to ½ Σ w p₀ = 1.
+        self.albedo * sum / norm
     }
 }
 

@@ -622,6 +622,7 @@ impl Renderer {
             &footprints,
             generation,
             &strides,
+            self.terrain.terrain(),
             precompute,
         )?;
         Ok(())

@@ -69,47 +69,10 @@ fn rayleigh_hemisphere_moments(d_y: f32) -> vec2<f32> {
     return vec2<f32>(0.5, 3.0 * (5.0 + d * d) / 64.0);
 }
 
-// The angular shape (a₀, a₁) of a cloud deck's light from above at a point
-// of the rain's mist under a deck drawn as a volume: uniform as the deck
-// sends it, for the part the mist of vertical optical depth `tau` lets
-// through unscattered (e^{−1.66 τ}), the escape function (3/7, 6/7) for
-// the part it has scattered. Twin of
-// nimbus_physics::rain::mist_light::deck_light_shape_through_mist.
-fn deck_light_shape_through_mist(tau: f32) -> vec2<f32> {
-    let unscattered = exp(-1.66 * max(tau, 0.0));
-    return mix(vec2<f32>(3.0 / 7.0, 6.0 / 7.0), vec2<f32>(1.0, 0.0), unscattered);
-}
-
 // The diffuse reflectance of a cloud deck's base for light from below, a
 // conservative slab of optical depth `tau` and asymmetry `g` in
 // Eddington's two-stream approximation: 1 − 1/(1 + ¾(1 − g)τ). Twin of
 // nimbus_physics::rain::mist_light::deck_diffuse_reflectance.
 fn mist_deck_reflectance(tau: f32, g: f32) -> f32 {
     return 1.0 - 1.0 / (1.0 + 0.75 * (1.0 - g) * max(tau, 0.0));
-}
-
-// The diffuse light in a rain mist filling the air from the ground to a
-// cloud deck's base, at optical depth `depth_tau` below the base of a
-// column of `column_tau`: the downward and upward fluxes relative to the
-// downward flux the column has without mist (Eddington's two-stream
-// diffusion of a conservative medium of asymmetry `g` over a ground of
-// albedo `ground_albedo`, per channel, under a base of diffuse reflectance
-// `deck_reflectance`). Twin of
-// nimbus_physics::rain::mist_light::diffuse_fluxes_in_mist.
-struct MistFluxes {
-    down: vec3<f32>,
-    up: vec3<f32>,
-}
-
-fn mist_diffuse_fluxes(column_tau: f32, depth_tau: f32, g: f32, ground_albedo: vec3<f32>, deck_reflectance: f32) -> MistFluxes {
-    let gamma = 0.75 * (1.0 - g);
-    let rho = clamp(ground_albedo, vec3<f32>(0.0), vec3<f32>(1.0));
-    let deck = clamp(deck_reflectance, 0.0, 1.0);
-    let column = max(column_tau, 0.0);
-    let depth = clamp(depth_tau, 0.0, column);
-    let absorbed = 1.0 - rho;
-    let a = 1.0 / (1.0 + gamma * absorbed * column);
-    let scale = (1.0 - deck * rho) / max(1.0 - deck * (1.0 - absorbed * a), vec3<f32>(1e-9));
-    let down = scale * (1.0 - gamma * absorbed * a * depth);
-    return MistFluxes(down, down - scale * absorbed * a);
 }

@@ -867,11 +867,8 @@ fn a_steps_splashes_fill_the_ring_in_the_order_of_the_drops() {
 
 /// A test kernel around the hemisphere moments: one (g, d_y) in; out the
 /// (M₀, M₁) of Henyey–Greenstein and Cornette–Shanks of that g, and of
-/// Rayleigh, the deck's light shape through mist of optical depth
-/// 3(d_y + 1), the mist's diffuse fluxes (red and blue down, red and blue
-/// up) in a column of 4(d_y + 1) at half its depth over a ground of albedo
-/// (0.05, 0.3, 0.8) under a base of reflectance 0.7 g, and the base's
-/// reflectance at optical depth 10(d_y + 1) and asymmetry g.
+/// Rayleigh, and the deck's reflectance at optical depth 10(d_y + 1) and
+/// asymmetry g.
 const MOMENTS_KERNEL: &str = r"
 @group(0) @binding(1) var<storage, read> moment_cases: array<vec2<f32>>;
 @group(0) @binding(2) var<storage, read_write> moments: array<f32>;
@@ -886,14 +883,10 @@ fn moments_kernel(@builtin(global_invocation_id) id: vec3<u32>) {
     let hg = hg_hemisphere_moments(g, d_y);
     let cs = cornette_shanks_hemisphere_moments(g, d_y);
     let rayleigh = rayleigh_hemisphere_moments(d_y);
-    let deck = deck_light_shape_through_mist(3.0 * (d_y + 1.0));
-    let column = 4.0 * (d_y + 1.0);
-    let fluxes = mist_diffuse_fluxes(column, 0.5 * column, 0.85, vec3<f32>(0.05, 0.3, 0.8), 0.7 * g);
     let base = mist_deck_reflectance(10.0 * (d_y + 1.0), g);
-    let out = array<f32, 13>(hg.x, hg.y, cs.x, cs.y, rayleigh.x, rayleigh.y, deck.x, deck.y,
-        fluxes.down.x, fluxes.down.z, fluxes.up.x, fluxes.up.z, base);
-    for (var k = 0u; k < 13u; k++) {
-        moments[13u * id.x + k] = out[k];
+    let out = array<f32, 7>(hg.x, hg.y, cs.x, cs.y, rayleigh.x, rayleigh.y, base);
+    for (var k = 0u; k < 7u; k++) {
+        moments[7u * id.x + k] = out[k];
     }
 }
 ";
@@ -901,18 +894,15 @@ fn moments_kernel(@builtin(global_invocation_id) id: vec3<u32>) {
 /// The shaders' hemisphere moments of the mist's phase function and of the
 /// air's equal the CPU twins' (`nimbus_physics::rain::mist_light` and
 /// `nimbus_physics::atmosphere::under_layer`, themselves tested against
-/// brute-force integration) at every elevation; so do the deck's light
-/// shape through the mist (`deck_light_shape_through_mist`), the mist's
-/// diffuse fluxes (`mist_diffuse_fluxes`) and the deck's reflectance from
-/// below (`mist_deck_reflectance`).
+/// brute-force integration) at every elevation; so does the deck's
+/// reflectance from below (`mist_deck_reflectance`).
 #[test]
 fn gpu_hemisphere_moments_match_the_cpu_twins() {
     use nimbus_physics::atmosphere::under_layer::{
         AEROSOL_MOMENT_SAMPLES, cornette_shanks_hemisphere_moments, rayleigh_hemisphere_moments,
     };
     use nimbus_physics::rain::mist_light::{
-        MIST_MOMENT_SAMPLES, deck_diffuse_reflectance, deck_light_shape_through_mist,
-        diffuse_fluxes_in_mist, hg_hemisphere_moments,
+        MIST_MOMENT_SAMPLES, deck_diffuse_reflectance, hg_hemisphere_moments,
     };
     let h = headless();
     let cases: Vec<[f32; 2]> = [0.85f32, 0.8, 0.5, 0.0]
@@ -929,11 +919,11 @@ fn gpu_hemisphere_moments_match_the_cpu_twins() {
             input: bytemuck::cast_slice(&cases),
             input_stride: 8,
             count: cases.len(),
-            outputs_per_item: 13,
+            outputs_per_item: 7,
             extra: &[],
         },
     );
-    for (case, m) in cases.iter().zip(gpu.chunks(13)) {
+    for (case, m) in cases.iter().zip(gpu.chunks(7)) {
         let (g, d_y) = (f64::from(case[0]), f64::from(case[1]));
         let cpu = [
             hg_hemisphere_moments(g, d_y, MIST_MOMENT_SAMPLES),
@@ -951,32 +941,130 @@ fn gpu_hemisphere_moments_match_the_cpu_twins() {
                 "{name}, g {g}, d_y {d_y}: GPU ({g0}, {g1}), CPU ({m0}, {m1})"
             );
         }
-        let deck = deck_light_shape_through_mist(3.0 * (d_y + 1.0));
-        for k in 0..2 {
-            assert!(
-                (f64::from(m[6 + k]) - deck[k]).abs() < 1e-5,
-                "deck light shape, τ {}: GPU {:?}, CPU {deck:?}",
-                3.0 * (d_y + 1.0),
-                &m[6..8]
-            );
+        let base = deck_diffuse_reflectance(10.0 * f64::from(case[1] + 1.0), g);
+        assert!(
+            (f64::from(m[6]) - base).abs() < 1e-5,
+            "deck reflectance, g {g}, d_y {d_y}: GPU {}, CPU {base}",
+            m[6]
+        );
+    }
+}
+
+/// A test kernel around the mist slab's source: one case (column optical
+/// depth, height, view's vertical component, deck reflectance) in, the
+/// source out for a ground of albedo (0.05, 0.3, 0.8), R_G (1, 2, 3), the
+/// sun scattered in the column (0.5, 0.4, 0.3) and the sunlit ground's
+/// exitance (0.1, 0.2, 0.3), the deck's light by the escape function for
+/// even cases and uniform for odd ones.
+const MIST_SLAB_KERNEL: &str = r"
+@group(0) @binding(1) var<storage, read> slab_cases: array<vec4<f32>>;
+@group(0) @binding(2) var<storage, read_write> slab_sources: array<f32>;
+
+@compute @workgroup_size(64)
+fn mist_slab_kernel(@builtin(global_invocation_id) id: vec3<u32>) {
+    if (id.x >= arrayLength(&slab_cases)) {
+        return;
+    }
+    let c = slab_cases[id.x];
+    let s = mist_slab_source(c.x, c.y, c.z, vec3<f32>(0.05, 0.3, 0.8), c.w, (id.x & 1u) == 1u,
+        vec3<f32>(1.0, 2.0, 3.0), vec3<f32>(0.5, 0.4, 0.3), vec3<f32>(0.1, 0.2, 0.3));
+    slab_sources[3u * id.x] = s.x;
+    slab_sources[3u * id.x + 1u] = s.y;
+    slab_sources[3u * id.x + 2u] = s.z;
+}
+";
+
+/// The mist shader's light from the slab's table (`mist_slab_source`,
+/// passes/rain/mist_slab.wgsl) equals its CPU twin
+/// (`nimbus_physics::rain::mist_slab::diffuse_source_in_mist`) over the
+/// table's range and beyond it, between nodes and on them.
+#[test]
+fn gpu_mist_slab_source_matches_the_cpu_twin() {
+    use nimbus_physics::rain::mist_slab::{
+        DeckEmission, MIST_SLAB_TABLE, MistColumn, diffuse_source_in_mist,
+    };
+    use wgpu::util::DeviceExt;
+    let h = headless();
+    let device = &h.gpu.device;
+    let mut cases: Vec<[f32; 4]> = Vec::new();
+    for (i, tau) in [0.0f32, 0.05, 0.7, 3.86, 9.3, 16.0, 30.0]
+        .iter()
+        .enumerate()
+    {
+        for (j, height) in [0.0f32, 0.03, 0.41, 1.0].iter().enumerate() {
+            for k in 0..=20 {
+                let view_y = -1.0 + k as f32 / 10.0 + 0.013 * (i + j) as f32;
+                cases.push([*tau, *height, view_y.min(1.0), 0.3 + 0.1 * j as f32]);
+            }
         }
-        let column = 4.0 * (d_y + 1.0);
-        let (g_f32, dy_f32) = (case[0], case[1]);
-        let deck_reflectance = f64::from(0.7 * g_f32);
-        let red = diffuse_fluxes_in_mist(column, 0.5 * column, 0.85, 0.05, deck_reflectance);
-        let blue = diffuse_fluxes_in_mist(column, 0.5 * column, 0.85, 0.8, deck_reflectance);
-        let cpu = [
-            red[0],
-            blue[0],
-            red[1],
-            blue[1],
-            deck_diffuse_reflectance(10.0 * f64::from(dy_f32 + 1.0), g),
-        ];
-        for (k, c) in cpu.iter().enumerate() {
+    }
+    let table = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+        label: Some("mist slab test table"),
+        contents: bytemuck::cast_slice(&MIST_SLAB_TABLE),
+        usage: wgpu::BufferUsages::STORAGE,
+    });
+    let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+        label: Some("mist slab test"),
+        entries: &[nimbus_render::binding::buffer_entry(
+            5,
+            wgpu::BufferBindingType::Storage { read_only: true },
+            4,
+            wgpu::ShaderStages::COMPUTE,
+        )],
+    });
+    let group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+        label: Some("mist slab test"),
+        layout: &layout,
+        entries: &[wgpu::BindGroupEntry {
+            binding: 5,
+            resource: table.as_entire_binding(),
+        }],
+    });
+    let source = nimbus_render::rain::MIST_SLAB_WGSL.source.to_owned() + MIST_SLAB_KERNEL;
+    let gpu: Vec<f32> = crate::common::run_kernel(
+        &h,
+        &crate::common::Kernel {
+            label: "mist slab test",
+            source: &source,
+            entry: "mist_slab_kernel",
+            input: bytemuck::cast_slice(&cases),
+            input_stride: 16,
+            count: cases.len(),
+            outputs_per_item: 3,
+            extra: &[crate::common::ExtraGroup {
+                index: 1,
+                layout: &layout,
+                group: &group,
+            }],
+        },
+    );
+    let (rho, clear, sun, ground) = (
+        [0.05, 0.3, 0.8],
+        [1.0, 2.0, 3.0],
+        [0.5, 0.4, 0.3],
+        [0.1, 0.2, 0.3],
+    );
+    for (index, (case, s)) in cases.iter().zip(gpu.chunks(3)).enumerate() {
+        for channel in 0..3 {
+            let column = MistColumn {
+                column_optical_depth: f64::from(case[0]),
+                height_fraction: f64::from(case[1]),
+                ground_albedo: rho[channel],
+                deck_reflectance: f64::from(case[3]),
+                emission: if index % 2 == 1 {
+                    DeckEmission::Uniform
+                } else {
+                    DeckEmission::EscapeFunction
+                },
+                clear_column_w_m2: clear[channel],
+                scattered_sun_w_m2: sun[channel],
+                sunlit_ground_exitance_w_m2: ground[channel],
+            };
+            let cpu = diffuse_source_in_mist(&MIST_SLAB_TABLE, &column, f64::from(case[2]));
+            let g = f64::from(s[channel]);
             assert!(
-                (f64::from(m[8 + k]) - c).abs() < 1e-5,
-                "mist fluxes and deck reflectance, g {g}, d_y {d_y}: GPU {:?}, CPU {cpu:?}",
-                &m[8..13]
+                (g - cpu).abs() < 1e-5 + 2e-5 * cpu.abs(),
+                "case {case:?}, channel {channel}: GPU {g}, CPU {cpu}"
             );
         }
     }

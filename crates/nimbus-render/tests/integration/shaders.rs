@@ -298,6 +298,7 @@ fn rain_records_match_wgsl_layout() {
             occlusion_from_world,
             camera_velocity,
             mist,
+            mist_ground,
             wind_grid,
             wind_grid_origin,
             drop_sh_weights,

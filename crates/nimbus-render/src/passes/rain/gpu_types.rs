@@ -49,6 +49,8 @@ pub struct RainUniform {
     pub camera_velocity: [f32; 4],
     /// Mist start and layer end, splash radius, mist on.
     pub mist: [f32; 4],
+    /// The ground's height under the camera, m, and its albedo around it.
+    pub mist_ground: [f32; 4],
     /// The wind grid's points along x, y, z, and 1 when the mean wind carries it.
     pub wind_grid: [u32; 4],
     /// World position of the wind grid's point (0, 0, 0) at time 0, m.

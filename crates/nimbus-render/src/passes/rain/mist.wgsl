@@ -2,6 +2,7 @@
 // import passes/rain/rain_types.wgsl
 // import passes/rain/zones.wgsl
 // import shader/hemisphere_moments.wgsl
+// import passes/rain/mist_slab.wgsl
 // Rain mist (Blanchard 2023, §4.3, after Weber et al. 2015): beyond the
 // rain box, drops are no longer drawn one by one; the rain there is a
 // participating medium with the extinction of the same drops,
@@ -18,18 +19,21 @@
 // g = 0.85 stands in for their geometric-optics phase function; van de
 // Hulst 1957, §12–13), plus the sun's single scattering with it, shadowed
 // by the stratus layer at each point of the ray (so only the air under the
-// layer's gaps glows in the sun). The diffuse field is two hemispheres:
-// from above the clear sky (uniform) or, under a layer, R_G (the
-// radiosity's irradiance on the ground: sky through the gaps, the deck's
-// diffuse light, the inter-reflections) leaving the deck by the escape
-// function (3/7)(1 + 2μ), darker towards the horizon; from below the
-// ground's exitance ρ_G·(R_G + the sun through the layer), Lambertian. The
-// mist looking along d sees mostly the light arriving from around d
-// (nimbus_physics::rain::mist_light): towards the horizon the dim edge of
-// the deck and the dark ground, not the field's mean radiance, which
-// stratus.model = "bnl2006" keeps (the source function of a conservative
-// medium in an isotropic field). Drawn over
-// everything with blending dst·T + src.
+// layer's gaps glows in the sun). Under a layer the diffuse field is the
+// column's: the air from the ground to the deck's base is a scattering
+// slab, solved once by adding–doubling in the physics crate
+// (nimbus_physics::rain::mist_slab) and read from its table
+// (passes/rain/mist_slab.wgsl): the deck's light (R_G, the radiosity's
+// irradiance on the ground, leaving the deck by the escape function or
+// uniformly for a volume deck), the base's and the ground's reflections,
+// and the sun through the layer's gaps, averaged around the camera
+// (mist_column_sun). A thick mist is as bright just below the horizon as
+// just above; the two hemispheres of a Lambertian ground and the deck made
+// it too dark sideways (docs/REALISM.md, "The rain mist as a slab").
+// stratus.model = "bnl2006" keeps the field's mean radiance (the source
+// function of a conservative medium in an isotropic field). Under a clear
+// sky, the environment's SH from above and below. Drawn over everything
+// with blending dst·T + src.
 
 @group(1) @binding(2) var scene_depth: texture_depth_2d;
 
@@ -70,11 +74,12 @@ fn mist_hash(p: vec3<i32>) -> f32 {
 }
 
 // The diffuse light field at `position_m` scattered towards an eye looking
-// along `direction`, W·sr⁻¹·m⁻²: (E↓/π)(a₀M₀ + a₁M₁) + (E↑/π)(1 − M₀) for
-// irradiance E↓ from above (on an upward surface) of angular shape
-// a₀ + a₁μ and E↑ from below (on a downward one), M the phase function's
-// hemisphere moments around the direction (see the file's notes).
-fn mist_ambient_radiance(position_m: vec3<f32>, direction: vec3<f32>) -> vec3<f32> {
+// along `direction`, W·sr⁻¹·m⁻² (see the file's notes): under a clear sky
+// (E↓/π)M₀ + (E↑/π)(1 − M₀) for irradiance E↓ from above and E↑ from below,
+// M₀ the phase function's hemisphere moment around the direction; under a
+// layer the column slab's source, `sun_through_layer` the sun's light
+// through the layer on the column (mist_column_sun).
+fn mist_ambient_radiance(position_m: vec3<f32>, direction: vec3<f32>, sun_through_layer: vec3<f32>) -> vec3<f32> {
     let up = vec3<f32>(0.0, 1.0, 0.0);
     let m = hg_hemisphere_moments(MIST_PHASE_G, direction.y);
     if (!stratus_enabled() || position_m.y >= stratus.window.x) {
@@ -82,41 +87,69 @@ fn mist_ambient_radiance(position_m: vec3<f32>, direction: vec3<f32>) -> vec3<f3
         return (sh_irradiance(lighting, up) * m.x + sh_irradiance(lighting, -up) * (1.0 - m.x)) / PI;
     }
     let clear_column = stratus_radiosity_sample(true, position_m.xz);
-    let sun_on_ground = sun_irradiance_at(position_m) * max(frame.sun_direction.y, 0.0)
-        * mist_sun_shadow(position_m);
     let rho = atmosphere.near_ground_albedo;
     if (stratus.model.x == 0u) {
+        let sun_on_ground = sun_irradiance_at(position_m) * max(frame.sun_direction.y, 0.0)
+            * mist_sun_shadow(position_m);
         // stratus.model = "bnl2006": the field's mean radiance.
         return (clear_column + rho * (clear_column + sun_on_ground)) / (2.0 * PI);
     }
-    // The mist diffuses the column's light between the ground and the
-    // deck's base (nimbus_physics::rain::mist_light::diffuse_fluxes_in_mist):
-    // a thick mist darkens the air near the ground and lightens it near the
-    // base; R_G is the column's light without it. The sun's light on the
-    // ground is kept as it is.
+    // The column between the ground and the deck's base is a scattering
+    // slab: its light at this height, seen along `direction`, from the
+    // adding–doubling table (passes/rain/mist_slab.wgsl). The deck sends
+    // its light in its own shape (stratus_deck_light_shape: the escape
+    // function for the faces, uniform where the layer is drawn as a
+    // volume); the slab turns it into its own field, continuous across
+    // the horizon, and couples base and ground. The column stands on the
+    // ground under the camera.
     let intensity = rain.drops.x * zone_factor(position_m.x, position_m.z);
     let beta = rain_extinction(intensity, 0.0, rain.drops.z);
-    let column_m = max(rain.drops.w - stratus.radiosity.w, 0.0);
+    let column_m = max(rain.drops.w - rain.mist_ground.x, 0.0);
+    let column_tau = beta * column_m;
+    let height = 1.0 - clamp(rain.drops.w - position_m.y, 0.0, column_m) / max(column_m, 1e-3);
     let deck_reflectance = mist_deck_reflectance(
         stratus.extinction.y * stratus_thickness_at(position_m.xz), MIST_DECK_ASYMMETRY);
-    let fluxes = mist_diffuse_fluxes(beta * column_m, beta * clamp(rain.drops.w - position_m.y, 0.0, column_m),
-        MIST_PHASE_G, rho, deck_reflectance);
-    let from_above = clear_column * fluxes.down;
-    let from_below = clear_column * fluxes.up + rho * sun_on_ground;
-    // The deck's light leaves it in the deck's shape
-    // (stratus_deck_light_shape: the escape function (3/7)(1 + 2μ) for the
-    // faces; uniform where the layer is drawn as a volume, as the march's
-    // broken deck seen from below is as bright towards the horizon as
-    // overhead, docs/REALISM.md, "The stratus layer as a volume"). Under a
-    // volume it turns to the escape function's as the mist between here
-    // and the deck scatters it (deck_light_shape_through_mist): a thin mist
-    // must not veil the deck with a darker light than its own, a thick one
-    // is a scattering slab.
-    var shape = stratus_deck_light_shape();
-    if (stratus.model.y == 1u) {
-        shape = deck_light_shape_through_mist(beta * max(rain.drops.w - position_m.y, 0.0));
+    // The sun through the layer (`sun_through_layer`, mist_column_sun: its
+    // mean around the camera) enters the column; what the column scatters,
+    // 1 − e^(−(1 − g²)τ/μ₀) (δ-M: the forward peak, a fraction g² of the
+    // phase function, goes on with the beam; Wiscombe 1977), enters the
+    // slab diffusely; the rest reaches the ground as a beam.
+    let unscattered = exp(-(1.0 - MIST_PHASE_G * MIST_PHASE_G) * column_tau / max(frame.sun_direction.y, 0.05));
+    // The ground under the column, its albedo around the camera (the
+    // frame's near-ground albedo is the whole terrain's).
+    let local_rho = rain.mist_ground.yzw;
+    return mist_slab_source(column_tau, height, direction.y, local_rho, deck_reflectance,
+        stratus.model.y == 1u, clear_column, sun_through_layer * (1.0 - unscattered),
+        local_rho * sun_through_layer * unscattered);
+}
+
+// Samples of the disc over which the column's sun through the layer is
+// averaged (mist_column_sun).
+const MIST_GAP_SAMPLES: u32 = 16u;
+
+// The sun's light through the layer on the mist's column at `position_m`,
+// W/m² on a horizontal surface: the mist scatters it sideways over its
+// transport length 1/((1 − g)β) (1.5 km in heavy rain), so the column takes
+// the layer's shadow averaged over a disc of that radius (held between
+// 200 m and 3 km), not the shadow at the camera: a sunflower pattern of
+// MIST_GAP_SAMPLES points of equal area. It depends on the camera alone:
+// the vertex shader evaluates it once and hands it to every pixel.
+fn mist_column_sun(position_m: vec3<f32>) -> vec3<f32> {
+    let l = frame.sun_direction;
+    if (!stratus_enabled() || position_m.y >= stratus.window.x || l.y <= 0.0) {
+        return vec3<f32>(0.0);
     }
-    return (from_above * (shape.x * m.x + shape.y * m.y) + from_below * (1.0 - m.x)) / PI;
+    let intensity = rain.drops.x * zone_factor(position_m.x, position_m.z);
+    let beta = rain_extinction(intensity, 0.0, rain.drops.z);
+    let radius = clamp(1.0 / max((1.0 - MIST_PHASE_G) * beta, 1e-6), 200.0, 3000.0);
+    var sum = vec3<f32>(0.0);
+    for (var k = 0u; k < MIST_GAP_SAMPLES; k++) {
+        let r = radius * sqrt((f32(k) + 0.5) / f32(MIST_GAP_SAMPLES));
+        // The golden angle, rad.
+        let a = 2.3999632 * f32(k);
+        sum += mist_sun_shadow(position_m + vec3<f32>(r * cos(a), 0.0, r * sin(a)));
+    }
+    return sun_irradiance_at(position_m) * l.y * sum / f32(MIST_GAP_SAMPLES);
 }
 
 // The layer's shadow on the mist at `position_m`: its directional
@@ -150,6 +183,9 @@ fn mist_noise(p: vec3<f32>) -> f32 {
 struct MistVarying {
     @builtin(position) clip_position: vec4<f32>,
     @location(0) clip_xy: vec2<f32>,
+    // mist_column_sun at the camera (the view's centre: an orthographic
+    // view's rays start across the screen), the same at every vertex.
+    @location(1) @interpolate(flat) column_sun: vec3<f32>,
 }
 
 @vertex
@@ -158,6 +194,7 @@ fn mist_vertex(@builtin(vertex_index) vertex: u32) -> MistVarying {
     var out: MistVarying;
     out.clip_xy = uv * 2.0 - 1.0;
     out.clip_position = vec4<f32>(out.clip_xy, 0.0, 1.0);
+    out.column_sun = mist_column_sun(view_ray_origin_world(vec2<f32>(0.0)));
     return out;
 }
 
@@ -225,7 +262,7 @@ fn mist_fragment(in: MistVarying) -> @location(0) vec4<f32> {
     let g = MIST_PHASE_G;
     let mu = dot(direction, frame.sun_direction);
     let phase = (1.0 - g * g) / (4.0 * PI * pow(1.0 + g * g - 2.0 * g * mu, 1.5));
-    let radiance = mist_ambient_radiance(origin, direction) * (1.0 - transmittance)
+    let radiance = mist_ambient_radiance(origin, direction, in.column_sun) * (1.0 - transmittance)
         + lighting.sun_irradiance.xyz * phase * sunlit;
     let inscattered = min(radiance * pre_exposure(), vec3<f32>(frame.max_pre_exposed));
     // Premultiplied over: the frame behind is seen through the transmittance

@@ -71,13 +71,20 @@ const RAIN_BOX_WGSL: WgslFile = WgslFile {
     name: "passes/rain/rain_box.wgsl",
     source: include_str!("rain_box.wgsl"),
 };
+/// The mist slab's light from its table (the CPU twin is
+/// `nimbus_physics::rain::mist_slab::diffuse_source_in_mist`).
+pub const MIST_SLAB_WGSL: WgslFile = WgslFile {
+    name: "passes/rain/mist_slab.wgsl",
+    source: include_str!("mist_slab.wgsl"),
+};
 /// The pass's own WGSL library: what its shaders import besides the crate's.
-const LIBRARY: [WgslFile; 5] = [
+const LIBRARY: [WgslFile; 6] = [
     RAIN_TYPES_WGSL,
     RANDOM_WGSL,
     WIND_WGSL,
     ZONES_WGSL,
     RAIN_BOX_WGSL,
+    MIST_SLAB_WGSL,
 ];
 
 /// Composes `file` with what it imports of the pass's library and the crate's.
@@ -363,6 +370,8 @@ struct FramePlan {
 pub struct RainPass {
     device: wgpu::Device,
     uniform: wgpu::Buffer,
+    /// The mist slab's light, [`nimbus_physics::rain::mist_slab::MIST_SLAB_TABLE`].
+    mist_slab: wgpu::Buffer,
     steps: wgpu::Buffer,
     occlusion_uniform: wgpu::Buffer,
     occlusion_group: wgpu::BindGroup,

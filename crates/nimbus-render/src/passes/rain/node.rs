@@ -186,6 +186,10 @@ impl RainPass {
                         binding: 4,
                         resource: state.shared.zones.as_entire_binding(),
                     },
+                    wgpu::BindGroupEntry {
+                        binding: 5,
+                        resource: self.mist_slab.as_entire_binding(),
+                    },
                 ],
             })
         });

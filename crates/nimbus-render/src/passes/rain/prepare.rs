@@ -15,11 +15,12 @@ use crate::core::background::Precompute;
 use crate::core::binding::PerViewGroups;
 use crate::core::{binding, limits};
 use crate::frame::Camera;
-use crate::scene::Scene;
+use crate::scene::{RainSettings, Scene};
 use glam::Vec3;
 use nimbus_physics::rain::simulation::{MAX_STEPS_PER_FRAME, STEP_S, target_drop_count};
 use nimbus_physics::rain::wind::WindField;
 use nimbus_physics::rain::zones::RainZones;
+use nimbus_physics::terrain::Terrain;
 
 impl RainPass {
     pub(super) fn create_state(
@@ -249,6 +250,7 @@ impl RainPass {
         cumulus_footprints_m: &[[f32; 3]],
         occluder_generations: [u64; 3],
         occluder_strides: &[u64],
+        ground: Option<&Terrain>,
         precompute: Precompute,
     ) -> Result<(), RainError> {
         for &stride in occluder_strides {
@@ -418,8 +420,16 @@ impl RainPass {
             );
             state.occlusion_drawn = Some(view);
         }
+        let mist_ground = mist_column_ground(scene, &settings, camera, ground);
         let uniform = rain_uniform(
-            &settings, &params, &rain_box, state, camera, occlusion, &self.drop,
+            &settings,
+            &params,
+            &rain_box,
+            state,
+            camera,
+            occlusion,
+            &self.drop,
+            mist_ground,
         );
         queue.write_buffer(&self.uniform, 0, bytemuck::bytes_of(&uniform));
         // The indirect draws' arguments: 6 vertices, instances counted by the cull.
@@ -436,4 +446,46 @@ impl RainPass {
         };
         Ok(())
     }
+}
+
+/// The ground the mist's column stands on (passes/rain/mist.wgsl takes the
+/// mist's light as a plane-parallel slab's at the camera): the rendered
+/// surface's height under the camera, m, and the mean albedo within the
+/// mist's transport length 1/((1 − g)β) of it (held between 200 m and
+/// 3 km, as the shader's disc of the sun through the layer), over which
+/// the mist mixes the ground's light. Until the terrain is generated (in
+/// the background), the procedural ground's height and the atmosphere's
+/// ground albedo.
+fn mist_column_ground(
+    scene: &Scene,
+    settings: &RainSettings,
+    camera: &Camera,
+    ground: Option<&Terrain>,
+) -> [f32; 4] {
+    let eye = camera.position_m;
+    let extinction_per_m = nimbus_physics::rain::dsd::extinction_per_m(
+        settings.intensity_mm_h,
+        0.0,
+        settings.max_diameter_mm,
+    );
+    let asymmetry = nimbus_physics::rain::mist_slab::MIST_SLAB_ASYMMETRY;
+    let radius_m = (1.0 / ((1.0 - asymmetry) * extinction_per_m).max(1e-6)).clamp(200.0, 3000.0);
+    let (height_m, albedo) = match ground {
+        Some(terrain) => (
+            terrain.surface_height_at(eye.x, eye.z),
+            terrain.mean_albedo_within(eye.x, eye.z, radius_m),
+        ),
+        None if scene.ground.terrain => (
+            nimbus_physics::terrain::ground_height_m(&scene.terrain, eye.x, eye.z)
+                .max(scene.terrain.water_level_m),
+            scene.atmosphere.ground_albedo,
+        ),
+        None => (scene.ground.height_m, scene.atmosphere.ground_albedo),
+    };
+    [
+        height_m as f32,
+        albedo[0] as f32,
+        albedo[1] as f32,
+        albedo[2] as f32,
+    ]
 }

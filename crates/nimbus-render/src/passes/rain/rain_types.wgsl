@@ -44,6 +44,10 @@ struct Rain {
     // x: mist start (the box's radius), m; y: end of the first mist layer, m;
     // z: splashes are made within this distance of the camera, m; w: 1 with mist.
     mist: vec4<f32>,
+    // x: the ground's height under the camera (the rendered surface's), m:
+    // the bottom of the mist's column; yzw: the ground's mean albedo within
+    // the mist's transport length of the camera.
+    mist_ground: vec4<f32>,
     // xyz: the wind grid's points along x, y, z; w: 1 when the mean wind carries it.
     wind_grid: vec4<u32>,
     // xyz: world position of the wind grid's point (0, 0, 0) at time 0, m.

@@ -15,6 +15,7 @@ use crate::frame::FrameLayouts;
 use nimbus_physics::rain::drop_optics::DropTransfer;
 use nimbus_physics::rain::simulation::MAX_STEPS_PER_FRAME;
 use nimbus_physics::rain::zones::RainZones;
+use wgpu::util::DeviceExt;
 
 pub(super) fn compute_pipeline(
     device: &wgpu::Device,
@@ -132,8 +133,11 @@ impl RainPass {
             entries: &[
                 uniform_layout_entry(0, draw, uniform_size),
                 depth_texture(2, wgpu::ShaderStages::FRAGMENT),
-                // The zone map at the simulation's binding (passes/rain/zones.wgsl).
-                buffer_entry(4, read, 4, wgpu::ShaderStages::FRAGMENT),
+                // The zone map at the simulation's binding (passes/rain/zones.wgsl),
+                // also read by the vertex shader (the column's sun, mist.wgsl).
+                buffer_entry(4, read, 4, draw),
+                // The mist slab's light (passes/rain/mist_slab.wgsl).
+                buffer_entry(5, read, 4, wgpu::ShaderStages::FRAGMENT),
             ],
         });
         let simulation = |entry: &str| {
@@ -246,9 +250,15 @@ impl RainPass {
             usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
             mapped_at_creation: false,
         });
+        let mist_slab = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("rain mist slab"),
+            contents: bytemuck::cast_slice(&nimbus_physics::rain::mist_slab::MIST_SLAB_TABLE),
+            usage: wgpu::BufferUsages::STORAGE,
+        });
         Self {
             device: device.clone(),
             uniform,
+            mist_slab,
             steps,
             occlusion_uniform,
             occlusion_group,

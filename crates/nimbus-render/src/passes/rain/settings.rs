@@ -166,6 +166,7 @@ pub(super) fn step_uniform(
     }
 }
 
+#[allow(clippy::too_many_arguments)]
 pub(super) fn rain_uniform(
     settings: &RainSettings,
     params: &RainParams,
@@ -174,6 +175,7 @@ pub(super) fn rain_uniform(
     camera: &Camera,
     occlusion: Mat4,
     drop: &DropTransfer,
+    mist_ground: [f32; 4],
 ) -> RainUniform {
     let [right, up, forward] = rain_box.basis;
     let (shape, near, far, size) = match rain_box.shape {
@@ -247,6 +249,7 @@ pub(super) fn rain_uniform(
             settings.splash_radius_m as f32,
             settings.mist as u32 as f32,
         ],
+        mist_ground,
         wind_grid: grid.map_or([0; 4], |g| {
             [g.cells[0], g.cells[1], g.cells[2], u32::from(g.carried)]
         }),
