@@ -80,15 +80,15 @@ fn mist_hash(p: vec3<i32>) -> f32 {
 // layer the column slab's source, `sun_through_layer` the sun's light
 // through the layer on the column (mist_column_sun).
 fn mist_ambient_radiance(position_m: vec3<f32>, direction: vec3<f32>, sun_through_layer: vec3<f32>) -> vec3<f32> {
-    let up = vec3<f32>(0.0, 1.0, 0.0);
-    let m = hg_hemisphere_moments(MIST_PHASE_G, direction.y);
     if (!stratus_enabled() || position_m.y >= stratus.window.x) {
         // The clear sky above, the sunlit ground below (the environment's SH).
+        let up = vec3<f32>(0.0, 1.0, 0.0);
+        let m = hg_hemisphere_moments(MIST_PHASE_G, direction.y);
         return (sh_irradiance(lighting, up) * m.x + sh_irradiance(lighting, -up) * (1.0 - m.x)) / PI;
     }
     let clear_column = stratus_radiosity_sample(true, position_m.xz);
-    let rho = atmosphere.near_ground_albedo;
     if (stratus.model.x == 0u) {
+        let rho = atmosphere.near_ground_albedo;
         let sun_on_ground = sun_irradiance_at(position_m) * max(frame.sun_direction.y, 0.0)
             * mist_sun_shadow(position_m);
         // stratus.model = "bnl2006": the field's mean radiance.
