@@ -28,6 +28,19 @@
 //! [`hg_hemisphere_moments`], which the mist shader evaluates per pixel with
 //! the same quantiles (`passes/rain/mist.wgsl`).
 
+/// δ-M's forward fraction f = g² of the mist's Henyey–Greenstein phase
+/// function (g = 0.85; Wiscombe 1977, J. Atmos. Sci. 34, 1408; Joseph et
+/// al. 1976): the part of what the mist scatters that leaves within about
+/// 20° of its way. The mist shader (`passes/rain/mist.wgsl`) leaves it in
+/// the eye's ray and in the sun's beam: along the view it attenuates by
+/// (1 − f)β, so that a background smooth at the lobe's width (the deck's
+/// bright cells towards the horizon, the far terrain) reaches the eye
+/// as if unscattered; the diffuse field's source and the sun's single
+/// scattering keep the whole phase function (the latter Nakajima & Tanaka
+/// 1988's TMS correction, J. Quant. Spectrosc. Radiat. Transfer 40, 51).
+/// Dimensionless.
+pub const MIST_FORWARD_FRACTION: f64 = 0.85 * 0.85;
+
 /// Number of quantiles of cos Θ the shader uses (and the CPU twin by default).
 pub const MIST_MOMENT_SAMPLES: usize = 24;
 

@@ -32,7 +32,19 @@
 // it too dark sideways (docs/REALISM.md, "The rain mist as a slab").
 // stratus.model = "bnl2006" keeps the field's mean radiance (the source
 // function of a conservative medium in an isotropic field). Under a clear
-// sky, the environment's SH from above and below. Drawn over everything
+// sky, the environment's SH from above and below.
+//
+// The droplets' forward lobe goes on with the view (δ-M, Wiscombe 1977):
+// a fraction f = g² of what the mist scatters leaves within about 20° of
+// its way, so that a background that varies slowly over that width (the
+// deck, its bright cells towards the horizon, the far terrain) reaches
+// the eye as if unscattered. The march attenuates by (1 − f)β; the
+// diffuse field's source keeps the whole phase function (δ-M's source
+// over a field smooth at the lobe's width); the sun's single scattering
+// keeps it too (Nakajima & Tanaka 1988's TMS correction: the exact phase
+// function for the once-scattered sun in the scaled medium), its beam
+// dimmed by the δ-M mist above each point as by the layer
+// (docs/REALISM.md, "The rain mist's forward lobe"). Drawn over everything
 // with blending dst·T + src.
 
 @group(1) @binding(2) var scene_depth: texture_depth_2d;
@@ -40,6 +52,10 @@
 const MIST_STEPS: u32 = 32u;
 const MIST_MAX_DISTANCE_M: f32 = 30000.0;
 const MIST_PHASE_G: f32 = 0.85;
+// δ-M's forward fraction f = g² of the mist's phase function, left in the
+// eye's ray and in the sun's beam
+// (nimbus_physics::rain::mist_light::MIST_FORWARD_FRACTION).
+const MIST_FORWARD_FRACTION: f32 = MIST_PHASE_G * MIST_PHASE_G;
 // Asymmetry of the cloud droplets for the deck's diffuse reflectance from
 // below (nimbus_physics::cumulus::shading::CLOUD_ASYMMETRY).
 const MIST_DECK_ASYMMETRY: f32 = 0.85;
@@ -114,7 +130,7 @@ fn mist_ambient_radiance(position_m: vec3<f32>, direction: vec3<f32>, sun_throug
     // 1 − e^(−(1 − g²)τ/μ₀) (δ-M: the forward peak, a fraction g² of the
     // phase function, goes on with the beam; Wiscombe 1977), enters the
     // slab diffusely; the rest reaches the ground as a beam.
-    let unscattered = exp(-(1.0 - MIST_PHASE_G * MIST_PHASE_G) * column_tau / max(frame.sun_direction.y, 0.05));
+    let unscattered = exp(-(1.0 - MIST_FORWARD_FRACTION) * column_tau / max(frame.sun_direction.y, 0.05));
     // The ground under the column, its albedo around the camera (the
     // frame's near-ground albedo is the whole terrain's).
     let local_rho = rain.mist_ground.yzw;
@@ -219,10 +235,13 @@ fn mist_fragment(in: MistVarying) -> @location(0) vec4<f32> {
     let layer_m = rain.mist.y;
     // Geometric steps: fine near the camera, long far away.
     let ratio = pow(max(end_m, 1.0), 1.0 / f32(MIST_STEPS));
-    // Transmittance from the camera to the current step.
+    // Transmittance from the camera to the current step, of the extinction
+    // (1 − f)β: the forward part f of the scattering stays in the ray.
     var transmittance = 1.0;
-    // ∫ β(s) T(0, s) T_C(s) ds: the sunlit extinction seen along the ray,
-    // T_C the layer's directional transmittance of the sun at each point.
+    // ∫ β(s) T(0, s) T_C(s) T_M(s) ds: the sunlit extinction seen along the
+    // ray, T_C the layer's directional transmittance of the sun at each
+    // point, T_M the δ-M mist's between the point and the rain's ceiling.
+    let sun_mu = max(frame.sun_direction.y, 0.05);
     var sunlit = vec3<f32>(0.0);
     let steps_per_segment = MIST_STEPS / MIST_SHADOW_SEGMENTS;
     var shadows: array<vec3<f32>, MIST_SHADOW_SEGMENTS>;
@@ -247,11 +266,14 @@ fn mist_fragment(in: MistVarying) -> @location(0) vec4<f32> {
                 }
                 beta += density * rain_extinction(intensity, rain.drops.y, rain.drops.z);
             }
-            let step_tau = beta * (s - previous);
+            let scaled_beta = (1.0 - MIST_FORWARD_FRACTION) * beta;
+            let step_tau = scaled_beta * (s - previous);
             let shadow = shadows[min((i - 1u) / steps_per_segment, MIST_SHADOW_SEGMENTS - 1u)];
-            // Exact for constant β over the step: T(0, s₀)·(1 − e^(−Δτ)).
+            let beam = exp(-scaled_beta * max(rain.drops.w - p.y, 0.0) / sun_mu);
+            // Exact for constant β over the step: T(0, s₀)·(1 − e^(−Δτ))/(1 − f),
+            // Δτ the scaled step's.
             let step_transmittance = exp(-step_tau);
-            sunlit += transmittance * (1.0 - step_transmittance) * shadow;
+            sunlit += transmittance * (1.0 - step_transmittance) * shadow * beam / (1.0 - MIST_FORWARD_FRACTION);
             transmittance *= step_transmittance;
         }
         previous = s;
