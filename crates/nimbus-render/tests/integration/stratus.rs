@@ -602,23 +602,25 @@ fn diffusion_kernel(@builtin(global_invocation_id) id: vec3<u32>) {
     let b = diffusion_in[2u * i + 1u];
     let diffuse = in_layer_diffuse(a.x, a.y, vec3<f32>(b.x), vec3<f32>(b.y));
     let diffuse_net_flux = in_layer_diffuse_net_flux(a.y, vec3<f32>(b.x), vec3<f32>(b.y));
-    diffusion_out[3u * i] = in_layer_collimated(a.x, a.y, a.z, a.w);
-    diffusion_out[3u * i + 1u] = in_layer_collimated_net_flux(a.x, a.y, a.z, a.w);
-    diffusion_out[3u * i + 2u] = eddington_source(diffuse, diffuse_net_flux, b.z, b.w).x;
+    diffusion_out[4u * i] = in_layer_collimated(a.x, a.y, a.z, a.w);
+    diffusion_out[4u * i + 1u] = in_layer_collimated_net_flux(a.x, a.y, a.z, a.w);
+    diffusion_out[4u * i + 2u] = eddington_source(diffuse, diffuse_net_flux, b.z, b.w).x;
+    diffusion_out[4u * i + 3u] = in_layer_exit_ratio(a.z);
 }
 ";
 
 /// The in-layer march's light (in_layer.wgsl) against its CPU twin
 /// (`nimbus_physics::transport::diffusion`): the diffuse fluence of a
 /// conservative slab lit by a beam and its net flux (the δ-Eddington beam
-/// and the similarity one), and the P1 source of one lit by diffuse fluxes,
-/// over depths, thicknesses, sun cosines, view cosines and asymmetries,
-/// within 1e-4 relative (f32 against f64).
+/// and the similarity one), the P1 source of one lit by diffuse fluxes and
+/// the escape function's ratio to P1's exit, over depths, thicknesses, sun
+/// cosines, view cosines and asymmetries, within 1e-4 relative (f32 against
+/// f64).
 #[test]
 fn in_layer_diffusion_matches_the_cpu_twin() {
     use nimbus_physics::transport::diffusion::{
         collimated_fluence, collimated_net_flux, diffuse_fluence, diffuse_net_flux,
-        eddington_source,
+        eddington_source, escape_over_eddington,
     };
     let h = HeadlessRenderer::new(AdapterPreference::Auto)
         .unwrap_or_else(|e| panic!("GPU tests need an adapter: {e}"));
@@ -647,11 +649,11 @@ fn in_layer_diffusion_matches_the_cpu_twin() {
             input: bytemuck::cast_slice(&items),
             input_stride: 32,
             count: items.len(),
-            outputs_per_item: 3,
+            outputs_per_item: 4,
             extra: &[],
         },
     );
-    for (item, out) in items.iter().zip(gpu.chunks(3)) {
+    for (item, out) in items.iter().zip(gpu.chunks(4)) {
         let [a, b] = item;
         let (t, total, mu0, rate) = (
             f64::from(a[0]),
@@ -673,7 +675,13 @@ fn in_layer_diffusion_matches_the_cpu_twin() {
             view_mu,
             asymmetry,
         );
-        for (gpu, cpu) in [(out[0], beam), (out[1], beam_flux), (out[2], diffuse)] {
+        let exit = escape_over_eddington(mu0);
+        for (gpu, cpu) in [
+            (out[0], beam),
+            (out[1], beam_flux),
+            (out[2], diffuse),
+            (out[3], exit),
+        ] {
             assert!(
                 (f64::from(gpu) - cpu).abs() <= 1e-4 * cpu.abs().max(1.0),
                 "t {t}, T {total}, μ₀ {mu0}, ρ {rate}: GPU {gpu} vs CPU {cpu}"

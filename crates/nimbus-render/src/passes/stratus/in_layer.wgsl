@@ -53,6 +53,16 @@ const IN_LAYER_ENTRY_LEAD_M: f32 = 50.0;
 // looking up at an overcast's mid-plane).
 const IN_LAYER_BEAM_RATE: f32 = 1.0 + IN_LAYER_ASYMMETRY;
 
+// Twin of diffusion::escape_over_eddington: the exact escape function
+// u(μ) = (3/7)(1 + 2μ) over Eddington's emergent distribution (2 + 3μ)/4,
+// both per unit flux: how the light leaving a thick slab at cosine μ to its
+// normal (and, by reciprocity, the light a beam at cosine μ sends into it)
+// differs from what the P1 field gives.
+fn in_layer_exit_ratio(mu: f32) -> f32 {
+    let m = clamp(mu, 0.0, 1.0);
+    return (12.0 / 7.0) * (1.0 + 2.0 * m) / (2.0 + 3.0 * m);
+}
+
 // Twin of diffusion::collimated_fluence.
 fn in_layer_collimated(t_in: f32, total_in: f32, mu0: f32, rate: f32) -> f32 {
     if (mu0 <= 0.0) {
@@ -241,6 +251,18 @@ fn in_layer_fragment(in: FullscreenOutput) -> @location(0) vec4<f32> {
     let peak = stratus.forward_fraction.y;
     let asymmetry_star = (IN_LAYER_ASYMMETRY - peak) / max(1.0 - peak, 1e-3);
     let sky = lighting.sky_irradiance_up.xyz;
+    // A camera above or below the layer's height range sees the diffuse
+    // light leave the cells through their tops or bases: it leaves by the
+    // exact escape function, not by P1's (2 + 3μ)/4, which is 6 % too
+    // bright 70–80° from the normal and 19 % at 82.5° (the slab photon
+    // tracer; docs/REALISM.md, "The light leaving the volume"); and the
+    // sun's beam puts into the slab what the escape function of its cosine
+    // says (reciprocity), where P1 put 10 % too much under a sun 14° high.
+    // A camera level with the layer sees the cells' sides, and
+    // one inside a cell the field itself: P1's, as the faces (layer.wgsl's
+    // exit weight) do.
+    let outside_the_layer = abs(origin.y - mid) > half;
+    let exit_weight = select(1.0, in_layer_exit_ratio(abs(direction.y)), outside_the_layer);
     // The lights, at the middles of four quarters of the ray, held over
     // each (texture lookups in the loop are what costs on llvmpipe).
     var lights: array<InLayerLight, IN_LAYER_SEGMENTS>;
@@ -329,7 +351,8 @@ fn in_layer_fragment(in: FullscreenOutput) -> @location(0) vec4<f32> {
         let lit_depth_m = select(above_base, below_top, sun_above);
         // The diffuse part's depth axis points down: the light reaching the
         // camera travels along −direction, at cosine direction.y to it.
-        var diffuse = eddington_source(in_layer_diffuse(kappa_t * below_top, kappa_t * h, sky, light.ground),
+        var diffuse = exit_weight * eddington_source(
+            in_layer_diffuse(kappa_t * below_top, kappa_t * h, sky, light.ground),
             in_layer_diffuse_net_flux(kappa_t * h, sky, light.ground), direction.y, asymmetry_star);
         var direct = vec3<f32>(0.0);
         if (l.y > 0.0) {
@@ -358,8 +381,8 @@ fn in_layer_fragment(in: FullscreenOutput) -> @location(0) vec4<f32> {
                 side_axis = -face;
                 mu_side = clamp(dot(face, l), IN_LAYER_MIN_FACE_COSINE, 1.0);
             }
-            let from_top = in_layer_beam_source(kappa_t * path_m, kappa_t * chord_m, mu0, dot(-direction, top_axis),
-                asymmetry_star);
+            let from_top = exit_weight * in_layer_exit_ratio(mu0) * in_layer_beam_source(kappa_t * path_m,
+                kappa_t * chord_m, mu0, dot(-direction, top_axis), asymmetry_star);
             // Through a side, the slab across the face is as thick as the
             // chord along the sun: in a cell's lower half the beam leaves
             // through the base a little way on, and that thin slab lets out
@@ -371,9 +394,9 @@ fn in_layer_fragment(in: FullscreenOutput) -> @location(0) vec4<f32> {
             // level from stratus-side's mid-plane were 0.52–0.66 of the
             // reference's light (docs/REALISM.md, "The window's edge thins
             // the volume; the cells' lower halves").
-            let from_chord = in_layer_beam_source(kappa_t * path_m, kappa_t * chord_m, mu_side,
+            let from_chord = exit_weight * in_layer_exit_ratio(mu_side) * in_layer_beam_source(kappa_t * path_m, kappa_t * chord_m, mu_side,
                 dot(-direction, side_axis), asymmetry_star);
-            let from_column = in_layer_beam_source(kappa_t * below_top / mu0, kappa_t * h / mu0, mu0,
+            let from_column = exit_weight * in_layer_exit_ratio(mu0) * in_layer_beam_source(kappa_t * below_top / mu0, kappa_t * h / mu0, mu0,
                 dot(-direction, top_axis), asymmetry_star);
             let from_side = max(from_chord, from_column);
             // The light δ-Eddington's beam still holds beyond the
