@@ -39,7 +39,8 @@
 /// scattering keep the whole phase function (the latter Nakajima & Tanaka
 /// 1988's TMS correction, J. Quant. Spectrosc. Radiat. Transfer 40, 51).
 /// Dimensionless.
-pub const MIST_FORWARD_FRACTION: f64 = 0.85 * 0.85;
+pub const MIST_FORWARD_FRACTION: f64 =
+    super::mist_slab::MIST_SLAB_ASYMMETRY * super::mist_slab::MIST_SLAB_ASYMMETRY;
 
 /// Number of quantiles of cos Θ the shader uses (and the CPU twin by default).
 pub const MIST_MOMENT_SAMPLES: usize = 24;

@@ -147,7 +147,7 @@ pub fn eddington_source(fluence: f64, net_flux: f64, mu: f64, asymmetry: f64) ->
 /// μ = 0, 1 near μ = 0.7, 1.029 at μ = 1.
 pub fn escape_over_eddington(mu: f64) -> f64 {
     let m = mu.clamp(0.0, 1.0);
-    12.0 / 7.0 * (1.0 + 2.0 * m) / (2.0 + 3.0 * m)
+    crate::transport::stratus::escape_function(m) / ((2.0 + 3.0 * m) / 4.0)
 }
 
 #[cfg(test)]

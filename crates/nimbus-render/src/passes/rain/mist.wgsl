@@ -270,10 +270,10 @@ fn mist_fragment(in: MistVarying) -> @location(0) vec4<f32> {
             let step_tau = scaled_beta * (s - previous);
             let shadow = shadows[min((i - 1u) / steps_per_segment, MIST_SHADOW_SEGMENTS - 1u)];
             let beam = exp(-scaled_beta * max(rain.drops.w - p.y, 0.0) / sun_mu);
-            // Exact for constant β over the step: T(0, s₀)·(1 − e^(−Δτ))/(1 − f),
-            // Δτ the scaled step's.
+            // Exact for constant β over the step: T(0, s₀)·(1 − e^(−Δτ)), Δτ
+            // the scaled step's (β ds = that over 1 − f, taken once below).
             let step_transmittance = exp(-step_tau);
-            sunlit += transmittance * (1.0 - step_transmittance) * shadow * beam / (1.0 - MIST_FORWARD_FRACTION);
+            sunlit += transmittance * (1.0 - step_transmittance) * shadow * beam;
             transmittance *= step_transmittance;
         }
         previous = s;
@@ -285,7 +285,7 @@ fn mist_fragment(in: MistVarying) -> @location(0) vec4<f32> {
     let mu = dot(direction, frame.sun_direction);
     let phase = (1.0 - g * g) / (4.0 * PI * pow(1.0 + g * g - 2.0 * g * mu, 1.5));
     let radiance = mist_ambient_radiance(origin, direction, in.column_sun) * (1.0 - transmittance)
-        + lighting.sun_irradiance.xyz * phase * sunlit;
+        + lighting.sun_irradiance.xyz * phase * sunlit / (1.0 - MIST_FORWARD_FRACTION);
     let inscattered = min(radiance * pre_exposure(), vec3<f32>(frame.max_pre_exposed));
     // Premultiplied over: the frame behind is seen through the transmittance
     // (alpha is the mist's coverage, 1 − T).

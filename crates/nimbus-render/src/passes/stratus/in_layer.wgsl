@@ -263,6 +263,8 @@ fn in_layer_fragment(in: FullscreenOutput) -> @location(0) vec4<f32> {
     // exit weight) do.
     let outside_the_layer = abs(origin.y - mid) > half;
     let exit_weight = select(1.0, in_layer_exit_ratio(abs(direction.y)), outside_the_layer);
+    // The beam's share through the top, the same at every step.
+    let top_exit_weight = exit_weight * in_layer_exit_ratio(mu0);
     // The lights, at the middles of four quarters of the ray, held over
     // each (texture lookups in the loop are what costs on llvmpipe).
     var lights: array<InLayerLight, IN_LAYER_SEGMENTS>;
@@ -381,8 +383,8 @@ fn in_layer_fragment(in: FullscreenOutput) -> @location(0) vec4<f32> {
                 side_axis = -face;
                 mu_side = clamp(dot(face, l), IN_LAYER_MIN_FACE_COSINE, 1.0);
             }
-            let from_top = exit_weight * in_layer_exit_ratio(mu0) * in_layer_beam_source(kappa_t * path_m,
-                kappa_t * chord_m, mu0, dot(-direction, top_axis), asymmetry_star);
+            let from_top = top_exit_weight * in_layer_beam_source(kappa_t * path_m, kappa_t * chord_m, mu0,
+                dot(-direction, top_axis), asymmetry_star);
             // Through a side, the slab across the face is as thick as the
             // chord along the sun: in a cell's lower half the beam leaves
             // through the base a little way on, and that thin slab lets out
@@ -394,10 +396,10 @@ fn in_layer_fragment(in: FullscreenOutput) -> @location(0) vec4<f32> {
             // level from stratus-side's mid-plane were 0.52–0.66 of the
             // reference's light (docs/REALISM.md, "The window's edge thins
             // the volume; the cells' lower halves").
-            let from_chord = exit_weight * in_layer_exit_ratio(mu_side) * in_layer_beam_source(kappa_t * path_m, kappa_t * chord_m, mu_side,
-                dot(-direction, side_axis), asymmetry_star);
-            let from_column = exit_weight * in_layer_exit_ratio(mu0) * in_layer_beam_source(kappa_t * below_top / mu0, kappa_t * h / mu0, mu0,
-                dot(-direction, top_axis), asymmetry_star);
+            let from_chord = exit_weight * in_layer_exit_ratio(mu_side) * in_layer_beam_source(kappa_t * path_m,
+                kappa_t * chord_m, mu_side, dot(-direction, side_axis), asymmetry_star);
+            let from_column = top_exit_weight * in_layer_beam_source(kappa_t * below_top / mu0, kappa_t * h / mu0,
+                mu0, dot(-direction, top_axis), asymmetry_star);
             let from_side = max(from_chord, from_column);
             // The light δ-Eddington's beam still holds beyond the
             // unscattered beam, scattered a few times within the droplets'
