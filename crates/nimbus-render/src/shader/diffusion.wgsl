@@ -261,3 +261,20 @@ fn sky_direct_source(kernel: SkyDirectKernel, transmittance: vec4<f32>) -> vec3<
     // zero, which light cannot.
     return max(source, vec3<f32>(0.0));
 }
+
+// The escape function u(μ) = (3/7)(1 + 2μ): the angular distribution of
+// light leaving a thick scattering slab after many events, of unit flux
+// (∫ u μ dμ = 1/2). Twin of nimbus_physics::transport::stratus::
+// escape_function.
+fn escape_function(mu: f32) -> f32 {
+    return 3.0 / 7.0 * (1.0 + 2.0 * clamp(mu, 0.0, 1.0));
+}
+
+// The escape function over Eddington's emergent distribution (2 + 3μ)/4,
+// both per unit flux: how the light leaving a thick slab at cosine μ to its
+// normal (and, by reciprocity, the light a beam at cosine μ sends into it)
+// differs from what the P1 field gives. Twin of nimbus_physics::transport::
+// diffusion::escape_over_eddington.
+fn escape_over_eddington(mu: f32) -> f32 {
+    return escape_function(mu) / ((2.0 + 3.0 * clamp(mu, 0.0, 1.0)) / 4.0);
+}

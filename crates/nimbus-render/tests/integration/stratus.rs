@@ -605,7 +605,7 @@ fn diffusion_kernel(@builtin(global_invocation_id) id: vec3<u32>) {
     diffusion_out[4u * i] = in_layer_collimated(a.x, a.y, a.z, a.w);
     diffusion_out[4u * i + 1u] = in_layer_collimated_net_flux(a.x, a.y, a.z, a.w);
     diffusion_out[4u * i + 2u] = eddington_source(diffuse, diffuse_net_flux, b.z, b.w).x;
-    diffusion_out[4u * i + 3u] = in_layer_exit_ratio(a.z);
+    diffusion_out[4u * i + 3u] = escape_over_eddington(a.z);
 }
 ";
 

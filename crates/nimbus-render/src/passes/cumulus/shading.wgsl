@@ -1,4 +1,5 @@
 // import shader/cloud_layer_lookup.wgsl
+// import shader/diffusion.wgsl
 // The phenomenological cumulus shader (Bouthors 2004, §5.10, eqs 5.31–5.43,
 // after Neyret 2000): the terms as pure functions of a surface point, the
 // GPU twin of nimbus_physics::cumulus::shading (whose documentation gives
@@ -358,12 +359,6 @@ fn cumulus_single_scattering(mu0: f32, mu_in: f32, tau_view: f32) -> f32 {
     return back * cumulus_exp_difference_quotient(tau_normal, back, mu);
 }
 
-// The escape function of diffuse light leaving a thick medium, u(μ) =
-// (3/7)(1 + 2μ), ∫ u μ dμ = 1/2 (nimbus_physics::transport::stratus::escape_function).
-fn cumulus_escape(mu: f32) -> f32 {
-    return 3.0 / 7.0 * (1.0 + 2.0 * saturate(mu));
-}
-
 // I of the transport model: single scattering of the sun through the
 // phase function without its peak, P_S, and the slab factor S; the forward
 // peak P as in the phenomenological model (the shadows `direct` and
@@ -399,7 +394,7 @@ fn cumulus_transport_radiance(
     let single_radiance = PI * sun * lit * cumulus_phase(-dot(o, l)) * single;
     let multiple = PI * sun * layer_shadow * max(cumulus_transfer_value(transfer, l), 0.0)
         + max(environment, vec3<f32>(0.0));
-    let multiple_radiance = cumulus_escape(exit_mu) / PI * multiple;
+    let multiple_radiance = escape_function(exit_mu) / PI * multiple;
     let peak = cumulus.extension.y * forward_shadow * sun * terms.forward_peak;
     return single_radiance + multiple_radiance + peak;
 }

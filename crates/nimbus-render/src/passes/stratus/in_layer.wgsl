@@ -53,16 +53,6 @@ const IN_LAYER_ENTRY_LEAD_M: f32 = 50.0;
 // looking up at an overcast's mid-plane).
 const IN_LAYER_BEAM_RATE: f32 = 1.0 + IN_LAYER_ASYMMETRY;
 
-// Twin of diffusion::escape_over_eddington: the exact escape function
-// u(μ) = (3/7)(1 + 2μ) over Eddington's emergent distribution (2 + 3μ)/4,
-// both per unit flux: how the light leaving a thick slab at cosine μ to its
-// normal (and, by reciprocity, the light a beam at cosine μ sends into it)
-// differs from what the P1 field gives.
-fn in_layer_exit_ratio(mu: f32) -> f32 {
-    let m = clamp(mu, 0.0, 1.0);
-    return (12.0 / 7.0) * (1.0 + 2.0 * m) / (2.0 + 3.0 * m);
-}
-
 // Twin of diffusion::collimated_fluence.
 fn in_layer_collimated(t_in: f32, total_in: f32, mu0: f32, rate: f32) -> f32 {
     if (mu0 <= 0.0) {
@@ -262,9 +252,9 @@ fn in_layer_fragment(in: FullscreenOutput) -> @location(0) vec4<f32> {
     // one inside a cell the field itself: P1's, as the faces (layer.wgsl's
     // exit weight) do.
     let outside_the_layer = abs(origin.y - mid) > half;
-    let exit_weight = select(1.0, in_layer_exit_ratio(abs(direction.y)), outside_the_layer);
+    let exit_weight = select(1.0, escape_over_eddington(abs(direction.y)), outside_the_layer);
     // The beam's share through the top, the same at every step.
-    let top_exit_weight = exit_weight * in_layer_exit_ratio(mu0);
+    let top_exit_weight = exit_weight * escape_over_eddington(mu0);
     // The lights, at the middles of four quarters of the ray, held over
     // each (texture lookups in the loop are what costs on llvmpipe).
     var lights: array<InLayerLight, IN_LAYER_SEGMENTS>;
@@ -396,7 +386,7 @@ fn in_layer_fragment(in: FullscreenOutput) -> @location(0) vec4<f32> {
             // level from stratus-side's mid-plane were 0.52–0.66 of the
             // reference's light (docs/REALISM.md, "The window's edge thins
             // the volume; the cells' lower halves").
-            let from_chord = exit_weight * in_layer_exit_ratio(mu_side) * in_layer_beam_source(kappa_t * path_m,
+            let from_chord = exit_weight * escape_over_eddington(mu_side) * in_layer_beam_source(kappa_t * path_m,
                 kappa_t * chord_m, mu_side, dot(-direction, side_axis), asymmetry_star);
             let from_column = top_exit_weight * in_layer_beam_source(kappa_t * below_top / mu0, kappa_t * h / mu0,
                 mu0, dot(-direction, top_axis), asymmetry_star);

@@ -1,5 +1,6 @@
 // import shader/cloud_layer_lookup.wgsl
 // import shader/cloud_shadow_lookup.wgsl
+// import shader/diffusion.wgsl
 // import shader/fullscreen.wgsl
 // Stratus layer pass: the layer drawn as a displaced grid over the
 // thickness window (built on the GPU from the field: no CPU upload per
@@ -170,13 +171,6 @@ fn level_fragment(in: FullscreenOutput) -> LevelOutput {
 // The layer's radiance and opacity at `position_m` on the face `face` (+1
 // the top, −1 the base) where its thickness is `h`, seen by a camera level
 // with the layer when `level`, pre-exposed, alpha premultiplied.
-// The escape function u(μ) = (3/7)(1 + 2μ): the angular distribution of
-// light leaving a thick scattering slab after many events, of unit flux
-// (nimbus_physics::transport::stratus::escape_function).
-fn escape_function(mu: f32) -> f32 {
-    return 3.0 / 7.0 * (1.0 + 2.0 * clamp(mu, 0.0, 1.0));
-}
-
 fn shade_layer(position_m: vec3<f32>, face: f32, h: f32, level: bool) -> vec4<f32> {
     let xz = position_m.xz;
     // The local slab normal, from the thickness gradient: both faces are
