@@ -2,6 +2,7 @@
 
 use super::{FrameTargets, PassId, PassSet, Renderer, TargetLoad};
 use crate::core::targets::{FAR_DEPTH, Target, colour_pass};
+use crate::passes::cumulus::MarchGroup;
 use std::sync::atomic::Ordering;
 
 /// Set in `Renderer::lighting_recorded` when `encode_lighting` recorded
@@ -196,9 +197,10 @@ impl Renderer {
                     .map(|t| t.pass_writes(PassId::CumulusFringes.timer_index())),
             );
         }
-        // The cumulus marches, of the volume model (6b) or of the cloud the
-        // camera is in or near (8e).
-        let cumulus_marches = |encoder: &mut wgpu::CommandEncoder| {
+        // The cumulus marches, of the volume model (6b, and 7b for the
+        // clouds between the camera and the stratus layer) or of the cloud
+        // the camera is in or near (8e).
+        let cumulus_marches = |encoder: &mut wgpu::CommandEncoder, group: MarchGroup| {
             let writes = |id: PassId| self.timer.as_ref().map(|t| t.pass_writes(id.timer_index()));
             self.cumulus.encode_in_cloud(
                 encoder,
@@ -206,15 +208,18 @@ impl Renderer {
                 depth,
                 &frame,
                 lighting_generation,
+                group,
                 writes(PassId::CumulusInCloudLight),
                 writes(PassId::CumulusInCloud),
             );
         };
         // 6b. The volume model: the clouds in view marched as volumes over
-        // what is behind them, writing the depth of their bodies.
+        // what is behind them, writing the depth of their bodies (those
+        // wholly in front of the stratus layer wait for it, 7b).
         if volume {
-            cumulus_marches(encoder);
+            cumulus_marches(encoder, MarchGroup::BehindOrAmongLayer);
         }
+        let marches_in_front_of_layer = volume && self.cumulus.volume_in_front_of_layer();
         // 7. The stratus layer, blended over sky, terrain and cumulus bodies,
         // depth-tested; or, for a layer marched as a volume and seen from
         // below, the march there (the mist and rain under it are in front).
@@ -230,6 +235,7 @@ impl Renderer {
             );
         };
         let layer_marched_early = in_layer && self.stratus.marches_before_overlays();
+        let layer_marched_late = in_layer && !layer_marched_early;
         if layer_marched_early {
             layer_march(encoder);
         }
@@ -244,6 +250,12 @@ impl Renderer {
                 wgpu::LoadOp::Load,
             );
             self.stratus.draw(&mut pass, &frame);
+        }
+        // 7b. The volume model's clouds wholly between the camera and the
+        // layer, over it: the layer would otherwise come out in front of
+        // their fog wherever it is thinner than opaque (in_cloud::MarchGroup).
+        if marches_in_front_of_layer && !layer_marched_late {
+            cumulus_marches(encoder, MarchGroup::InFrontOfLayer);
         }
         // 8. The cumulus fringes over everything behind them.
         if cumulus {
@@ -269,14 +281,18 @@ impl Renderer {
         }
         // 8d. The camera in or near the stratus layer's height range: the
         // layer marched as a volume over everything (its faces faded out).
-        if in_layer && !layer_marched_early {
+        if layer_marched_late {
             layer_march(encoder);
+            // The layer complete, the clouds in front of it (7b).
+            if marches_in_front_of_layer {
+                cumulus_marches(encoder, MarchGroup::InFrontOfLayer);
+            }
         }
         // 8e. The camera in or near a cumulus: that cloud marched as a
         // volume over everything (its mesh faded out), attenuating what is
         // behind it — the caller's surfaces included, through the depth.
         if in_cloud {
-            cumulus_marches(encoder);
+            cumulus_marches(encoder, MarchGroup::BehindOrAmongLayer);
         }
         // 9–10 in LinearHdr: nimbus's target over the caller's colour; the
         // caller exposes and tone maps.

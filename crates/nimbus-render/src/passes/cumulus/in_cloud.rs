@@ -25,7 +25,9 @@
 //! first, right after the meshes of the others and before the stratus
 //! layer: each march writes the depth where the cloud becomes opaque
 //! (its transmittance crosses ½), so that what is drawn after it (the
-//! layer, the rain) is hidden behind its body as behind a mesh.
+//! layer, the rain) is hidden behind its body as behind a mesh. The clouds
+//! wholly between the camera and the layer's slab are marched after the
+//! layer instead, over it ([`MarchGroup`]), so that their fog veils it.
 //!
 //! The sun's scattered light towards the camera comes from each marched
 //! instance's sun cube ([`interior::SunCubeKey`]), traced on a worker thread
@@ -124,6 +126,8 @@ pub(super) struct Active {
     variant: usize,
     /// The march's weight (1 − the mesh's opacity factor).
     pub fade: f32,
+    /// Drawn after the stratus layer ([`MarchGroup::InFrontOfLayer`]).
+    in_front_of_layer: bool,
     /// The pixels its box may cover: x, y, width, height.
     scissor: [u32; 4],
     /// What its light atlas is rendered from besides `Lighting`: its
@@ -141,6 +145,36 @@ pub(super) struct MarchView {
     pub clip_from_world: Mat4,
     /// The target's size, pixels.
     pub size: (u32, u32),
+    /// The stratus layer's slab (its cells' lowest base and highest top,
+    /// m), if the scene has one: a volume march wholly between it and the
+    /// camera is drawn after it ([`MarchGroup::InFrontOfLayer`]).
+    pub layer_slab_m: Option<[f64; 2]>,
+}
+
+/// Which of the frame's marches a call of [`InCloud::encode`] records.
+///
+/// The volume model draws its marches before the stratus layer, each
+/// writing the depth where its cloud is opaque, so that the layer is hidden
+/// behind the bodies of clouds in front of it and drawn over clouds behind
+/// it. The layer is blended over whatever its depth test passes, so where
+/// a march in front of it is thinner than opaque (the fog around the
+/// camera inside a cloud, a cloud's thin edge) the layer came out in front
+/// of the fog: in the flight through a cumulus under a deck a hard-edged
+/// region of the deck's base, sharp through the fog that should veil it,
+/// opened where the fog's transmittance crossed ½ (docs/REALISM.md, "The
+/// fog's hard edge under a deck"). A cloud wholly on the camera's side of
+/// the layer's slab is in front of the layer along every ray (a ray leaves
+/// the cloud's heights before it reaches the layer's), so its march is
+/// drawn after the layer, over it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum MarchGroup {
+    /// Every march that is not in front of the layer (all of them outside
+    /// the volume model), with every stale light atlas of the frame: the
+    /// first call.
+    BehindOrAmongLayer,
+    /// The volume model's marches of clouds wholly between the camera and
+    /// the layer's slab, after the layer.
+    InFrontOfLayer,
 }
 
 /// Bind groups and what they were made for: (scene depth view, variant,
@@ -396,6 +430,11 @@ impl InCloud {
         self.volume
     }
 
+    /// Whether any of this frame's marches is drawn after the stratus layer.
+    pub(super) fn any_in_front_of_layer(&self) -> bool {
+        self.active.iter().any(|a| a.in_front_of_layer)
+    }
+
     /// Chooses the instances the march draws this frame — with `view.volume`
     /// every cloud in view (the nearest [`MAX_MARCHED_CLOUDS`]), else the
     /// cloud whose box is nearest the camera within [`HANDOVER_M`] —
@@ -508,10 +547,15 @@ impl InCloud {
             light_inputs.offset_scale[..3].fill(0.0);
             light_inputs.rotation[2] = 0.0;
             light_inputs.light_dims[3] = 0;
+            let in_front_of_layer = view.volume
+                && view.layer_slab_m.is_some_and(|slab| {
+                    in_front_of_slab(box_heights_m(cloud, interior), camera_m.y, slab)
+                });
             self.active.push(Active {
                 cloud: index,
                 variant: cloud.variant,
                 fade,
+                in_front_of_layer,
                 scissor: box_scissor(cloud, interior, &view.clip_from_world, view.size),
                 light_inputs,
             });
@@ -654,13 +698,15 @@ impl InCloud {
             .any(|a| self.stale_light(a, lighting_generation).is_some())
     }
 
-    /// Records, for each instance of this frame (farthest first), its light
-    /// atlas where it is stale (new, or the lighting, its scale or yaw
-    /// changed), a copy of the depth over its box's pixels and its march
-    /// over `hdr` — in the volume model writing `depth` where the cloud is
-    /// opaque. `cumulus_uniform`: the cumulus group's binding 0;
-    /// `lighting_generation`: the atmosphere's count of lighting steps
-    /// recorded.
+    /// Records, for each instance of this frame in `group` (farthest
+    /// first), a copy of the depth over its box's pixels and its march over
+    /// `hdr` — in the volume model writing `depth` where the cloud is
+    /// opaque; with [`MarchGroup::BehindOrAmongLayer`] (the first call),
+    /// before them every instance's light atlas where it is stale (new, or
+    /// the lighting, its scale or yaw changed). `cumulus_uniform`: the
+    /// cumulus group's binding 0; `lighting_generation`: the atmosphere's
+    /// count of lighting steps recorded. The timers span both calls: the
+    /// first march's start, the last's end.
     #[allow(clippy::too_many_arguments)]
     pub fn encode(
         &self,
@@ -670,6 +716,7 @@ impl InCloud {
         frame: &FrameBindings<'_>,
         cumulus_uniform: &wgpu::Buffer,
         lighting_generation: u64,
+        group: MarchGroup,
         light_timestamps: Option<wgpu::RenderPassTimestampWrites<'_>>,
         march_timestamps: Option<wgpu::RenderPassTimestampWrites<'_>>,
     ) {
@@ -713,9 +760,15 @@ impl InCloud {
                 end_of_pass_write_index: end,
             })
         }
-        // Each instance's light atlas, groups and pixels.
+        // Each instance's light atlas, groups and pixels, in the order of
+        // both calls: those behind or among the layer, then those in front.
         let mut drawn = Vec::with_capacity(self.active.len());
-        for active in &self.active {
+        let order = self
+            .active
+            .iter()
+            .filter(|a| !a.in_front_of_layer)
+            .chain(self.active.iter().filter(|a| a.in_front_of_layer));
+        for active in order {
             let (Some(g), Some(slot)) = (gpu.get(active.variant), self.slots.get(&active.cloud))
             else {
                 continue;
@@ -755,12 +808,20 @@ impl InCloud {
                     .lock()
                     .unwrap_or_else(std::sync::PoisonError::into_inner) = Some(wanted.clone());
             }
-            drawn.push((light, groups, active.scissor, stale.is_some()));
+            drawn.push((
+                light,
+                groups,
+                active.scissor,
+                stale.is_some(),
+                active.in_front_of_layer,
+            ));
         }
         let count = drawn.len();
+        // The first call renders the stale atlases (marked fresh above, so
+        // the second finds none).
         let lights: Vec<_> = drawn
             .iter()
-            .filter(|d| d.3)
+            .filter(|d| d.3 && group == MarchGroup::BehindOrAmongLayer)
             .map(|(light, (light_group, _), ..)| (light, light_group))
             .collect();
         // The stale light atlases first, then the marches (farthest first),
@@ -787,7 +848,10 @@ impl InCloud {
             frame.set_on(&mut pass, Some(light_group));
             pass.draw(0..3, 0..1);
         }
-        for (k, (_, (_, march_group), [x, y, w, h], _)) in drawn.iter().enumerate() {
+        for (k, (_, (_, march_group), [x, y, w, h], _, in_front)) in drawn.iter().enumerate() {
+            if *in_front != (group == MarchGroup::InFrontOfLayer) {
+                continue;
+            }
             let (x, y, w, h) = (*x, *y, *w, *h);
             // The march's timer starts with its first copy of the depth.
             let start = span(&march_timestamps, k == 0, false);
@@ -1112,6 +1176,22 @@ fn object_direction(rotation_noise: [f32; 4], world: DVec3) -> DVec3 {
 }
 
 /// Distance from the camera to a cloud's extinction box, world m (0 inside).
+/// The lowest and highest heights of a placed cloud's extinction box, m
+/// (the clouds turn about the vertical only).
+fn box_heights_m(cloud: &FieldCloud, interior: &VariantInterior) -> [f64; 2] {
+    let [_, oy, _, scale] = cloud.instance.offset_scale.map(f64::from);
+    let e = &interior.extinction;
+    [oy + scale * e.origin_m.y, oy + scale * e.max_corner_m().y]
+}
+
+/// Whether a box spanning `heights_m` lies wholly between a camera at
+/// `camera_y_m` and the slab `[base, top]` (m): both below its base or both
+/// above its top. Along any ray from the camera the box's heights then come
+/// before the slab's, so nothing of the slab is in front of the box.
+fn in_front_of_slab(heights_m: [f64; 2], camera_y_m: f64, [base_m, top_m]: [f64; 2]) -> bool {
+    (camera_y_m < base_m && heights_m[1] <= base_m) || (camera_y_m > top_m && heights_m[0] >= top_m)
+}
+
 fn box_distance_m(cloud: &FieldCloud, interior: &VariantInterior, camera_m: DVec3) -> f64 {
     let [ox, oy, oz, scale] = cloud.instance.offset_scale.map(f64::from);
     let object = object_direction(
@@ -1123,4 +1203,30 @@ fn box_distance_m(cloud: &FieldCloud, interior: &VariantInterior, camera_m: DVec
         .max(object - e.max_corner_m())
         .max(DVec3::ZERO);
     outside.length() * scale
+}
+
+#[cfg(test)]
+mod tests {
+    use super::in_front_of_slab;
+
+    const SLAB_M: [f64; 2] = [2600.0, 3000.0];
+
+    #[test]
+    fn a_cloud_on_the_cameras_side_of_the_layer_is_in_front_of_it() {
+        // Below the deck, the camera in a cumulus under it, or above it
+        // over a cloud on its top.
+        assert!(in_front_of_slab([1400.0, 2400.0], 2100.0, SLAB_M));
+        assert!(in_front_of_slab([1400.0, 2600.0], 500.0, SLAB_M));
+        assert!(in_front_of_slab([3000.0, 3800.0], 4000.0, SLAB_M));
+    }
+
+    #[test]
+    fn a_cloud_across_or_beyond_the_layer_is_not() {
+        // Reaching into the deck; above it seen from below; below it seen
+        // from above; the camera within the slab.
+        assert!(!in_front_of_slab([1400.0, 2700.0], 2100.0, SLAB_M));
+        assert!(!in_front_of_slab([3100.0, 3800.0], 2100.0, SLAB_M));
+        assert!(!in_front_of_slab([1400.0, 2400.0], 3500.0, SLAB_M));
+        assert!(!in_front_of_slab([1400.0, 2400.0], 2800.0, SLAB_M));
+    }
 }

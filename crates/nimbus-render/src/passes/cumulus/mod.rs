@@ -20,7 +20,9 @@
 //! 5. After the stratus layer (which is depth-tested against the bodies),
 //!    `cumulus_composite` blends the fringes over the frame.
 //! 6. Only with the camera in or near a cloud ([`in_cloud`]): that cloud
-//!    marched as a volume over everything, its mesh faded out.
+//!    marched as a volume over everything, its mesh faded out. In the
+//!    volume model every cloud in view is marched, before the stratus layer
+//!    or, wholly between the camera and the layer, after it.
 
 pub mod in_cloud;
 pub mod interior;
@@ -136,7 +138,7 @@ pub use field::{
 pub use gpu_types::{
     BUMP_LACUNARITY, CloudPlacement, CumulusInstance, CumulusUniform, PHASE_TEXELS,
 };
-pub use in_cloud::{InCloudUniform, in_cloud_shader_source};
+pub use in_cloud::{InCloudUniform, MarchGroup, in_cloud_shader_source};
 /// Level of detail drawn into the shadow map (clamped to what exists): its
 /// cells (a last-level blob radius) match the map's texels of ~10 m.
 const SHADOW_LOD: usize = 1;

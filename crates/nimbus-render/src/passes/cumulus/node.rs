@@ -1,6 +1,6 @@
 //! The encode step: the shadow map, the opaque bodies, the fringes' order-independent accumulation (weighted blended OIT) and its composite.
 
-use super::{CumulusPass, Draw, FringeTargets};
+use super::{CumulusPass, Draw, FringeTargets, MarchGroup};
 use crate::core::binding;
 use crate::frame::cloud_shadow::CloudShadowMap;
 use crate::frame::{CLOUD_LIGHTING_GROUP, FRAME_GROUP, FrameBindings, PASS_GROUP};
@@ -166,6 +166,13 @@ impl CumulusPass {
         !self.in_cloud.active().is_empty() && self.in_cloud.volume()
     }
 
+    /// Whether the volume model marches clouds wholly between the camera
+    /// and the stratus layer this frame (drawn after the layer:
+    /// [`Self::encode_in_cloud`] with [`MarchGroup::InFrontOfLayer`]).
+    pub fn volume_in_front_of_layer(&self) -> bool {
+        self.in_cloud.volume() && self.in_cloud.any_in_front_of_layer()
+    }
+
     /// Whether [`Self::encode_in_cloud`] will render any instance's light
     /// atlas this frame (`lighting_generation`: the atmosphere's count of
     /// lighting steps recorded; the atlases are kept while it and the
@@ -174,9 +181,10 @@ impl CumulusPass {
         self.in_cloud.light_pending(lighting_generation)
     }
 
-    /// Records the in-cloud passes (see [`super::in_cloud`]): the active
-    /// instances' light where it is stale, then their marches over `hdr`,
-    /// reading `depth`.
+    /// Records the in-cloud passes (see [`super::in_cloud`]): with
+    /// [`MarchGroup::BehindOrAmongLayer`] (the first call) the active
+    /// instances' light where it is stale; then the marches of `group` over
+    /// `hdr`, reading `depth`.
     #[allow(clippy::too_many_arguments)]
     pub fn encode_in_cloud(
         &self,
@@ -185,6 +193,7 @@ impl CumulusPass {
         depth: &wgpu::TextureView,
         frame: &FrameBindings<'_>,
         lighting_generation: u64,
+        group: MarchGroup,
         light_timestamps: Option<wgpu::RenderPassTimestampWrites<'_>>,
         march_timestamps: Option<wgpu::RenderPassTimestampWrites<'_>>,
     ) {
@@ -195,6 +204,7 @@ impl CumulusPass {
             frame,
             &self.uniform,
             lighting_generation,
+            group,
             light_timestamps,
             march_timestamps,
         );

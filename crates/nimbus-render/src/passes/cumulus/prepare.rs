@@ -427,6 +427,10 @@ impl CumulusPass {
                 volume,
                 clip_from_world: frame.clip_from_world(),
                 size: (width, height),
+                layer_slab_m: scene
+                    .stratus
+                    .as_ref()
+                    .map(|layer| [layer.base_m, layer.base_m + layer.thickness_m]),
             };
             self.in_cloud.ensure_scene_depth(view.size);
             self.in_cloud.prepare(
