@@ -88,8 +88,8 @@ fn gpu_thickness_window_matches_the_cpu_field() {
     );
 }
 
-/// The radiosity inputs computed on the GPU (ρ_C = R_ms of the texel's
-/// mean thickness) follow the CPU 1-D model, and R_G, R_C after the
+/// The radiosity inputs computed on the GPU (ρ_C the mean of R_ms over the
+/// texel's 4 × 4 columns) follow the CPU 1-D model, and R_G, R_C after the
 /// iterations equal the CPU iteration of those same inputs within 1 %.
 #[test]
 fn gpu_stratus_radiosity_matches_the_cpu_reference() {
@@ -121,13 +121,17 @@ fn gpu_stratus_radiosity_matches_the_cpu_reference() {
         for i in 0..size {
             let x = uniform.radiosity[0] as f64 + (i as f64 + 0.5) * texel_m;
             let z = uniform.radiosity[1] as f64 + (j as f64 + 0.5) * texel_m;
-            let q = 0.25 * texel_m;
-            let h_mean = [(-q, -q), (q, -q), (-q, q), (q, q)]
-                .iter()
-                .map(|(dx, dz)| field.thickness_m(x + dx, z + dz, time_s as f64))
+            // The columns at the centres of a 4 × 4 split of the texel
+            // (compute.wgsl's RADIOSITY_TEXEL_SAMPLES).
+            let r_ms = (0..16)
+                .map(|k| {
+                    let dx = ((k % 4) as f64 + 0.5) / 4.0 - 0.5;
+                    let dz = ((k / 4) as f64 + 0.5) / 4.0 - 0.5;
+                    let h = field.thickness_m(x + dx * texel_m, z + dz * texel_m, time_s as f64);
+                    1.0 - one_dimensional::t_ms(&params, table.beta, h)
+                })
                 .sum::<f64>()
-                / 4.0;
-            let r_ms = 1.0 - one_dimensional::t_ms(&params, table.beta, h_mean);
+                / 16.0;
             worst_rho = worst_rho.max((cloud_reflectance[j * size + i][0] as f64 - r_ms).abs());
         }
     }

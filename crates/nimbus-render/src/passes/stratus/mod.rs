@@ -8,7 +8,8 @@
 //!    wind-advected layer animates without uploads.
 //! 2. `radiosity_inputs` (compute): ρ_C, S_C and the shadowed sun light S_G^d
 //!    over the radiosity grid (texels as large as the layer is high, §5.3),
-//!    then the [`RadiosityPass`] iterations.
+//!    each the mean over 4 × 4 columns of the texel (the sun's light by
+//!    columns tilted along its beam), then the [`RadiosityPass`] iterations.
 //! 3. The drawing passes read the layer through the frame's group 3
 //!    ([`crate::frame::cloud_lighting`], whose layer-sized parts this pass
 //!    hands in): the terrain's sun light is shadowed by T_C at the sun ray's
