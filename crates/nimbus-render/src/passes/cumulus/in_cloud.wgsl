@@ -43,7 +43,8 @@ struct InCloud {
 // scattered fluence Σ Φ_k L_k (W m⁻², pre-exposure not applied), a the
 // sun's per unit irradiance Σ Φ_k Y_k(l); beside them (x + nx) the direct
 // transmittance from the sky, its mean t̄ and first moment b, then (x + 2 nx)
-// the sky's scattered light's net flux Σ_k F_k L_k (luminance, world).
+// the sky's scattered light's net flux Σ_k F_k L_k (luminance, world) and in
+// a the scattered fluence of a unit irradiance from a uniform ground below.
 @group(1) @binding(5) var in_cloud_light: texture_2d<f32>;
 @group(1) @binding(6) var in_cloud_sampler: sampler;
 // The depth buffer, read only by the copy each march reads (binding 11):
@@ -245,7 +246,17 @@ fn in_cloud_light_fragment(in: FullscreenOutput) -> @location(0) vec4<f32> {
         let sky_world = vec3<f32>(dot(lighting.clouds_sh[3].xyz, luma), dot(lighting.clouds_sh[1].xyz, luma), dot(lighting.clouds_sh[2].xyz, luma));
         let sky = in_cloud_object_direction(sky_world) * in_cloud.offset_scale.w;
         let flux = sky_0 * a.xyz + sky.y * vec3<f32>(a.w, b.xy) + sky.z * vec3<f32>(b.zw, c.x) + sky.x * c.yzw;
-        return vec4<f32>(cumulus_rotate(flux, in_cloud.rotation.x, in_cloud.rotation.y), 0.0);
+        // Beside it, the scattered fluence of a unit irradiance from a
+        // uniform ground below (the SH of stratus_layered_lighting's G),
+        // which the march adds under a stratus layer as the mesh does.
+        var ground = lighting;
+        for (var k = 0u; k < 9u; k += 1u) {
+            ground.sh[k] = vec4<f32>(0.0);
+        }
+        ground.sh[0] = vec4<f32>(vec3<f32>(STRATUS_GROUND_SH_0), 0.0);
+        ground.sh[1] = vec4<f32>(vec3<f32>(STRATUS_GROUND_SH_Y), 0.0);
+        let ground_fluence = cumulus_transfer_environment(in_cloud_turned_form(at), ground).y;
+        return vec4<f32>(cumulus_rotate(flux, in_cloud.rotation.x, in_cloud.rotation.y), ground_fluence);
     }
     if (texel.x >= dims.x) {
         let direct = in_cloud_turned_form(at + 6u);
@@ -284,14 +295,15 @@ fn in_cloud_march(origin_m: vec3<f32>, direction: vec3<f32>, t0: f32, t1: f32) -
     let steps = u32(in_cloud.rotation.w);
     let l = frame.sun_direction;
     let phase = cumulus_phase(dot(direction, l));
-    // Under a stratus layer the light that is there (stratus_under_light):
-    // the scattered fluence's luminance scaled to the layer's R_G, taking
-    // its colour; the sky's direct light from the layered SH. The ground's
-    // part is not replaced by R_C here as the mesh's shading does: added
-    // through the fluence of a lower hemisphere, it made the flight
-    // through a cumulus under a deck step at the mesh's hand-over to this
-    // march (thumbnail step 0.063 → 0.094 against the test's 0.08), not
-    // yet understood (docs/REALISM.md, "A cumulus under a broken deck").
+    // Under a stratus layer the light that is there (stratus_under_light),
+    // as the mesh's shading takes it (stratus_layered_lighting): the
+    // scattered fluence's luminance scaled to the layer's R_G, taking its
+    // colour, and the ground's light replaced by the radiosity's R_C through
+    // the fluence of a uniform lower hemisphere (the light atlas's third
+    // part); the sky's direct light from the layered SH. (Tried before the
+    // marches in front of the layer were drawn after it, the darker fog made
+    // the flight through a cumulus under a deck step: docs/REALISM.md, "The
+    // fog's hard edge under a deck".)
     let under = stratus_under_light(clouds_lighting(lighting), origin_m + direction * t0);
     let luma = IN_CLOUD_LUMA;
     // δ-M's peak-removed asymmetry g* = (g − f)/(1 − f).
@@ -388,15 +400,18 @@ fn in_cloud_march(origin_m: vec3<f32>, direction: vec3<f32>, t0: f32, t1: f32) -
         let segment = min(i * IN_CLOUD_SHADOW_SEGMENTS / steps, IN_CLOUD_SHADOW_SEGMENTS - 1u);
         let sun = sun_segments[segment];
         var environment = light.rgb;
+        var flux_ground = vec4<f32>(0.0);
+        if (sky_direct_weight > 0.0 || under.under) {
+            flux_ground = in_cloud_light_at(texel, 2.0);
+        }
         if (sky_direct_weight > 0.0) {
             // Eddington's (Φ + 3 g* o·F)/(4π): the sky's scattered light
             // flows out through the faces (cumulus::interior's notes).
-            let flux = in_cloud_light_at(texel, 2.0).xyz;
-            let toward = 3.0 * asymmetry * dot(-direction, flux) / max(dot(light.rgb, luma), 1e-6);
+            let toward = 3.0 * asymmetry * dot(-direction, flux_ground.xyz) / max(dot(light.rgb, luma), 1e-6);
             environment *= max(1.0 + sky_direct_weight * toward, 0.0);
         }
         if (under.under) {
-            environment = under.sky_scale * dot(environment, luma);
+            environment = max(under.sky_scale * dot(environment, luma) + under.ground_add * flux_ground.w, vec3<f32>(0.0));
         }
         // The sun's scattered light towards the camera: from the sun cube
         // and its excess along the beam; until it is ready, what left the
