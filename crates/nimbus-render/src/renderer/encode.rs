@@ -219,7 +219,7 @@ impl Renderer {
         if volume {
             cumulus_marches(encoder, MarchGroup::BehindOrAmongLayer);
         }
-        let marches_in_front_of_layer = volume && self.cumulus.volume_in_front_of_layer();
+        let marches_in_front_of_layer = self.cumulus.volume_in_front_of_layer();
         // 7. The stratus layer, blended over sky, terrain and cumulus bodies,
         // depth-tested; or, for a layer marched as a volume and seen from
         // below, the march there (the mist and rain under it are in front).

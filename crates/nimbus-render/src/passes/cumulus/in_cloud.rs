@@ -1059,7 +1059,7 @@ fn instance_uniform(
 
 /// The light atlas of an instance: its cells as z slices stacked in y, the
 /// scattered light's, the direct transmittance's (x + nx), the scattered
-/// light's net flux (x + 2 nx).
+/// light's net flux with a unit ground's scattered fluence (x + 2 nx).
 fn light_atlas(device: &wgpu::Device, [nx, ny, nz]: [u32; 3]) -> wgpu::TextureView {
     device
         .create_texture(&wgpu::TextureDescriptor {
@@ -1175,7 +1175,6 @@ fn object_direction(rotation_noise: [f32; 4], world: DVec3) -> DVec3 {
     )
 }
 
-/// Distance from the camera to a cloud's extinction box, world m (0 inside).
 /// The lowest and highest heights of a placed cloud's extinction box, m
 /// (the clouds turn about the vertical only).
 fn box_heights_m(cloud: &FieldCloud, interior: &VariantInterior) -> [f64; 2] {
@@ -1192,6 +1191,7 @@ fn in_front_of_slab(heights_m: [f64; 2], camera_y_m: f64, [base_m, top_m]: [f64;
     (camera_y_m < base_m && heights_m[1] <= base_m) || (camera_y_m > top_m && heights_m[0] >= top_m)
 }
 
+/// Distance from the camera to a cloud's extinction box, world m (0 inside).
 fn box_distance_m(cloud: &FieldCloud, interior: &VariantInterior, camera_m: DVec3) -> f64 {
     let [ox, oy, oz, scale] = cloud.instance.offset_scale.map(f64::from);
     let object = object_direction(

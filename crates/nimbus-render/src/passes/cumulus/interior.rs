@@ -93,7 +93,8 @@ pub const LIGHT_FORMS: usize = 18;
 
 /// Parts of the light atlas side by side, each one value per cell: the
 /// scattered light, the direct transmittance from the sky, the scattered
-/// light's net flux (WGSL `IN_CLOUD_LIGHT_PARTS`).
+/// light's net flux (and, in its fourth channel, the scattered fluence of a
+/// unit irradiance from a uniform ground below; WGSL `IN_CLOUD_LIGHT_PARTS`).
 pub const LIGHT_PARTS: u32 = 3;
 
 /// One light cell's forms (see [`VariantInterior::light_forms`]).
