@@ -283,7 +283,7 @@ const OTHER_MODELS: [(&str, &[&str], &str); 4] = [
     ("fitted", &["cumulus", "shading"], "fitted"),
     ("bouthors2004", &["cumulus", "shading"], "bouthors2004"),
     ("transport", &["cumulus", "shading"], "transport"),
-    ("stratus_volume", &["stratus"], "volume"),
+    ("stratus_marched", &["stratus"], "marched"),
 ];
 
 /// The realism suite (docs/REALISM.md): every scene of scenes/realism/ is
@@ -296,7 +296,8 @@ const OTHER_MODELS: [(&str, &[&str], &str); 4] = [
 /// errors: realism can only improve. Where a record also keeps another
 /// model's ([`OTHER_MODELS`]: `"fitted"`, the scene with
 /// `cumulus.shading.model = "fitted"`, the default before `volume`;
-/// `"stratus_volume"`, with `stratus.model = "volume"`), that model is held
+/// `"stratus_marched"`, with `stratus.model = "marched"`, the layer's
+/// default before `volume`), that model is held
 /// to it the same way.
 #[test]
 fn the_realism_suite_does_not_move_away_from_its_references() {
@@ -329,7 +330,7 @@ fn the_realism_suite_does_not_move_away_from_its_references() {
         let mut runs = vec![(name.clone(), scene.clone(), &record["error"]["halves"])];
         // Another model than the default, held to its own record where one
         // is kept (`"fitted"`: the scene with that cumulus model;
-        // `"stratus_volume"`: with `stratus.model = "volume"`).
+        // `"stratus_marched"`: with `stratus.model = "marched"`).
         for (key, section, model) in OTHER_MODELS
             .iter()
             .filter(|(key, _, _)| record.get(*key).is_some())

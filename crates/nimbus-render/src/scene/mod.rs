@@ -419,9 +419,10 @@ pub struct StratusSettings {
     /// Ground–cloud radiosity iterations (each one ground → cloud → ground),
     /// 0 to 32 (Bouthors 2006: 2 suffice over country, 8 over snow).
     pub radiosity_iterations: u32,
-    /// How the layer is shaded: `marched` (default), the paper's slab
-    /// (`bnl2006`) or the layer marched as a volume from every camera
-    /// (`volume`).
+    /// How the layer is shaded: marched as a volume from every camera
+    /// (`volume`, the default), its surface shaded as a slab with the
+    /// paths the slab misses marched (`marched`), or the paper's slab
+    /// (`bnl2006`).
     pub model: StratusShadingModel,
 }
 
@@ -435,8 +436,9 @@ pub enum StratusShadingModel {
     /// sun); the diffuse light (orders 3+, sky and ground) leaving by the
     /// escape function rather than isotropically
     /// (`nimbus_physics::transport::stratus::DiffuseExit`). docs/stratus.md
-    /// and docs/REALISM.md give the gain.
-    #[default]
+    /// and docs/REALISM.md give the gain. The default before `volume`: it
+    /// costs less (docs/PERFORMANCE.md) and stays nearer the reference on
+    /// `stratus-sunset-plane`'s grazing sun (docs/REALISM.md).
     Marched,
     /// Bouthors et al. (2006) as published: every point of the surface a
     /// horizontal slab of the local thickness, lit and seen through it
@@ -448,7 +450,11 @@ pub enum StratusShadingModel {
     /// cells' diffusion light (the in-layer march of docs/stratus.md), so
     /// that thin rims are thin, cells shade each other and light entering
     /// their sunlit sides reaches the camera. docs/REALISM.md gives the
-    /// gain and docs/PERFORMANCE.md the cost.
+    /// gain and docs/PERFORMANCE.md the cost. The default: nearer the
+    /// path-traced references than `marched` on every scene of the realism
+    /// suite with a deck but the sunset seen from a plane (docs/REALISM.md,
+    /// "The stratus layer as a volume by default").
+    #[default]
     Volume,
 }
 
@@ -467,7 +473,7 @@ impl Default for StratusSettings {
             extent_m: 40_000.0,
             resolution: 512,
             radiosity_iterations: 3,
-            model: StratusShadingModel::Marched,
+            model: StratusShadingModel::Volume,
         }
     }
 }

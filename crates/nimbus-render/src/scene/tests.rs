@@ -122,8 +122,14 @@ fn wrong_types_are_rejected_with_the_line() {
 }
 
 #[test]
-fn stratus_model_is_marched_by_default_and_the_paper_or_the_volume_on_request() {
+fn stratus_model_is_the_volume_by_default_and_the_faces_or_the_paper_on_request() {
     let scene = Scene::from_toml_str("[stratus]\n", "scene.toml").expect("scene");
+    assert_eq!(
+        scene.stratus.expect("stratus").model,
+        StratusShadingModel::Volume
+    );
+    let scene =
+        Scene::from_toml_str("[stratus]\nmodel = \"marched\"", "scene.toml").expect("scene");
     assert_eq!(
         scene.stratus.expect("stratus").model,
         StratusShadingModel::Marched

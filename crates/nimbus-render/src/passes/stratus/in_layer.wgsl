@@ -29,7 +29,9 @@
 // forward_orders_lobe; the same slab and the same inputs as the faces'
 // shading, layer.wgsl). Near a lit top, where the sun's light has not
 // diffused, its scattered part is the source traced in a slab instead
-// (stratus_interior_source, twin of transport::interior_source).
+// (stratus_interior_source, twin of transport::interior_source). Under a
+// low sun other cells between the sun and a cell's lit top shade it, as
+// they shade the faces (in_layer_top_shading_m).
 
 @group(1) @binding(0) var in_layer_depth: texture_depth_2d;
 
@@ -167,6 +169,28 @@ fn in_layer_beam_source(path: f32, chord: f32, mu_face: f32, mu_view: f32, asymm
 // still takes a little light rather than none.
 const IN_LAYER_MIN_FACE_COSINE: f32 = 0.05;
 
+// Length of cloud (m) the sun's path from the top of the column at `p`
+// crosses on its way out of the layer's height range (at most two feature
+// sizes): the other cells that shade that column's lit top. The faces'
+// march (stratus_cloud_along_ray_m, twin of
+// nimbus_physics::cloud_layer::cloud_along_ray_m), whose first steps are
+// tens of metres: the view's six coarse sun paths drew the shadows in
+// contour lines.
+fn in_layer_top_shading_m(p: vec3<f32>, l: vec3<f32>) -> f32 {
+    let mid = stratus.window.x;
+    let half = 0.5 * stratus.shape.w;
+    let top = vec3<f32>(p.x, mid + 0.5 * stratus_thickness_at(p.xz), p.z);
+    let range = min(max(mid + half - top.y, 0.0) / max(l.y, 1e-3), 2.0 / stratus.shape.x);
+    return stratus_cloud_along_ray_m(top, l, 0.0, range);
+}
+
+// The sines of the sun's elevation over which the other cells' shadow on a
+// top fades out (25° to 35°): above it no top rises into another column's
+// sun path by enough to matter (the suite's decks under suns of 30–65°
+// moved by under 0.001 with it), and the march, 70 % of the pass's cost on
+// llvmpipe, is skipped (docs/PERFORMANCE.md).
+const IN_LAYER_SHADING_FADE_SIN: vec2<f32> = vec2<f32>(0.42, 0.57);
+
 struct InLayerLight {
     // The sun's normal irradiance through the cumulus' shadows (rgb).
     sun: vec3<f32>,
@@ -234,6 +258,7 @@ fn in_layer_fragment(in: FullscreenOutput) -> @location(0) vec4<f32> {
     let kappa_s = (1.0 - stratus.forward_fraction.y) * kappa;
     let kappa_t = (1.0 - IN_LAYER_ASYMMETRY) * kappa;
     let cos_view_sun = clamp(dot(l, direction), -1.0, 1.0);
+    let shading_weight = 1.0 - smoothstep(IN_LAYER_SHADING_FADE_SIN.x, IN_LAYER_SHADING_FADE_SIN.y, l.y);
     let phase = stratus_peak_removed(acos(cos_view_sun));
     // δ-M's peak-removed asymmetry g* = (g − f)/(1 − f), f the peak's
     // fraction: the forward orders' lobe scatters by the phase function
@@ -277,8 +302,8 @@ fn in_layer_fragment(in: FullscreenOutput) -> @location(0) vec4<f32> {
     let beam_xz = l.xz / max(length(l.xz), 1e-6);
     let traced_azimuth_deg = degrees(acos(clamp(dot(travel_xz, beam_xz), -1.0, 1.0)));
     // The sun's paths at the last and the next step where they are marched.
-    var sun_paths_last = vec2<f32>(0.0);
-    var sun_paths_next = vec2<f32>(0.0);
+    var sun_paths_last = vec3<f32>(0.0);
+    var sun_paths_next = vec3<f32>(0.0);
     // The last step's signed distance inside a cell (m) and its distance.
     var last_inside_m = 0.0;
     var last_t = t0;
@@ -295,11 +320,19 @@ fn in_layer_fragment(in: FullscreenOutput) -> @location(0) vec4<f32> {
         // in cloud or not.
         if (l.y > 0.0 && i % IN_LAYER_SUN_EVERY == 0u) {
             if (i == 0u) {
-                sun_paths_next = vec2<f32>(in_layer_sun_path_m(p, l), in_layer_sun_path_m(p, -l));
+                var shading_first = 0.0;
+                if (shading_weight > 0.0) {
+                    shading_first = in_layer_top_shading_m(p, l);
+                }
+                sun_paths_next = vec3<f32>(in_layer_sun_path_m(p, l), in_layer_sun_path_m(p, -l), shading_first);
             }
             sun_paths_last = sun_paths_next;
             let q = origin + direction * in_layer_step_m(i + IN_LAYER_SUN_EVERY, t0, span);
-            sun_paths_next = vec2<f32>(in_layer_sun_path_m(q, l), in_layer_sun_path_m(q, -l));
+            var shading = 0.0;
+            if (shading_weight > 0.0) {
+                shading = in_layer_top_shading_m(q, l);
+            }
+            sun_paths_next = vec3<f32>(in_layer_sun_path_m(q, l), in_layer_sun_path_m(q, -l), shading);
         }
         let fade = stratus_window_fade(p.xz);
         let h_here = max(stratus_thickness_at(p.xz) + detail_m * saturate(1.0 - t / IN_LAYER_DETAIL_M), 0.0);
@@ -391,6 +424,15 @@ fn in_layer_fragment(in: FullscreenOutput) -> @location(0) vec4<f32> {
             let from_column = top_exit_weight * in_layer_beam_source(kappa_t * below_top / mu0, kappa_t * h / mu0,
                 mu0, dot(-direction, top_axis), asymmetry_star);
             let from_side = max(from_chord, from_column);
+            // Other cells between the sun and this cell's lit top shade it,
+            // as they shade the faces (layer.wgsl): the cloud the sun's path
+            // crosses beyond this cell's top, taken as a slab of the same
+            // slant path, lets through its directional transmittance T_C
+            // to the beam and its diffuse T_ms to the light diffusing in
+            // from the top.
+            let shading_m = sun_paths.z * shading_weight;
+            let shade_direct = slab_directional_transmittance(stratus, shading_m * mu0, mu0);
+            let shade_diffuse = slab_t_ms(stratus, shading_m * mu0);
             // The light δ-Eddington's beam still holds beyond the
             // unscattered beam, scattered a few times within the droplets'
             // forward lobe: sent in the forward orders' lobe about the sun
@@ -426,8 +468,8 @@ fn in_layer_fragment(in: FullscreenOutput) -> @location(0) vec4<f32> {
                 let thickness_ratio = select(1.0, clamp(column / slab, 0.0, 1.5), slab > 1e-6);
                 top_source = mix(top_source, traced * thickness_ratio, table_share);
             }
-            diffuse += light.sun * mix(top_source, from_side + lobe, side_share);
-            direct = light.sun * unscattered;
+            diffuse += light.sun * mix(top_source * shade_diffuse, from_side + lobe, side_share);
+            direct = light.sun * unscattered * mix(shade_direct, vec3<f32>(1.0), side_share);
         }
         let source = phase * direct + diffuse;
         let opacity = 1.0 - exp(-kappa_s * dt * inside * fade);
