@@ -473,7 +473,7 @@ impl Default for StratusSettings {
             extent_m: 40_000.0,
             resolution: 512,
             radiosity_iterations: 3,
-            model: StratusShadingModel::Volume,
+            model: StratusShadingModel::default(),
         }
     }
 }

@@ -191,6 +191,17 @@ fn in_layer_top_shading_m(p: vec3<f32>, l: vec3<f32>) -> f32 {
 // llvmpipe, is skipped (docs/PERFORMANCE.md).
 const IN_LAYER_SHADING_FADE_SIN: vec2<f32> = vec2<f32>(0.42, 0.57);
 
+// The sun's paths at `p` (in_layer_sun_path_m towards and away from the
+// sun) and, where `shading_weight` is above 0, the other cells' shadow on
+// its column's top (in_layer_top_shading_m; 0 otherwise, its march skipped).
+fn in_layer_sun_paths(p: vec3<f32>, l: vec3<f32>, shading_weight: f32) -> vec3<f32> {
+    var shading = 0.0;
+    if (shading_weight > 0.0) {
+        shading = in_layer_top_shading_m(p, l);
+    }
+    return vec3<f32>(in_layer_sun_path_m(p, l), in_layer_sun_path_m(p, -l), shading);
+}
+
 struct InLayerLight {
     // The sun's normal irradiance through the cumulus' shadows (rgb).
     sun: vec3<f32>,
@@ -320,19 +331,11 @@ fn in_layer_fragment(in: FullscreenOutput) -> @location(0) vec4<f32> {
         // in cloud or not.
         if (l.y > 0.0 && i % IN_LAYER_SUN_EVERY == 0u) {
             if (i == 0u) {
-                var shading_first = 0.0;
-                if (shading_weight > 0.0) {
-                    shading_first = in_layer_top_shading_m(p, l);
-                }
-                sun_paths_next = vec3<f32>(in_layer_sun_path_m(p, l), in_layer_sun_path_m(p, -l), shading_first);
+                sun_paths_next = in_layer_sun_paths(p, l, shading_weight);
             }
             sun_paths_last = sun_paths_next;
             let q = origin + direction * in_layer_step_m(i + IN_LAYER_SUN_EVERY, t0, span);
-            var shading = 0.0;
-            if (shading_weight > 0.0) {
-                shading = in_layer_top_shading_m(q, l);
-            }
-            sun_paths_next = vec3<f32>(in_layer_sun_path_m(q, l), in_layer_sun_path_m(q, -l), shading);
+            sun_paths_next = in_layer_sun_paths(q, l, shading_weight);
         }
         let fade = stratus_window_fade(p.xz);
         let h_here = max(stratus_thickness_at(p.xz) + detail_m * saturate(1.0 - t / IN_LAYER_DETAIL_M), 0.0);
