@@ -29,6 +29,20 @@
 //! channel (the peak's width scales with the wavelength: the corona's
 //! colours). [`ForwardPeakTable::at`] is the CPU twin of the cumulus
 //! shader's `cumulus_forward_peak` (bilinear in √θ and τ).
+//!
+//! Beside F the table holds its source by the last scattering,
+//!
+//! H(θ, τ) = P_f (p ∗ B_τ)(θ) = P_f e^{−τ} [p(θ) + (1/2π) ∫₀^∞ p̂(k) (e^{τ P_f p̂(k)} − 1) J₀(kθ) k dk],
+//!
+//! B_τ = e^{−τ} δ + F(·, τ) the sun's beam (unscattered and peak-scattered)
+//! after an optical depth τ: the light a unit optical depth of cloud sends
+//! towards θ from a beam that has crossed τ of it, per unit irradiance
+//! (sr⁻¹). F(θ, τ) = ∫₀^τ e^{−(τ − τ′)} H(θ, τ′) dτ′ along a straight chord
+//! (∂F/∂τ = H − F). A march along a view ray takes H at each point with the
+//! optical depth the sun's own path has crossed to it, so that a rim whose
+//! beam comes through the cloud's body behind it, not along the view's
+//! chord, is lit as such ([`peak_along_ray`], twin of the volume march's
+//! peak term).
 
 use crate::optics::tables::CloudOpticsTables;
 
@@ -48,6 +62,8 @@ pub struct ForwardPeakTable {
     /// F, interleaved RGB, row-major: `values[3 (j ANGLES + i) + c]` at
     /// θ_i = θ_max (i/(ANGLES − 1))², τ_j = τ_max j/(DEPTHS − 1).
     pub values: Vec<f32>,
+    /// H(θ, τ) on the same grid and layout (see the module's documentation).
+    pub last_scattering: Vec<f32>,
     /// The forward fraction P_f per channel.
     pub forward_fraction: [f64; 3],
 }
@@ -153,10 +169,12 @@ impl ForwardPeakTable {
     }
 
     /// The values as RGBA texels (alpha 0), rows of [`ANGLES`] texels, one
-    /// row per depth: what the cumulus shader's table holds.
+    /// row per depth, F's [`DEPTHS`] rows then H's: what the cumulus
+    /// shader's table holds ([`TABLE_ROWS`] rows).
     pub fn rgba_texels(&self) -> Vec<f32> {
         self.values
             .chunks_exact(3)
+            .chain(self.last_scattering.chunks_exact(3))
             .flat_map(|rgb| [rgb[0], rgb[1], rgb[2], 0.0])
             .collect()
     }
@@ -170,6 +188,7 @@ impl ForwardPeakTable {
         let dk = K_MAX / K_STEPS as f64;
         let ks: Vec<f64> = (0..=K_STEPS).map(|i| i as f64 * dk).collect();
         let mut values = vec![0.0f32; 3 * ANGLES * DEPTHS];
+        let mut last_scattering = vec![0.0f32; 3 * ANGLES * DEPTHS];
         for (c, peak) in peaks.iter().enumerate() {
             // p̂(k), exact for the peak linear between its samples up to the
             // trapezoid rule's error (the samples are 0.02° apart).
@@ -202,11 +221,21 @@ impl ForwardPeakTable {
                     let single = a * peak.at(theta);
                     let f = (-tau).exp() * (single + multiple);
                     values[3 * (j * ANGLES + i) + c] = f.max(0.0) as f32;
+                    // H: p̂ (e^{a p̂} − 1), one or more scatterings before
+                    // the last; the last alone, p(θ), taken directly.
+                    let before: f64 = transform
+                        .iter()
+                        .zip(&kernel)
+                        .map(|(&p, &w)| p * (a * p).exp_m1() * w)
+                        .sum();
+                    let h = fraction[c] * (-tau).exp() * (peak.at(theta) + before);
+                    last_scattering[3 * (j * ANGLES + i) + c] = h.max(0.0) as f32;
                 }
             }
         }
         Self {
             values,
+            last_scattering,
             forward_fraction: fraction,
         }
     }
@@ -214,6 +243,16 @@ impl ForwardPeakTable {
     /// F(θ, τ) per channel, sr⁻¹: bilinear in √θ (the grid's index) and τ;
     /// 0 beyond θ_max or τ_max. CPU twin of `cumulus_forward_peak`.
     pub fn at(&self, angle_rad: f64, depth: f64) -> [f64; 3] {
+        Self::lookup(&self.values, angle_rad, depth)
+    }
+
+    /// H(θ, τ) per channel, sr⁻¹ per unit optical depth: as [`Self::at`].
+    /// CPU twin of `cumulus_forward_peak_source`.
+    pub fn last_scattering_at(&self, angle_rad: f64, depth: f64) -> [f64; 3] {
+        Self::lookup(&self.last_scattering, angle_rad, depth)
+    }
+
+    fn lookup(values: &[f32], angle_rad: f64, depth: f64) -> [f64; 3] {
         if !(angle_rad < ANGLE_MAX_RAD && depth < DEPTH_MAX) || depth < 0.0 {
             return [0.0; 3];
         }
@@ -225,12 +264,43 @@ impl ForwardPeakTable {
         );
         let (tx, ty) = (x - i as f64, y - j as f64);
         std::array::from_fn(|c| {
-            let v = |i: usize, j: usize| f64::from(self.values[3 * (j * ANGLES + i) + c]);
+            let v = |i: usize, j: usize| f64::from(values[3 * (j * ANGLES + i) + c]);
             let low = v(i, j) * (1.0 - tx) + v(i + 1, j) * tx;
             let high = v(i, j + 1) * (1.0 - tx) + v(i + 1, j + 1) * tx;
             low * (1.0 - ty) + high * ty
         })
     }
+}
+
+/// Rows of the shader's table: F's [`DEPTHS`], then H's.
+pub const TABLE_ROWS: usize = 2 * DEPTHS;
+
+/// One step of a view ray through a cloud, for [`peak_along_ray`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PeakStep {
+    /// The step's optical depth along the view, σ Δs (no δ-M).
+    pub optical_depth: f64,
+    /// The optical depth the sun's own path crosses to the step (no δ-M).
+    pub sun_depth: f64,
+}
+
+/// The light the droplets' forward peak sends to the eye along a view ray,
+/// per unit irradiance of the sun, per channel (sr⁻¹): Σ_i H(θ, τ_sun,i)
+/// e^{−τ_i} Δτ_i, τ_i the view's optical depth from the eye to the step's
+/// middle. Steps from the eye outwards. CPU twin of the volume march's
+/// peak term (WGSL `in_cloud_march`).
+pub fn peak_along_ray(table: &ForwardPeakTable, angle_rad: f64, steps: &[PeakStep]) -> [f64; 3] {
+    let mut out = [0.0; 3];
+    let mut depth = 0.0;
+    for step in steps {
+        let seen = (-(depth + 0.5 * step.optical_depth)).exp() * step.optical_depth;
+        let h = table.last_scattering_at(angle_rad, step.sun_depth);
+        for c in 0..3 {
+            out[c] += seen * h[c];
+        }
+        depth += step.optical_depth;
+    }
+    out
 }
 
 #[cfg(test)]
@@ -268,6 +338,56 @@ mod tests {
                 "θ {theta_deg}° τ {tau}: {got} against {exact_grid} (off-grid {exact})"
             );
         }
+    }
+
+    #[test]
+    fn the_last_scattering_integrates_to_the_chord_along_the_sun() {
+        // A view ray straight along the sun's beam through a uniform chord
+        // (the sun's path to each point the rest of the chord behind it):
+        // the march of H is F of the whole chord (∂F/∂τ = H − F), which is
+        // the mesh's term. (On the table's depths: between them F's
+        // bilinear lookup is low by up to a fifth at τ < 0.5, where F grows
+        // as τ e^{−τ}; H's lookup is near linear there.)
+        let table = ForwardPeakTable::gaussian([0.6f64.to_radians(); 3], [0.45; 3]);
+        for &(theta_deg, tau) in &[(0.5, 1.0), (1.5, 3.0), (3.0, 8.0), (0.2, 0.5)] {
+            let theta = f64::to_radians(theta_deg);
+            let n = 400;
+            let dtau = tau / n as f64;
+            let steps: Vec<PeakStep> = (0..n)
+                .map(|i| PeakStep {
+                    optical_depth: dtau,
+                    sun_depth: tau - (i as f64 + 0.5) * dtau,
+                })
+                .collect();
+            let marched = peak_along_ray(&table, theta, &steps)[1];
+            let chord = table.at(theta, tau)[1];
+            assert!(
+                (marched - chord).abs() <= 0.02 * chord + 1e-4,
+                "θ {theta_deg}° τ {tau}: marched {marched} against F {chord}"
+            );
+        }
+    }
+
+    #[test]
+    fn a_rim_lit_through_the_body_takes_less_of_the_peak() {
+        // The same thin chord (τ = 0.3) whose sun comes through 4 more of
+        // cloud (a rim with the body between it and the sun) sends
+        // e^{−4(1 − P_f)}-ish less: the beam lost what it scattered out
+        // of the peak and spread what it scattered within it.
+        let table = ForwardPeakTable::gaussian([0.6f64.to_radians(); 3], [0.45; 3]);
+        let theta = 1.0f64.to_radians();
+        let chord = |extra: f64| {
+            let steps: Vec<PeakStep> = (0..50)
+                .map(|i| PeakStep {
+                    optical_depth: 0.3 / 50.0,
+                    sun_depth: extra + 0.3 - (i as f64 + 0.5) * 0.3 / 50.0,
+                })
+                .collect();
+            peak_along_ray(&table, theta, &steps)[0]
+        };
+        let (open, behind) = (chord(0.0), chord(4.0));
+        assert!(behind < 0.3 * open, "{behind} against {open}");
+        assert!(behind > 0.0);
     }
 
     #[test]

@@ -32,6 +32,13 @@ struct TestPoint {
 @group(0) @binding(1) var<storage, read> points: array<TestPoint>;
 @group(0) @binding(2) var<storage, read_write> results: array<vec4<f32>>;
 
+fn peak_source_angle_rad(i: u32) -> f32 {
+    return 0.25 * f32(i % 23u) * 0.0174533;
+}
+fn peak_source_depth(i: u32) -> f32 {
+    return 0.37 * f32(i % 31u);
+}
+
 @compute @workgroup_size(64)
 fn terms_kernel(@builtin(global_invocation_id) id: vec3<u32>) {
     let i = id.x;
@@ -52,7 +59,10 @@ fn terms_kernel(@builtin(global_invocation_id) id: vec3<u32>) {
     results[4u * i] = vec4<f32>(terms.lambert, terms.light_traps, terms.forward, terms.optical_depth);
     results[4u * i + 1u] = vec4<f32>(terms.smoothed_normal, cumulus_opacity(terms));
     // The bump noise at the point's normal taken as noise coordinates.
-    results[4u * i + 2u] = vec4<f32>(cumulus_bump_height(t.normal_radius.xyz * 7.3), 0.0, 0.0, 0.0);
+    // And the peak's last-scattering source H at an angle and depth from
+    // the case's index (the volume march's lookup).
+    let h = cumulus_forward_peak_source(peak_source_angle_rad(i), peak_source_depth(i));
+    results[4u * i + 2u] = vec4<f32>(cumulus_bump_height(t.normal_radius.xyz * 7.3), h);
     results[4u * i + 3u] = vec4<f32>(terms.forward_peak, terms.diffusion);
 }
 "#;
@@ -294,6 +304,19 @@ fn gpu_terms_match_the_cpu_reference() {
                 settings.shading.bump_octaves,
             );
             assert!(close(g2[0], h_cpu, 1e-4), "bump {} vs {h_cpu}", g2[0]);
+            // H(θ, τ) against ForwardPeakTable::last_scattering_at, the
+            // kernel's θ and τ (f32 there) from the case's index.
+            let (angle, depth) = (
+                f64::from(0.25 * (i % 23) as f32 * 0.017_453_3),
+                f64::from(0.37 * (i % 31) as f32),
+            );
+            let h_cpu = peak_table.last_scattering_at(angle, depth);
+            for (gpu_c, cpu_c) in g2[1..].iter().zip(h_cpu) {
+                assert!(
+                    (f64::from(*gpu_c) - cpu_c).abs() <= 2e-3 * (1.0 + cpu_c),
+                    "peak source at θ {angle} τ {depth}: gpu {gpu_c} cpu {cpu_c}"
+                );
+            }
             assert!(close(g3[3], cpu.diffusion, 1e-4), "diffusion, {context}");
             // P = π F(θ, τ): where τ is well inside the table (its f32 error
             // moves the lookup little), to the table's own f32 precision.

@@ -338,19 +338,25 @@ fn in_cloud_march(origin_m: vec3<f32>, direction: vec3<f32>, t0: f32, t1: f32) -
     var sun_segments: array<vec4<f32>, IN_CLOUD_SHADOW_SEGMENTS>;
     var sun_lobes: array<f32, IN_CLOUD_SHADOW_SEGMENTS>;
     var layer_shadows: array<vec3<f32>, IN_CLOUD_SHADOW_SEGMENTS>;
+    // For the forward peak: the optical depth (δ-M) the sun's path crosses
+    // in this cloud to each segment's middle, and the shadow of all else.
+    var own_depths: array<f32, IN_CLOUD_SHADOW_SEGMENTS>;
+    var other_shadows: array<f32, IN_CLOUD_SHADOW_SEGMENTS>;
     var beyond = 1.0;
     for (var k = 0u; k < IN_CLOUD_SHADOW_SEGMENTS; k += 1u) {
         let f = (f32(k) + 0.5) / f32(IN_CLOUD_SHADOW_SEGMENTS);
         let p = origin_m + direction * (t0 + (t1 - t0) * f * f);
-        var direct = 1.0;
+        var own_transmittance = 1.0;
         if (cumulus_term_on(CUMULUS_SHADOW)) {
             let own = in_cloud_own_transmittance(in_cloud_object(p), object_sun);
             if ((k & 1u) == 0u) {
                 beyond = in_cloud_beyond_transmittance(own.xyz);
             }
-            direct = own.w * beyond;
+            own_transmittance = own.w;
         }
-        direct *= stratus_sun_transmittance(p).g * terrain_sun_visibility(p);
+        other_shadows[k] = beyond * stratus_sun_transmittance(p).g * terrain_sun_visibility(p);
+        own_depths[k] = -log(max(own_transmittance, 1e-8));
+        let direct = own_transmittance * other_shadows[k];
         // The layer's and the terrain's shadow on the multiply scattered
         // sunlight, at every other point (it varies over the layer's cells).
         if (!stratus_enabled() && terrain_shadow.square.y == 0.0) {
@@ -383,6 +389,19 @@ fn in_cloud_march(origin_m: vec3<f32>, direction: vec3<f32>, t0: f32, t1: f32) -
     var weighted = vec3<f32>(0.0);
     var weight = 0.0;
     var optical_depth = 0.0;
+    // The sun's light scattered only within the droplets' forward peak,
+    // which δ-M keeps in the beam and so the source above never sees: the
+    // silver lining of a cloud seen near the sun. At each point the peak's
+    // source by the last scattering H(θ, τ_sun) (forward_peak's notes) of
+    // the beam that has crossed τ_sun of this cloud on the sun's own path
+    // to it (the segments' depths, linear between their middles), seen
+    // through the view's whole optical depth τ (no δ-M: whatever scatters
+    // after is counted where it last scatters). Along a chord straight
+    // towards the sun this is F(θ, τ) of the chord, the mesh's term; on a
+    // rim whose beam comes through the body behind it, less.
+    let angle = acos(clamp(dot(direction, l), -1.0, 1.0));
+    let peak_on = angle < cumulus.peak_grid.x && cumulus.extension.y > 0.0;
+    var peak = vec3<f32>(0.0);
     let span = t1 - t0;
     for (var i = 0u; i < steps; i += 1u) {
         let a = f32(i) / f32(steps);
@@ -432,6 +451,16 @@ fn in_cloud_march(origin_m: vec3<f32>, direction: vec3<f32>, t0: f32, t1: f32) -
             source += sky_direct_weight * sky_direct;
         }
         let opacity = 1.0 - exp(-sigma * dt);
+        if (peak_on) {
+            let x = clamp((0.5 * (a + b)) * f32(IN_CLOUD_SHADOW_SEGMENTS) - 0.5, 0.0, f32(IN_CLOUD_SHADOW_SEGMENTS - 1u));
+            let k0 = u32(floor(x));
+            let k1 = min(k0 + 1u, IN_CLOUD_SHADOW_SEGMENTS - 1u);
+            let sun_depth = mix(own_depths[k0], own_depths[k1], x - f32(k0)) / truncation;
+            let step_depth = sigma * dt / truncation;
+            let seen = exp(-(optical_depth / truncation + 0.5 * step_depth)) * step_depth;
+            peak += seen * sun_segments[segment].rgb * other_shadows[segment]
+                * cumulus_forward_peak_source(angle, sun_depth);
+        }
         optical_depth += sigma * dt;
         let seen = out.transmittance * opacity;
         out.radiance += seen * source;
@@ -449,27 +478,7 @@ fn in_cloud_march(origin_m: vec3<f32>, direction: vec3<f32>, t0: f32, t1: f32) -
         }
     }
     out.mean_m = select(origin_m, weighted / max(weight, 1e-6), weight > 0.0);
-    // The sun's light scattered only within the droplets' forward peak,
-    // which δ-M keeps in the beam and so the march above never sees: the
-    // silver lining of a cloud seen near the sun. The mesh's term P,
-    // F(θ, τ) through the ray's whole chord at the full optical depth
-    // (nimbus_physics::cumulus::forward_peak), lit where the chord's far
-    // end meets the beam (towards the sun from there this cloud has no
-    // more of its body; the clouds beyond and the layer may).
-    let angle = acos(clamp(dot(direction, l), -1.0, 1.0));
-    if (angle < cumulus.peak_grid.x && optical_depth > 0.0) {
-        let far = origin_m + direction * t1;
-        var shadow = stratus_sun_transmittance(far).g;
-        if (cumulus_term_on(CUMULUS_SHADOW)) {
-            // Where the beam leaves the box (no march along it: this
-            // cloud's own body is not in the way).
-            let object_far = in_cloud_object(far);
-            let exit = object_far + object_sun * max(in_cloud_box(object_far, object_sun).y, 0.0);
-            shadow *= in_cloud_beyond_transmittance(in_cloud_world(exit));
-        }
-        let peak = cumulus_forward_peak(angle, optical_depth / truncation);
-        out.radiance += cumulus.extension.y * PI * cumulus_sun_radiance(far.y) * shadow * peak;
-    }
+    out.radiance += cumulus.extension.y * peak;
     return out;
 }
 

@@ -33,7 +33,7 @@ pub const INTERIOR_PHOTONS: u64 = 1 << 19;
 pub const INTERIOR_CELLS: usize = 32;
 /// Largest side of the coarse extinction texture, cells (≤ 128³ texels of
 /// 2 bytes: 4 MiB per variant).
-pub const EXTINCTION_CELLS: usize = 128;
+pub const EXTINCTION_CELLS: usize = 256;
 const CACHE_MAGIC: &[u8; 8] = b"NIMBUSIC";
 const CACHE_VERSION: u32 = 3;
 /// Largest interior cache file read, bytes.

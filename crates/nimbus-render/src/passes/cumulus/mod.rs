@@ -83,14 +83,15 @@ pub fn composite_shader_source() -> String {
     shader::compose(&[COMPOSITE_WGSL])
 }
 
-/// The forward-peak table F(θ, τ) of `shading.wgsl` (group 1, binding 1):
+/// The forward-peak table of `shading.wgsl` (group 1, binding 1), F(θ, τ)'s
+/// rows then H(θ, τ)'s:
 /// [`nimbus_physics::cumulus::forward_peak::ForwardPeakTable::rgba_texels`],
 /// read with `textureLoad` (RGBA32 float is not filterable everywhere).
 pub const FORWARD_PEAK_TEXTURE: wgpu::TextureDescriptor<'static> = wgpu::TextureDescriptor {
     label: Some("cumulus forward peak"),
     size: wgpu::Extent3d {
         width: nimbus_physics::cumulus::forward_peak::ANGLES as u32,
-        height: nimbus_physics::cumulus::forward_peak::DEPTHS as u32,
+        height: nimbus_physics::cumulus::forward_peak::TABLE_ROWS as u32,
         depth_or_array_layers: 1,
     },
     mip_level_count: 1,

@@ -94,6 +94,17 @@ struct CumulusTerms {
 // F(θ, τ): bilinear in the table's indices (√θ and τ), 0 beyond its range.
 // Twin of nimbus_physics::cumulus::forward_peak::ForwardPeakTable::at.
 fn cumulus_forward_peak(angle_rad: f32, depth: f32) -> vec3<f32> {
+    return cumulus_peak_table_at(angle_rad, depth, 0);
+}
+
+// H(θ, τ), the peak's source by the last scattering from a beam that has
+// crossed τ (sr⁻¹ per unit optical depth), the table's rows after F's.
+// Twin of ForwardPeakTable::last_scattering_at.
+fn cumulus_forward_peak_source(angle_rad: f32, depth: f32) -> vec3<f32> {
+    return cumulus_peak_table_at(angle_rad, depth, i32(cumulus.peak_grid.w));
+}
+
+fn cumulus_peak_table_at(angle_rad: f32, depth: f32, row: i32) -> vec3<f32> {
     let grid = cumulus.peak_grid;
     if (!(angle_rad < grid.x && depth < grid.y) || depth < 0.0) {
         return vec3<f32>(0.0);
@@ -101,8 +112,8 @@ fn cumulus_forward_peak(angle_rad: f32, depth: f32) -> vec3<f32> {
     let x = sqrt(max(angle_rad, 0.0) / grid.x) * (grid.z - 1.0);
     let y = depth / grid.y * (grid.w - 1.0);
     let i = min(i32(floor(x)), i32(grid.z) - 2);
-    let j = min(i32(floor(y)), i32(grid.w) - 2);
-    let t = vec2<f32>(x - f32(i), y - f32(j));
+    let j = min(i32(floor(y)), i32(grid.w) - 2) + row;
+    let t = vec2<f32>(x - f32(i), y - f32(j - row));
     let a = textureLoad(cumulus_forward_peak_table, vec2<i32>(i, j), 0).rgb;
     let b = textureLoad(cumulus_forward_peak_table, vec2<i32>(i + 1, j), 0).rgb;
     let c = textureLoad(cumulus_forward_peak_table, vec2<i32>(i, j + 1), 0).rgb;
