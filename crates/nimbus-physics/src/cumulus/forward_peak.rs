@@ -209,25 +209,22 @@ impl ForwardPeakTable {
                 for j in 0..DEPTHS {
                     let tau = table_depth(j);
                     let a = tau * fraction[c];
-                    // e^{a p̂} − 1 − a p̂: two or more scatterings.
-                    let multiple: f64 = transform
-                        .iter()
-                        .zip(&kernel)
-                        .map(|(&p, &w)| {
+                    // One pass over k for both tables, e^{a p̂} − 1 taken once:
+                    // F's e^{a p̂} − 1 − a p̂ (two or more scatterings; the
+                    // single one, a p(θ), taken directly) and H's
+                    // p̂ (e^{a p̂} − 1) (one or more scatterings before the
+                    // last; the last alone, p(θ), taken directly).
+                    let (multiple, before) = transform.iter().zip(&kernel).fold(
+                        (0.0f64, 0.0f64),
+                        |(multiple, before), (&p, &w)| {
                             let x = a * p;
-                            (x.exp_m1() - x) * w
-                        })
-                        .sum();
+                            let grown = x.exp_m1();
+                            (multiple + (grown - x) * w, before + p * grown * w)
+                        },
+                    );
                     let single = a * peak.at(theta);
                     let f = (-tau).exp() * (single + multiple);
                     values[3 * (j * ANGLES + i) + c] = f.max(0.0) as f32;
-                    // H: p̂ (e^{a p̂} − 1), one or more scatterings before
-                    // the last; the last alone, p(θ), taken directly.
-                    let before: f64 = transform
-                        .iter()
-                        .zip(&kernel)
-                        .map(|(&p, &w)| p * (a * p).exp_m1() * w)
-                        .sum();
                     let h = fraction[c] * (-tau).exp() * (peak.at(theta) + before);
                     last_scattering[3 * (j * ANGLES + i) + c] = h.max(0.0) as f32;
                 }
@@ -340,6 +337,19 @@ mod tests {
         }
     }
 
+    /// A uniform chord of optical depth `tau` in `n` steps from the eye,
+    /// the sun straight behind it: each step's sun path the rest of the
+    /// chord beyond it, plus `extra` (cloud between the chord and the sun).
+    fn uniform_chord(tau: f64, extra: f64, n: usize) -> Vec<PeakStep> {
+        let step = tau / n as f64;
+        (0..n)
+            .map(|i| PeakStep {
+                optical_depth: step,
+                sun_depth: extra + tau - (i as f64 + 0.5) * step,
+            })
+            .collect()
+    }
+
     #[test]
     fn the_last_scattering_integrates_to_the_chord_along_the_sun() {
         // A view ray straight along the sun's beam through a uniform chord
@@ -351,15 +361,7 @@ mod tests {
         let table = ForwardPeakTable::gaussian([0.6f64.to_radians(); 3], [0.45; 3]);
         for &(theta_deg, tau) in &[(0.5, 1.0), (1.5, 3.0), (3.0, 8.0), (0.2, 0.5)] {
             let theta = f64::to_radians(theta_deg);
-            let n = 400;
-            let dtau = tau / n as f64;
-            let steps: Vec<PeakStep> = (0..n)
-                .map(|i| PeakStep {
-                    optical_depth: dtau,
-                    sun_depth: tau - (i as f64 + 0.5) * dtau,
-                })
-                .collect();
-            let marched = peak_along_ray(&table, theta, &steps)[1];
+            let marched = peak_along_ray(&table, theta, &uniform_chord(tau, 0.0, 400))[1];
             let chord = table.at(theta, tau)[1];
             assert!(
                 (marched - chord).abs() <= 0.02 * chord + 1e-4,
@@ -376,15 +378,7 @@ mod tests {
         // of the peak and spread what it scattered within it.
         let table = ForwardPeakTable::gaussian([0.6f64.to_radians(); 3], [0.45; 3]);
         let theta = 1.0f64.to_radians();
-        let chord = |extra: f64| {
-            let steps: Vec<PeakStep> = (0..50)
-                .map(|i| PeakStep {
-                    optical_depth: 0.3 / 50.0,
-                    sun_depth: extra + 0.3 - (i as f64 + 0.5) * 0.3 / 50.0,
-                })
-                .collect();
-            peak_along_ray(&table, theta, &steps)[0]
-        };
+        let chord = |extra: f64| peak_along_ray(&table, theta, &uniform_chord(0.3, extra, 50))[0];
         let (open, behind) = (chord(0.0), chord(4.0));
         assert!(behind < 0.3 * open, "{behind} against {open}");
         assert!(behind > 0.0);

@@ -140,12 +140,13 @@ fn in_cloud_sun_toward(object_m: vec3<f32>, toward: vec3<f32>, shape: f32) -> f3
     return sun_cube_toward(positive.rgb, negative.rgb, positive.a, toward, shape);
 }
 
-// The direct beam's transmittance from the sun to an object point through
+// The direct beam's optical depth from the sun to an object point through
 // the cloud's own extinction: σ* integrated to where the sun's ray leaves
 // the box, in steps t_j = L (j/N)² (fine near the point, where the beam
-// dims over the ~20 m of its mean free path). Returns e^{−τ} and the world
-// point where the ray leaves the box.
-fn in_cloud_own_transmittance(object_m: vec3<f32>, object_sun: vec3<f32>) -> vec4<f32> {
+// dims over the ~20 m of its mean free path). Returns the world point where
+// the ray leaves the box and τ* (the beam's transmittance is e^{−τ*}; the
+// forward peak reads τ* itself).
+fn in_cloud_own_depth(object_m: vec3<f32>, object_sun: vec3<f32>) -> vec4<f32> {
     let length_m = max(in_cloud_box(object_m, object_sun).y, 0.0);
     var optical_depth = 0.0;
     for (var j = 0u; j < IN_CLOUD_SUN_STEPS; j += 1u) {
@@ -154,7 +155,7 @@ fn in_cloud_own_transmittance(object_m: vec3<f32>, object_sun: vec3<f32>) -> vec
         let t = length_m * 0.5 * (a * a + b * b);
         optical_depth += in_cloud_sigma(object_m + object_sun * t) * length_m * (b * b - a * a);
     }
-    return vec4<f32>(in_cloud_world(object_m + object_sun * length_m), exp(-optical_depth));
+    return vec4<f32>(in_cloud_world(object_m + object_sun * length_m), optical_depth);
 }
 
 // The direct beam's transmittance through the clouds beyond this one's box,
@@ -346,17 +347,16 @@ fn in_cloud_march(origin_m: vec3<f32>, direction: vec3<f32>, t0: f32, t1: f32) -
     for (var k = 0u; k < IN_CLOUD_SHADOW_SEGMENTS; k += 1u) {
         let f = (f32(k) + 0.5) / f32(IN_CLOUD_SHADOW_SEGMENTS);
         let p = origin_m + direction * (t0 + (t1 - t0) * f * f);
-        var own_transmittance = 1.0;
+        own_depths[k] = 0.0;
         if (cumulus_term_on(CUMULUS_SHADOW)) {
-            let own = in_cloud_own_transmittance(in_cloud_object(p), object_sun);
+            let own = in_cloud_own_depth(in_cloud_object(p), object_sun);
             if ((k & 1u) == 0u) {
                 beyond = in_cloud_beyond_transmittance(own.xyz);
             }
-            own_transmittance = own.w;
+            own_depths[k] = own.w;
         }
         other_shadows[k] = beyond * stratus_sun_transmittance(p).g * terrain_sun_visibility(p);
-        own_depths[k] = -log(max(own_transmittance, 1e-8));
-        let direct = own_transmittance * other_shadows[k];
+        let direct = exp(-own_depths[k]) * other_shadows[k];
         // The layer's and the terrain's shadow on the multiply scattered
         // sunlight, at every other point (it varies over the layer's cells).
         if (!stratus_enabled() && terrain_shadow.square.y == 0.0) {

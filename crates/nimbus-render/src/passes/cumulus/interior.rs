@@ -31,8 +31,9 @@ pub const INTERIOR_PHOTONS: u64 = 1 << 19;
 /// Cells of the interior light along the cloud's longest side (~60 m for
 /// a 2 km cloud: under the transport mean free path, ~90 m).
 pub const INTERIOR_CELLS: usize = 32;
-/// Largest side of the coarse extinction texture, cells (≤ 128³ texels of
-/// 2 bytes: 4 MiB per variant).
+/// Largest side of the extinction texture, cells (≤ 256³ texels of 2
+/// bytes: 32 MiB per variant; the paper's cloud, 199 × 82 × 151 cells, is
+/// the references' grid itself, 4.9 MB).
 pub const EXTINCTION_CELLS: usize = 256;
 const CACHE_MAGIC: &[u8; 8] = b"NIMBUSIC";
 const CACHE_VERSION: u32 = 3;
