@@ -234,28 +234,35 @@ fn stratus_reflected_shape(sun_zenith_deg: f32, view_zenith_deg: f32, relative_a
 }
 
 // Depths of the interior source's nodes below the lit face, scattering
-// optical depth (nimbus_physics::transport::interior_source::DEPTH_NODES).
+// optical depth (nimbus_physics::transport::interior_source::DEPTH_NODES),
+// and the scattering optical depths of the slabs it was traced in
+// (THICKNESS_NODES).
 const STRATUS_INTERIOR_DEPTHS = array<f32, 7>(0.1, 0.35, 0.75, 1.25, 2.0, 3.0, 4.5);
+const STRATUS_INTERIOR_THICKNESSES = array<f32, 4>(0.5, 1.5, 4.0, 12.0);
 
 // The sun's scattered light S (orders ≥ 1, per unit scattering optical
 // depth and unit normal irradiance, sr⁻¹) scattered towards the direction
 // of travel at cosine `cos_travel` to the inward normal and
 // `relative_azimuth_deg` from the beam's azimuth, at `depth` (scattering
-// optical depth) below a face lit at `sun_zenith_deg`: multilinear between
-// the traced nodes stored after the reflected shape, clamped to their
-// ranges, the azimuth folded into 0–180°. Twin of
-// nimbus_physics::transport::interior_source::interior_source (9 sun
-// nodes 11° apart, 7 depths, 11 cosines from −1 to 1, 13 azimuths 15°
-// apart).
-fn stratus_interior_source(sun_zenith_deg: f32, depth: f32, cos_travel: f32, relative_azimuth_deg: f32) -> f32 {
-    return stratus_interior_source_at_depth(
-        stratus_interior_source_depths(sun_zenith_deg, cos_travel, relative_azimuth_deg), depth);
+// optical depth) below a face lit at `sun_zenith_deg`, in a slab
+// `thickness` thick (scattering optical depth): multilinear between the
+// traced nodes stored after the reflected shape, clamped to their ranges,
+// the azimuth folded into 0–180°, the thickness linear in its logarithm
+// (and to 0 below the first node). Twin of
+// nimbus_physics::transport::interior_source::interior_source (4 slab
+// thicknesses, 9 sun nodes 11° apart, 7 depths, 11 cosines from −1 to 1,
+// 13 azimuths 15° apart).
+fn stratus_interior_source(thickness: f32, sun_zenith_deg: f32, depth: f32, cos_travel: f32,
+    relative_azimuth_deg: f32) -> f32 {
+    return stratus_interior_source_at(
+        stratus_interior_source_nodes(sun_zenith_deg, cos_travel, relative_azimuth_deg), depth, thickness);
 }
 
-// stratus_interior_source at the seven depth nodes: along a view ray only
-// the depth changes, so a march reads the table once per ray (8 texels
-// per node) and interpolates in depth at each step.
-fn stratus_interior_source_depths(sun_zenith_deg: f32, cos_travel: f32, relative_azimuth_deg: f32) -> array<f32, 7> {
+// stratus_interior_source at the depth nodes of every slab thickness
+// ([thickness][depth]): along a view ray only the depth and the column's
+// thickness change, so a march reads the table once per ray (8 texels
+// per node) and interpolates at each step.
+fn stratus_interior_source_nodes(sun_zenith_deg: f32, cos_travel: f32, relative_azimuth_deg: f32) -> array<f32, 28> {
     // After the phase tables and the reflected shape's 9 × 9 × 7 values.
     let offset = 2u * stratus.sizes.x + stratus.sizes.y + 567u;
     var azimuth = relative_azimuth_deg - 360.0 * floor(relative_azimuth_deg / 360.0);
@@ -271,37 +278,72 @@ fn stratus_interior_source_depths(sun_zenith_deg: f32, cos_travel: f32, relative
     let az = clamp(azimuth / 15.0, 0.0, 12.0);
     let l = min(u32(az), 11u);
     let fl = az - f32(l);
-    var values: array<f32, 7>;
-    for (var j = 0u; j < 7u; j += 1u) {
-        var value = 0.0;
-        for (var corner = 0u; corner < 8u; corner += 1u) {
-            let d = vec3<u32>(corner & 1u, (corner >> 1u) & 1u, (corner >> 2u) & 1u);
-            let w = mix(vec3<f32>(1.0 - fi, 1.0 - fk, 1.0 - fl), vec3<f32>(fi, fk, fl), vec3<f32>(d));
-            let index = (((i + d.x) * 7u + j) * 11u + k + d.y) * 13u + l + d.z;
-            value += w.x * w.y * w.z * stratus_phase[offset + index].x;
+    var values: array<f32, 28>;
+    for (var t = 0u; t < 4u; t += 1u) {
+        for (var j = 0u; j < 7u; j += 1u) {
+            var value = 0.0;
+            for (var corner = 0u; corner < 8u; corner += 1u) {
+                let d = vec3<u32>(corner & 1u, (corner >> 1u) & 1u, (corner >> 2u) & 1u);
+                let w = mix(vec3<f32>(1.0 - fi, 1.0 - fk, 1.0 - fl), vec3<f32>(fi, fk, fl), vec3<f32>(d));
+                let index = ((((t * 9u + i + d.x) * 7u + j) * 11u) + k + d.y) * 13u + l + d.z;
+                value += w.x * w.y * w.z * stratus_phase[offset + index].x;
+            }
+            values[t * 7u + j] = value;
         }
-        values[j] = value;
     }
     return values;
 }
 
-// The source at optical depth `depth` from its values at the depth nodes,
-// linear between them, clamped to the first and the last.
-fn stratus_interior_source_at_depth(values: array<f32, 7>, depth: f32) -> f32 {
-    if (depth >= STRATUS_INTERIOR_DEPTHS[6]) {
-        return values[6];
+// The source at optical depth `depth` in slab node `t` from its values at
+// the depth nodes, linear between the planes where that slab was tallied
+// (the nodes below its base moved up to just above it), clamped to the
+// first and the last.
+fn stratus_interior_source_in_slab(values: array<f32, 28>, t: u32, depth: f32) -> f32 {
+    let base = STRATUS_INTERIOR_THICKNESSES[t] * (1.0 - 1e-3);
+    var planes: array<f32, 7>;
+    for (var n = 0u; n < 7u; n += 1u) {
+        planes[n] = min(STRATUS_INTERIOR_DEPTHS[n], base);
     }
-    if (depth <= STRATUS_INTERIOR_DEPTHS[0]) {
-        return values[0];
+    if (depth >= planes[6]) {
+        return values[t * 7u + 6u];
+    }
+    if (depth <= planes[0]) {
+        return values[t * 7u];
     }
     var j = 0u;
     for (var n = 0u; n < 6u; n += 1u) {
-        if (STRATUS_INTERIOR_DEPTHS[n] <= depth) {
+        if (planes[n] <= depth) {
             j = n;
         }
     }
-    let fj = (depth - STRATUS_INTERIOR_DEPTHS[j]) / (STRATUS_INTERIOR_DEPTHS[j + 1u] - STRATUS_INTERIOR_DEPTHS[j]);
-    return mix(values[j], values[j + 1u], fj);
+    let fj = (depth - planes[j]) / (planes[j + 1u] - planes[j]);
+    return mix(values[t * 7u + j], values[t * 7u + j + 1u], fj);
+}
+
+// The source at `depth` in a slab `thickness` thick from the values of
+// stratus_interior_source_nodes (twin of interior_source's thickness
+// weights: linear in the logarithm between nodes, each node slab read at
+// the same fraction of its thickness; the first's scaled down linearly
+// below it; the last's at the same depth above it).
+fn stratus_interior_source_at(values: array<f32, 28>, depth: f32, thickness: f32) -> f32 {
+    if (thickness >= STRATUS_INTERIOR_THICKNESSES[3]) {
+        return stratus_interior_source_in_slab(values, 3u, depth);
+    }
+    let fraction = depth / max(thickness, 1e-6);
+    if (thickness <= STRATUS_INTERIOR_THICKNESSES[0]) {
+        return stratus_interior_source_in_slab(values, 0u, fraction * STRATUS_INTERIOR_THICKNESSES[0])
+            * max(thickness, 0.0) / STRATUS_INTERIOR_THICKNESSES[0];
+    }
+    var t = 0u;
+    for (var n = 0u; n < 3u; n += 1u) {
+        if (STRATUS_INTERIOR_THICKNESSES[n] <= thickness) {
+            t = n;
+        }
+    }
+    let ft = log(thickness / STRATUS_INTERIOR_THICKNESSES[t])
+        / log(STRATUS_INTERIOR_THICKNESSES[t + 1u] / STRATUS_INTERIOR_THICKNESSES[t]);
+    return mix(stratus_interior_source_in_slab(values, t, fraction * STRATUS_INTERIOR_THICKNESSES[t]),
+        stratus_interior_source_in_slab(values, t + 1u, fraction * STRATUS_INTERIOR_THICKNESSES[t + 1u]), ft);
 }
 
 // P_S, P² and P_F at scattering angle theta (rad), sr⁻¹.

@@ -520,18 +520,20 @@ fn gpu_reflected_shape_matches_the_cpu_table() {
 }
 
 /// A test kernel around `stratus_interior_source`: one value per query
-/// (sun zenith °, depth, cosine of travel, relative azimuth °).
+/// (sun zenith °, depth, cosine of travel, relative azimuth °; slab
+/// thickness).
 const INTERIOR_SOURCE_KERNEL: &str = r"
 @group(0) @binding(1) var<storage, read> source_queries: array<vec4<f32>>;
 @group(0) @binding(2) var<storage, read_write> source_values: array<f32>;
 
 @compute @workgroup_size(64)
 fn interior_source_kernel(@builtin(global_invocation_id) id: vec3<u32>) {
-    if (id.x >= arrayLength(&source_queries)) {
+    if (2u * id.x + 1u >= arrayLength(&source_queries)) {
         return;
     }
-    let q = source_queries[id.x];
-    source_values[id.x] = stratus_interior_source(q.x, q.y, q.z, q.w);
+    let q = source_queries[2u * id.x];
+    let thickness = source_queries[2u * id.x + 1u].x;
+    source_values[id.x] = stratus_interior_source(thickness, q.x, q.y, q.z, q.w);
 }
 ";
 
@@ -546,12 +548,14 @@ fn gpu_interior_source_matches_the_cpu_table() {
 
     let mut h = headless();
     h.render_frame(&scene(0), 32, 18, 0.0).expect("frame");
-    let mut queries: Vec<[f32; 4]> = Vec::new();
-    for sun in [0.0f32, 22.0, 47.3, 80.0, 89.5] {
-        for depth in [0.0f32, 0.1, 0.6, 1.25, 2.7, 4.5, 9.0] {
-            for cosine in [-1.0f32, -0.45, 0.0, 0.2, 0.73, 1.0] {
-                for azimuth in [-20.0f32, 0.0, 7.5, 90.0, 180.0, 300.0] {
-                    queries.push([sun, depth, cosine, azimuth]);
+    let mut queries: Vec<[[f32; 4]; 2]> = Vec::new();
+    for thickness in [0.2f32, 0.5, 0.9, 1.5, 2.6, 12.0, 30.0] {
+        for sun in [0.0f32, 22.0, 47.3, 89.5] {
+            for depth in [0.0f32, 0.1, 0.42, 1.25, 2.7, 4.5, 9.0] {
+                for cosine in [-1.0f32, -0.45, 0.2, 0.73, 1.0] {
+                    for azimuth in [-20.0f32, 7.5, 90.0, 300.0] {
+                        queries.push([[sun, depth, cosine, azimuth], [thickness, 0.0, 0.0, 0.0]]);
+                    }
                 }
             }
         }
@@ -568,7 +572,7 @@ fn gpu_interior_source_matches_the_cpu_table() {
             source: &source,
             entry: "interior_source_kernel",
             input: bytemuck::cast_slice(&queries),
-            input_stride: 16,
+            input_stride: 32,
             count: queries.len(),
             outputs_per_item: 1,
             extra: &[common::ExtraGroup {
@@ -578,8 +582,9 @@ fn gpu_interior_source_matches_the_cpu_table() {
             }],
         },
     );
-    for (q, g) in queries.iter().zip(&gpu) {
+    for ([q, t], g) in queries.iter().zip(&gpu) {
         let cpu = interior_source(
+            f64::from(t[0]),
             f64::from(q[0]),
             f64::from(q[1]),
             f64::from(q[2]),
@@ -587,7 +592,7 @@ fn gpu_interior_source_matches_the_cpu_table() {
         );
         assert!(
             (f64::from(*g) - cpu).abs() < 1e-4 * cpu.max(0.1),
-            "{q:?}: GPU {g}, CPU {cpu}"
+            "{q:?} in a slab {t:?} thick: GPU {g}, CPU {cpu}"
         );
     }
 }

@@ -99,10 +99,8 @@ fn in_layer_diffuse_net_flux(total_in: f32, top: vec3<f32>, base: vec3<f32>) -> 
 }
 
 // The scattering optical depths below the top over which the traced source
-// hands over to the P1 field, and the optical depth of the slab it was
-// traced in (nimbus_physics::transport::interior_source::TABLE_OPTICAL_DEPTH).
+// hands over to the P1 field.
 const IN_LAYER_TABLE_HANDOVER: vec2<f32> = vec2<f32>(3.0, 4.5);
-const IN_LAYER_TABLE_OPTICAL_DEPTH: f32 = 12.0;
 
 // Steps of the march towards the sun from a step of the view's march.
 const IN_LAYER_SUN_STEPS: u32 = 6u;
@@ -303,11 +301,11 @@ fn in_layer_fragment(in: FullscreenOutput) -> @location(0) vec4<f32> {
     var transmittance = 1.0;
     var weighted = vec3<f32>(0.0);
     var total_weight = 0.0;
-    // The traced source at its depth nodes for this ray's sun and
-    // direction, read at the first step that needs it: per step, the
+    // The traced source at its depth and thickness nodes for this ray's sun
+    // and direction, read at the first step that needs it: per step, the
     // table's lookups were 31 % of the pass on llvmpipe near a lit top
     // (docs/PERFORMANCE.md).
-    var traced_depths: array<f32, 7>;
+    var traced_nodes: array<f32, 28>;
     var traced_read = false;
     let travel_xz = direction.xz / max(length(direction.xz), 1e-6);
     let beam_xz = l.xz / max(length(l.xz), 1e-6);
@@ -451,25 +449,24 @@ fn in_layer_fragment(in: FullscreenOutput) -> @location(0) vec4<f32> {
             // Near the top, where the light has not diffused yet (P1 gave a
             // third of the traced light within 30° of a low sun's beam and
             // 2–3 × straight down on the far side), the traced source
-            // (transport::interior_source), scaled by the ratio of
-            // δ-Eddington's fluence in this column to the table's slab (a
-            // thinner column keeps less), handing over to P1 between 3 and
-            // 4.5 optical depths down.
+            // (transport::interior_source) in a slab as thick as this
+            // column along the beam (its chord times μ₀), handing over to P1
+            // between 3 and 4.5 optical depths down. (The source of the
+            // 12-deep slab scaled by the ratio of δ-Eddington's fluences in
+            // the column and in that slab made a thin overcast seen from
+            // below 0.67–0.73 of the path-traced light, and unscaled
+            // 1.07–1.43: docs/REALISM.md, "A thin layer's light: the traced
+            // source by the column's thickness".)
             var top_source = from_top + lobe;
             let depth_s = kappa_s * lit_depth_m;
             let table_share = 1.0 - smoothstep(IN_LAYER_TABLE_HANDOVER.x, IN_LAYER_TABLE_HANDOVER.y, depth_s);
             if (table_share > 0.0) {
                 if (!traced_read) {
-                    traced_depths = stratus_interior_source_depths(degrees(acos(mu0)), direction.y, traced_azimuth_deg);
+                    traced_nodes = stratus_interior_source_nodes(degrees(acos(mu0)), direction.y, traced_azimuth_deg);
                     traced_read = true;
                 }
-                let traced = stratus_interior_source_at_depth(traced_depths, depth_s);
-                let t_depth = kappa_t * lit_depth_m;
-                let table_thickness = IN_LAYER_TABLE_OPTICAL_DEPTH * kappa_t / max(kappa_s, 1e-9);
-                let column = in_layer_collimated(t_depth, kappa_t * chord_m * mu0, mu0, IN_LAYER_BEAM_RATE);
-                let slab = in_layer_collimated(t_depth, table_thickness, mu0, IN_LAYER_BEAM_RATE);
-                let thickness_ratio = select(1.0, clamp(column / slab, 0.0, 1.5), slab > 1e-6);
-                top_source = mix(top_source, traced * thickness_ratio, table_share);
+                let traced = stratus_interior_source_at(traced_nodes, depth_s, kappa_s * chord_m * mu0);
+                top_source = mix(top_source, traced, table_share);
             }
             diffuse += light.sun * mix(top_source * shade_diffuse, from_side + lobe, side_share);
             direct = light.sun * unscattered * mix(shade_direct, vec3<f32>(1.0), side_share);
