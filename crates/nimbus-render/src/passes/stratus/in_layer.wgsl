@@ -454,7 +454,7 @@ fn in_layer_fragment(in: FullscreenOutput) -> @location(0) vec4<f32> {
             // between 3 and 4.5 optical depths down. (The source of the
             // 12-deep slab scaled by the ratio of δ-Eddington's fluences in
             // the column and in that slab made a thin overcast seen from
-            // below 0.67–0.73 of the path-traced light, and unscaled
+            // below 0.62–0.73 of the path-traced light, and unscaled
             // 1.07–1.43: docs/REALISM.md, "A thin layer's light: the traced
             // source by the column's thickness".)
             var top_source = from_top + lobe;
