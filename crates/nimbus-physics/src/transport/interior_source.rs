@@ -147,47 +147,27 @@ pub fn interior_source(
     cos_travel: f64,
     relative_azimuth_deg: f64,
 ) -> f64 {
-    let (t, ft, scale) = thickness_weights(thickness);
-    let last = THICKNESS_NODES.len() - 1;
-    let at = |t: usize| {
-        // The same fraction of each node slab's thickness, or the same
-        // depth beyond the last node.
-        let depth_in_node = if thickness >= THICKNESS_NODES[last] {
-            depth
-        } else {
-            depth * THICKNESS_NODES[t] / thickness.max(1e-6)
-        };
-        interior_source_in_slab(
-            t,
-            sun_zenith_deg,
-            depth_in_node,
-            cos_travel,
-            relative_azimuth_deg,
-        )
+    // Twin of `stratus_interior_source_at` (cloud_layer_lookup.wgsl).
+    let at = |t: usize, depth: f64| {
+        interior_source_in_slab(t, sun_zenith_deg, depth, cos_travel, relative_azimuth_deg)
     };
-    scale * ((1.0 - ft) * at(t) + ft * at(t + 1))
-}
-
-/// The thickness node below `thickness`, the next one's weight and a
-/// factor on the blend (below the first node, thickness / first node):
-/// twin of the weights in `stratus_interior_source_at` (cloud_layer_lookup.wgsl).
-fn thickness_weights(thickness: f64) -> (usize, f64, f64) {
-    let first = THICKNESS_NODES[0];
     let last = THICKNESS_NODES.len() - 1;
-    if thickness <= first {
-        return (0, 0.0, thickness.max(0.0) / first);
-    }
     if thickness >= THICKNESS_NODES[last] {
-        return (last - 1, 1.0, 1.0);
+        return at(last, depth);
     }
-    let i = THICKNESS_NODES
+    let fraction = depth / thickness.max(1e-6);
+    let first = THICKNESS_NODES[0];
+    if thickness <= first {
+        return at(0, fraction * first) * thickness.max(0.0) / first;
+    }
+    let t = THICKNESS_NODES
         .iter()
         .rposition(|&n| n <= thickness)
         .unwrap_or(0)
         .min(last - 1);
-    let f =
-        (thickness / THICKNESS_NODES[i]).ln() / (THICKNESS_NODES[i + 1] / THICKNESS_NODES[i]).ln();
-    (i, f, 1.0)
+    let (lower, upper) = (THICKNESS_NODES[t], THICKNESS_NODES[t + 1]);
+    let ft = (thickness / lower).ln() / (upper / lower).ln();
+    (1.0 - ft) * at(t, fraction * lower) + ft * at(t + 1, fraction * upper)
 }
 
 /// S in the node slab `thickness` (an index of [`THICKNESS_NODES`]).
