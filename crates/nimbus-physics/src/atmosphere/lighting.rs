@@ -12,6 +12,7 @@
 
 use super::{AtmosphereTables, fibonacci_sphere};
 use crate::sh;
+use crate::transport::sky_source::{self, BANDS as SKY_BANDS};
 
 /// Directions integrated over the sphere (as the GPU lighting pass).
 pub const LIGHTING_DIRECTIONS: u32 = 1024;
@@ -26,6 +27,11 @@ pub struct SkyLighting {
     pub sun_irradiance: [f64; 3],
     /// C_sky: the sky's irradiance on an upward surface (no sun), W·m⁻².
     pub sky_irradiance_up: [f64; 3],
+    /// C_sky split by the zenith angle the light arrives from, in the bands
+    /// of [`crate::transport::sky_source::BAND_EDGES`] (their sum is
+    /// [`Self::sky_irradiance_up`]): what the cloud layer's traced sky
+    /// light is weighted by, W·m⁻².
+    pub sky_irradiance_bands: [[f64; 3]; SKY_BANDS],
     /// C_ground: radiance of a Lambertian ground of the given albedo (the
     /// ground under the observer) lit by that sun and sky, W·sr⁻¹·m⁻².
     pub ground_radiance: [f64; 3],
@@ -61,10 +67,13 @@ impl SkyLighting {
             .collect();
         let weight = 4.0 * std::f64::consts::PI / f64::from(LIGHTING_DIRECTIONS);
         let mut sky_irradiance_up = [0.0; 3];
+        let mut sky_irradiance_bands = [[0.0; 3]; SKY_BANDS];
         for d in directions.iter().filter(|d| d[1] > 0.0) {
             let l = sky(*d);
+            let band = sky_source::band_of(d[1]).unwrap_or(SKY_BANDS - 1);
             for c in 0..3 {
                 sky_irradiance_up[c] += l[c] * d[1] * weight;
+                sky_irradiance_bands[band][c] += l[c] * d[1] * weight;
             }
         }
         let transmittance = p.transmittance_to_top(r, mu_s);
@@ -89,6 +98,7 @@ impl SkyLighting {
             sun_direction,
             sun_irradiance,
             sky_irradiance_up,
+            sky_irradiance_bands,
             ground_radiance,
             sh: coefficients,
         }

@@ -111,7 +111,7 @@ pub static INTERIOR_SOURCE: [f32; TABLE_VALUES] = include!("interior_source_tabl
 
 /// Where `x` falls between `nodes` (increasing): the lower node and the
 /// weight of the upper one, clamped to the ends.
-fn bracket(x: f64, nodes: &[f64]) -> (usize, f64) {
+pub(crate) fn bracket(x: f64, nodes: &[f64]) -> (usize, f64) {
     let last = nodes.len() - 1;
     if x <= nodes[0] {
         return (0, 0.0);
@@ -148,17 +148,28 @@ pub fn interior_source(
     relative_azimuth_deg: f64,
 ) -> f64 {
     // Twin of `stratus_interior_source_at` (cloud_layer_lookup.wgsl).
-    let at = |t: usize, depth: f64| {
+    across_thickness(thickness, depth, |t, depth| {
         interior_source_in_slab(t, sun_zenith_deg, depth, cos_travel, relative_azimuth_deg)
-    };
+    })
+}
+
+/// A value tallied in the slabs of [`THICKNESS_NODES`] (`in_slab(t, depth)`
+/// in node slab `t`, linear in the depth between its [`depth_planes`]) for
+/// a slab `thickness` thick at `depth` (scattering optical depths): linear
+/// in the logarithm of the thickness between nodes, each node slab read at
+/// the same fraction of its thickness; thinner than the first node, that
+/// node's value at the same fraction scaled down linearly; thicker than the
+/// last, the last's at the same depth. The rule of [`interior_source`] and
+/// of the sky's table ([`super::sky_source`]).
+pub fn across_thickness(thickness: f64, depth: f64, in_slab: impl Fn(usize, f64) -> f64) -> f64 {
     let last = THICKNESS_NODES.len() - 1;
     if thickness >= THICKNESS_NODES[last] {
-        return at(last, depth);
+        return in_slab(last, depth);
     }
     let fraction = depth / thickness.max(1e-6);
     let first = THICKNESS_NODES[0];
     if thickness <= first {
-        return at(0, fraction * first) * thickness.max(0.0) / first;
+        return in_slab(0, fraction * first) * thickness.max(0.0) / first;
     }
     let t = THICKNESS_NODES
         .iter()
@@ -167,7 +178,7 @@ pub fn interior_source(
         .min(last - 1);
     let (lower, upper) = (THICKNESS_NODES[t], THICKNESS_NODES[t + 1]);
     let ft = (thickness / lower).ln() / (upper / lower).ln();
-    (1.0 - ft) * at(t, fraction * lower) + ft * at(t + 1, fraction * upper)
+    (1.0 - ft) * in_slab(t, fraction * lower) + ft * in_slab(t + 1, fraction * upper)
 }
 
 /// S in the node slab `thickness` (an index of [`THICKNESS_NODES`]).
@@ -204,7 +215,7 @@ fn interior_source_in_slab(
 
 /// The node directions of the table (x along the beam's azimuth, z the
 /// inward normal), cosine major then azimuth.
-fn node_directions() -> Vec<[f64; 3]> {
+pub(crate) fn node_directions() -> Vec<[f64; 3]> {
     (0..COSINE_NODES)
         .flat_map(|k| {
             let mu = cosine_node(k);
@@ -262,7 +273,7 @@ pub fn trace_interior_source(
 
 /// One photon's walk, its scattered flights' crossings of the depth
 /// `planes` added to `sums` (`[depth][direction]`).
-fn walk(
+pub(crate) fn walk(
     medium: &SlabMedium,
     incident: [f64; 3],
     planes: &[f64; 7],

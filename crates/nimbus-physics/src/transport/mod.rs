@@ -11,6 +11,7 @@ pub mod monte_carlo;
 pub mod phase_model;
 pub mod reflected_exit;
 pub mod rng;
+pub mod sky_source;
 pub mod stratus;
 
 /// The default droplets as the tables' tests trace them.

@@ -164,6 +164,9 @@ pub struct LightingUniform {
     /// the ground and sea under them), order-2 real SH (RGB in xyz),
     /// W·sr⁻¹·m⁻² ([`SkyLighting::environment_at`]).
     pub clouds_sh: [[f32; 4]; 9],
+    /// C_sky split by the zenith angle the light arrives from
+    /// ([`SkyLighting::sky_irradiance_bands`]), W·m⁻².
+    pub sky_irradiance_bands: [[f32; 4]; 4],
 }
 
 /// GPU layout of WGSL `Atmosphere`.

@@ -34,7 +34,7 @@ use bytemuck::{Pod, Zeroable};
 use nimbus_physics::optics::dsd::SizeDistribution;
 use nimbus_physics::optics::tables::{CloudOpticsParams, CloudOpticsTables};
 use nimbus_physics::terrain::SHADOW_CEILING_TEXELS;
-use nimbus_physics::transport::{interior_source, reflected_exit};
+use nimbus_physics::transport::{interior_source, reflected_exit, sky_source};
 use std::collections::HashMap;
 use std::path::PathBuf;
 use std::sync::{Arc, Mutex, OnceLock};
@@ -199,6 +199,12 @@ impl CloudLighting {
     /// creation).
     pub const INTERIOR_SOURCE_TEXELS: usize = interior_source::TABLE_VALUES;
 
+    /// Values after the sun's interior source: the sky's scattered light
+    /// inside a layer near its top, per band of the sky's zenith angles
+    /// (`nimbus_physics::transport::sky_source`, the same for every layer;
+    /// written once at creation).
+    pub const SKY_SOURCE_TEXELS: usize = sky_source::TABLE_VALUES;
+
     /// Creates the group with no layer and an empty shadow map.
     pub fn new(device: &wgpu::Device, queue: &wgpu::Queue) -> Self {
         let uniform_size = std::mem::size_of::<StratusUniform>() as u64;
@@ -212,7 +218,8 @@ impl CloudLighting {
             label: Some("stratus phase tables"),
             size: (Self::PHASE_TABLE_TEXELS
                 + Self::REFLECTED_SHAPE_TEXELS
-                + Self::INTERIOR_SOURCE_TEXELS) as u64
+                + Self::INTERIOR_SOURCE_TEXELS
+                + Self::SKY_SOURCE_TEXELS) as u64
                 * VEC4_BYTES,
             usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
             mapped_at_creation: false,
@@ -234,6 +241,17 @@ impl CloudLighting {
             &phase_tables,
             (Self::PHASE_TABLE_TEXELS + Self::REFLECTED_SHAPE_TEXELS) as u64 * VEC4_BYTES,
             bytemuck::cast_slice(&source),
+        );
+        let sky: Vec<[f32; 4]> = sky_source::SKY_SOURCE
+            .iter()
+            .map(|&s| [s, s, s, 0.0])
+            .collect();
+        queue.write_buffer(
+            &phase_tables,
+            (Self::PHASE_TABLE_TEXELS + Self::REFLECTED_SHAPE_TEXELS + Self::INTERIOR_SOURCE_TEXELS)
+                as u64
+                * VEC4_BYTES,
+            bytemuck::cast_slice(&sky),
         );
         let shadow = CloudShadowMap::new(device, queue);
         let side = SHADOW_CEILING_TEXELS as u32;

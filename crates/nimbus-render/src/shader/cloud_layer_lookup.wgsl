@@ -294,21 +294,69 @@ fn stratus_interior_source_nodes(sun_zenith_deg: f32, cos_travel: f32, relative_
     return values;
 }
 
-// The source at optical depth `depth` in slab node `t` from its values at
-// the depth nodes, linear between the planes where that slab was tallied
-// (the nodes below its base moved up to just above it), clamped to the
-// first and the last.
-fn stratus_interior_source_in_slab(values: array<f32, 28>, t: u32, depth: f32) -> f32 {
+// Values of the sun's interior source table (4 × 9 × 7 × 11 × 13), after
+// which the sky's is stored.
+const STRATUS_INTERIOR_SOURCE_VALUES: u32 = 36036u;
+
+// The sky's scattered light S near a layer's top (every order, per unit
+// scattering optical depth, sr⁻¹) travelling at cosine `cos_travel` to the
+// inward normal, at the depth nodes of every slab thickness, per channel
+// ([channel][thickness][depth], read at a depth and thickness by
+// stratus_interior_source_at, whose rule the table shares), for a sky
+// whose irradiance on the top from each band of zenith angles is `bands`
+// (Lighting.sky_irradiance_bands): the table's bands (per unit irradiance
+// from each) weighted by them, linear in the cosine. Twin of
+// nimbus_physics::transport::sky_source::sky_source (4 slab thicknesses,
+// 4 bands, 7 depths, 11 cosines from −1 to 1).
+fn stratus_sky_source_nodes(cos_travel: f32, bands: array<vec4<f32>, 4>) -> array<array<f32, 28>, 3> {
+    // After the phase tables, the reflected shape's 9 × 9 × 7 values and
+    // the sun's interior source.
+    let offset = 2u * stratus.sizes.x + stratus.sizes.y + 567u + STRATUS_INTERIOR_SOURCE_VALUES;
+    let cosine = clamp((clamp(cos_travel, -1.0, 1.0) + 1.0) / 0.2, 0.0, 10.0);
+    let k = min(u32(cosine), 9u);
+    let fk = cosine - f32(k);
+    var values: array<array<f32, 28>, 3>;
+    for (var t = 0u; t < 4u; t += 1u) {
+        for (var j = 0u; j < 7u; j += 1u) {
+            var e = vec3<f32>(0.0);
+            for (var b = 0u; b < 4u; b += 1u) {
+                let index = offset + ((t * 4u + b) * 7u + j) * 11u + k;
+                e += mix(stratus_phase[index].x, stratus_phase[index + 1u].x, fk) * bands[b].xyz;
+            }
+            values[0][t * 7u + j] = e.x;
+            values[1][t * 7u + j] = e.y;
+            values[2][t * 7u + j] = e.z;
+        }
+    }
+    return values;
+}
+
+// The sky's S from one `band` per unit irradiance from it, at `depth` below
+// the top of a slab `thickness` thick (scattering optical depths). Twin of
+// nimbus_physics::transport::sky_source::sky_source.
+fn stratus_sky_source(thickness: f32, band: u32, depth: f32, cos_travel: f32) -> f32 {
+    var bands: array<vec4<f32>, 4>;
+    bands[band] = vec4<f32>(1.0);
+    let nodes = stratus_sky_source_nodes(cos_travel, bands);
+    return stratus_interior_source_at(nodes[0], depth, thickness);
+}
+
+// Where a source at optical depth `depth` in slab node `t` falls among
+// that slab's values (index t * 7 + j): the lower plane j and the upper's
+// weight, linear between the planes where that slab was tallied (the
+// nodes below its base moved up to just above it), clamped to the first
+// and the last.
+fn stratus_interior_in_slab(t: u32, depth: f32) -> vec2<f32> {
     let base = STRATUS_INTERIOR_THICKNESSES[t] * (1.0 - 1e-3);
     var planes: array<f32, 7>;
     for (var n = 0u; n < 7u; n += 1u) {
         planes[n] = min(STRATUS_INTERIOR_DEPTHS[n], base);
     }
     if (depth >= planes[6]) {
-        return values[t * 7u + 6u];
+        return vec2<f32>(5.0, 1.0);
     }
     if (depth <= planes[0]) {
-        return values[t * 7u];
+        return vec2<f32>(0.0, 0.0);
     }
     var j = 0u;
     for (var n = 0u; n < 6u; n += 1u) {
@@ -316,34 +364,69 @@ fn stratus_interior_source_in_slab(values: array<f32, 28>, t: u32, depth: f32) -
             j = n;
         }
     }
-    let fj = (depth - planes[j]) / (planes[j + 1u] - planes[j]);
-    return mix(values[t * 7u + j], values[t * 7u + j + 1u], fj);
+    return vec2<f32>(f32(j), (depth - planes[j]) / (planes[j + 1u] - planes[j]));
+}
+
+// The four values (indices into a [thickness][depth] array of 28) and
+// their weights that give a source at `depth` in a slab `thickness` thick
+// (twin of interior_source's across_thickness: linear in the logarithm
+// between thickness nodes, each node slab read at the same fraction of
+// its thickness; the first's scaled down linearly below it; the last's at
+// the same depth above it). Computed once per step and applied to every
+// table read along the ray (the sun's, and the sky's three channels).
+struct InteriorWeights {
+    index: vec4<u32>,
+    weight: vec4<f32>,
+}
+
+fn stratus_interior_weights(depth: f32, thickness: f32) -> InteriorWeights {
+    var t = 3u;
+    var ft = 0.0;
+    var scale = 1.0;
+    var depth_lower = depth;
+    var depth_upper = depth;
+    if (thickness < STRATUS_INTERIOR_THICKNESSES[3]) {
+        let fraction = depth / max(thickness, 1e-6);
+        if (thickness <= STRATUS_INTERIOR_THICKNESSES[0]) {
+            t = 0u;
+            scale = max(thickness, 0.0) / STRATUS_INTERIOR_THICKNESSES[0];
+            depth_lower = fraction * STRATUS_INTERIOR_THICKNESSES[0];
+        } else {
+            t = 0u;
+            for (var n = 0u; n < 3u; n += 1u) {
+                if (STRATUS_INTERIOR_THICKNESSES[n] <= thickness) {
+                    t = n;
+                }
+            }
+            ft = log(thickness / STRATUS_INTERIOR_THICKNESSES[t])
+                / log(STRATUS_INTERIOR_THICKNESSES[t + 1u] / STRATUS_INTERIOR_THICKNESSES[t]);
+            depth_lower = fraction * STRATUS_INTERIOR_THICKNESSES[t];
+            depth_upper = fraction * STRATUS_INTERIOR_THICKNESSES[t + 1u];
+        }
+    }
+    let lower = stratus_interior_in_slab(t, depth_lower);
+    let t_upper = min(t + 1u, 3u);
+    let upper = stratus_interior_in_slab(t_upper, depth_upper);
+    var out: InteriorWeights;
+    out.index = vec4<u32>(t * 7u + u32(lower.x), t * 7u + u32(lower.x) + 1u,
+        t_upper * 7u + u32(upper.x), t_upper * 7u + u32(upper.x) + 1u);
+    out.weight = vec4<f32>((1.0 - lower.y) * (1.0 - ft), lower.y * (1.0 - ft),
+        (1.0 - upper.y) * ft, upper.y * ft) * scale;
+    return out;
+}
+
+// A source from its values at the depth nodes of every slab thickness
+// (stratus_interior_source_nodes, stratus_sky_source_nodes) with the
+// weights of stratus_interior_weights.
+fn stratus_interior_weighted(values: array<f32, 28>, w: InteriorWeights) -> f32 {
+    return w.weight.x * values[w.index.x] + w.weight.y * values[w.index.y]
+        + w.weight.z * values[w.index.z] + w.weight.w * values[w.index.w];
 }
 
 // The source at `depth` in a slab `thickness` thick from the values of
-// stratus_interior_source_nodes (twin of interior_source's thickness
-// weights: linear in the logarithm between nodes, each node slab read at
-// the same fraction of its thickness; the first's scaled down linearly
-// below it; the last's at the same depth above it).
+// stratus_interior_source_nodes (or stratus_sky_source_nodes).
 fn stratus_interior_source_at(values: array<f32, 28>, depth: f32, thickness: f32) -> f32 {
-    if (thickness >= STRATUS_INTERIOR_THICKNESSES[3]) {
-        return stratus_interior_source_in_slab(values, 3u, depth);
-    }
-    let fraction = depth / max(thickness, 1e-6);
-    if (thickness <= STRATUS_INTERIOR_THICKNESSES[0]) {
-        return stratus_interior_source_in_slab(values, 0u, fraction * STRATUS_INTERIOR_THICKNESSES[0])
-            * max(thickness, 0.0) / STRATUS_INTERIOR_THICKNESSES[0];
-    }
-    var t = 0u;
-    for (var n = 0u; n < 3u; n += 1u) {
-        if (STRATUS_INTERIOR_THICKNESSES[n] <= thickness) {
-            t = n;
-        }
-    }
-    let ft = log(thickness / STRATUS_INTERIOR_THICKNESSES[t])
-        / log(STRATUS_INTERIOR_THICKNESSES[t + 1u] / STRATUS_INTERIOR_THICKNESSES[t]);
-    return mix(stratus_interior_source_in_slab(values, t, fraction * STRATUS_INTERIOR_THICKNESSES[t]),
-        stratus_interior_source_in_slab(values, t + 1u, fraction * STRATUS_INTERIOR_THICKNESSES[t + 1u]), ft);
+    return stratus_interior_weighted(values, stratus_interior_weights(depth, thickness));
 }
 
 // P_S, P² and P_F at scattering angle theta (rad), sr⁻¹.

@@ -14,6 +14,11 @@ struct Lighting {
     // mean centre (Atmosphere.clouds_observer_m), whose lower hemisphere is
     // the ground and the sea under them seen from their altitude.
     clouds_sh: array<vec4<f32>, 9>,
+    // sky_irradiance_up split by the zenith angle the light arrives from,
+    // in the bands of nimbus_physics::transport::sky_source::BAND_EDGES
+    // (cosines 0, 0.1, 0.3, 0.6, 1): what the cloud layer's traced sky
+    // light is weighted by.
+    sky_irradiance_bands: array<vec4<f32>, 4>,
 }
 
 // `l` with the environment the clouds see (`clouds_sh`) as its `sh`: what

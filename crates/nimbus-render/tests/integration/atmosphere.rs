@@ -218,6 +218,17 @@ fn gpu_lighting_inputs_match_the_cpu_reference() {
         ]
     };
     assert_close("C_sky", gpu(9), sky_up, 0.03, 1e-3);
+    // C_sky by the band the light arrives from (after sh, the four
+    // irradiances, the exposure and clouds_sh: vec4 22–25).
+    for (band, cpu_band) in cpu.sky_irradiance_bands.iter().enumerate() {
+        assert_close(
+            &format!("C_sky band {band}"),
+            gpu(22 + band),
+            *cpu_band,
+            0.03,
+            1e-3,
+        );
+    }
     assert_close("C_sun", gpu(10), sun_e, 0.01, 1e-3);
     assert_close("C_ground", gpu(11), ground, 0.03, 1e-3);
     // SH: compare the irradiance they give on a few normals (the quantity the passes use).

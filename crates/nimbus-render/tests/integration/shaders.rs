@@ -159,7 +159,8 @@ fn atmosphere_and_lighting_match_wgsl_layout() {
             sun_irradiance,
             ground_radiance,
             exposure,
-            clouds_sh
+            clouds_sh,
+            sky_irradiance_bands
         ]
     );
 }

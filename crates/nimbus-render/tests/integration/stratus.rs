@@ -597,6 +597,79 @@ fn gpu_interior_source_matches_the_cpu_table() {
     }
 }
 
+/// A test kernel around `stratus_sky_source`: one value per query (slab
+/// thickness, band, depth, cosine of travel).
+const SKY_SOURCE_KERNEL: &str = r"
+@group(0) @binding(1) var<storage, read> sky_queries: array<vec4<f32>>;
+@group(0) @binding(2) var<storage, read_write> sky_values: array<f32>;
+
+@compute @workgroup_size(64)
+fn sky_source_kernel(@builtin(global_invocation_id) id: vec3<u32>) {
+    if (id.x >= arrayLength(&sky_queries)) {
+        return;
+    }
+    let q = sky_queries[id.x];
+    sky_values[id.x] = stratus_sky_source(q.x, u32(q.y), q.z, q.w);
+}
+";
+
+/// The in-layer march's traced sky light near a layer's top (the table
+/// uploaded after the sun's interior source, weighted by bands in WGSL)
+/// against its CPU twin `nimbus_physics::transport::sky_source::sky_source`,
+/// at nodes, between them and beyond the clamped ranges, for every band.
+#[test]
+fn gpu_sky_source_matches_the_cpu_table() {
+    use nimbus_physics::transport::sky_source::{BANDS, sky_source};
+    use nimbus_render::shader;
+
+    let mut h = headless();
+    h.render_frame(&scene(0), 32, 18, 0.0).expect("frame");
+    let mut queries: Vec<[f32; 4]> = Vec::new();
+    for thickness in [0.2f32, 0.5, 0.9, 1.5, 2.6, 12.0, 30.0] {
+        for band in 0..BANDS {
+            for depth in [0.0f32, 0.1, 0.42, 1.25, 2.7, 4.5, 9.0] {
+                for cosine in [-1.0f32, -0.45, 0.2, 0.73, 1.0] {
+                    queries.push([thickness, band as f32, depth, cosine]);
+                }
+            }
+        }
+    }
+    let source = {
+        let mut files = shader::DRAWING_LIBRARIES.to_vec();
+        files.extend(nimbus_render::stratus::DRAWING_LIBRARIES);
+        shader::compose(&files) + SKY_SOURCE_KERNEL
+    };
+    let gpu: Vec<f32> = common::run_kernel(
+        &h,
+        &common::Kernel {
+            label: "sky source test",
+            source: &source,
+            entry: "sky_source_kernel",
+            input: bytemuck::cast_slice(&queries),
+            input_stride: 16,
+            count: queries.len(),
+            outputs_per_item: 1,
+            extra: &[common::ExtraGroup {
+                index: 3,
+                layout: h.renderer.frame_resources().cloud_lighting.layout(),
+                group: h.renderer.frame_resources().cloud_lighting.bind_group(),
+            }],
+        },
+    );
+    for (q, g) in queries.iter().zip(&gpu) {
+        let cpu = sky_source(
+            f64::from(q[0]),
+            q[1] as usize,
+            f64::from(q[2]),
+            f64::from(q[3]),
+        );
+        assert!(
+            (f64::from(*g) - cpu).abs() < 1e-4 * cpu.max(0.1),
+            "{q:?}: GPU {g}, CPU {cpu}"
+        );
+    }
+}
+
 const DIFFUSION_KERNEL: &str = r"
 @group(0) @binding(1) var<storage, read> diffusion_in: array<vec4<f32>>;
 @group(0) @binding(2) var<storage, read_write> diffusion_out: array<f32>;

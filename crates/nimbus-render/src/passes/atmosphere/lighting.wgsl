@@ -7,6 +7,8 @@
 //   horizon, below it the ground (C_ground) through the air and the air's
 //   own light;
 // - sky_irradiance_up: C_sky, the sky's irradiance on an upward surface;
+// - sky_irradiance_bands: C_sky by the band of the zenith angle the light
+//   arrives from (sky_band);
 // - sun_irradiance: C_sun, the direct solar irradiance at the camera's
 //   altitude after atmospheric transmittance (normal incidence);
 // - ground_radiance: C_ground, the radiance of a Lambertian ground of the
@@ -26,7 +28,25 @@ const LIGHTING_DIRECTIONS: u32 = 1024u;
 const LIGHTING_THREADS: u32 = 64u;
 
 var<workgroup> partial_irradiance: array<vec3<f32>, 64>;
+var<workgroup> partial_bands: array<array<vec3<f32>, 4>, 64>;
 var<workgroup> partial_sh: array<array<vec3<f32>, 9>, 64>;
+
+// Upper edges of the sky's first three bands in the cosine of the
+// incident light's zenith angle (nimbus_physics::transport::sky_source::
+// BAND_EDGES: 0, 0.1, 0.3, 0.6, 1).
+const SKY_BAND_EDGES = array<f32, 3>(0.1, 0.3, 0.6);
+
+// The band of the sky light arriving from a direction of vertical
+// component mu > 0 (twin of sky_source::band_of).
+fn sky_band(mu: f32) -> u32 {
+    var band = 0u;
+    for (var n = 0u; n < 3u; n = n + 1u) {
+        if (mu >= SKY_BAND_EDGES[n]) {
+            band = n + 1u;
+        }
+    }
+    return band;
+}
 
 fn lighting_direction(index: u32) -> vec3<f32> {
     let golden_angle = ATMOSPHERE_PI * (3.0 - sqrt(5.0));
@@ -110,13 +130,17 @@ fn lighting_main(@builtin(local_invocation_index) thread: u32) {
 
     // Pass 1: the sky's irradiance on an upward surface.
     var e_up = vec3<f32>(0.0);
+    var e_bands = array<vec3<f32>, 4>(vec3<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0));
     for (var k = 0u; k < per_thread; k = k + 1u) {
         let d = lighting_direction(thread * per_thread + k);
         if (d.y > 0.0) {
-            e_up += sky_view_radiance(d) * d.y * weight;
+            let e = sky_view_radiance(d) * d.y * weight;
+            e_up += e;
+            e_bands[sky_band(d.y)] += e;
         }
     }
     partial_irradiance[thread] = e_up;
+    partial_bands[thread] = e_bands;
     workgroupBarrier();
     var sky_irradiance_up = vec3<f32>(0.0);
     for (var t = 0u; t < LIGHTING_THREADS; t = t + 1u) {
@@ -210,6 +234,13 @@ fn lighting_main(@builtin(local_invocation_index) thread: u32) {
             lighting_out.clouds_sh[c] = vec4<f32>(clouds_total[c], 0.0);
         }
         lighting_out.sky_irradiance_up = vec4<f32>(sky_irradiance_up, 0.0);
+        for (var b = 0u; b < 4u; b = b + 1u) {
+            var e = vec3<f32>(0.0);
+            for (var t = 0u; t < LIGHTING_THREADS; t = t + 1u) {
+                e += partial_bands[t][b];
+            }
+            lighting_out.sky_irradiance_bands[b] = vec4<f32>(e, 0.0);
+        }
         lighting_out.sun_irradiance = vec4<f32>(sun_irradiance, 0.0);
         lighting_out.ground_radiance = vec4<f32>(ground_radiance, 0.0);
         // Incident-light meter (ISO 2720, calibration C = 250 lx·s for a flat

@@ -307,6 +307,10 @@ fn in_layer_fragment(in: FullscreenOutput) -> @location(0) vec4<f32> {
     // (docs/PERFORMANCE.md).
     var traced_nodes: array<f32, 28>;
     var traced_read = false;
+    // The sky's traced source at its depth and thickness nodes for this
+    // ray's direction (per channel), read likewise.
+    var sky_nodes: array<array<f32, 28>, 3>;
+    var sky_read = false;
     let travel_xz = direction.xz / max(length(direction.xz), 1e-6);
     let beam_xz = l.xz / max(length(l.xz), 1e-6);
     let traced_azimuth_deg = degrees(acos(clamp(dot(travel_xz, beam_xz), -1.0, 1.0)));
@@ -380,6 +384,33 @@ fn in_layer_fragment(in: FullscreenOutput) -> @location(0) vec4<f32> {
         var diffuse = exit_weight * eddington_source(
             in_layer_diffuse(kappa_t * below_top, kappa_t * h, sky, light.ground),
             in_layer_diffuse_net_flux(kappa_t * h, sky, light.ground), direction.y, asymmetry_star);
+        // Near the top the sky's light has not diffused yet: it arrives
+        // from every direction above, the bright horizon's at grazing
+        // incidence, and the droplets' forward lobe carries it on at grazing
+        // angles out of the top. There the sky's part of the source is the
+        // field a diffuse sky makes in a slab as thick as the column
+        // (transport::sky_source, by the sky's irradiance from four bands
+        // of zenith angles), handing over to P1 as the sun's does: P1 lit
+        // by the sky's irradiance and leaving by the escape function gave
+        // a layer seen from above 0.58–0.82 of the path-traced sky light,
+        // 0.48–0.69 at grazing views (docs/REALISM.md, "The sky's light on
+        // a layer's top").
+        let sky_depth_s = kappa_s * below_top;
+        let sky_share = 1.0 - smoothstep(IN_LAYER_TABLE_HANDOVER.x, IN_LAYER_TABLE_HANDOVER.y, sky_depth_s);
+        if (sky_share > 0.0) {
+            if (!sky_read) {
+                sky_nodes = stratus_sky_source_nodes(direction.y, lighting.sky_irradiance_bands);
+                sky_read = true;
+            }
+            let sky_weights = stratus_interior_weights(sky_depth_s, kappa_s * h);
+            let traced_sky = vec3<f32>(stratus_interior_weighted(sky_nodes[0], sky_weights),
+                stratus_interior_weighted(sky_nodes[1], sky_weights),
+                stratus_interior_weighted(sky_nodes[2], sky_weights));
+            let diffuse_sky = exit_weight * eddington_source(
+                in_layer_diffuse(kappa_t * below_top, kappa_t * h, sky, vec3<f32>(0.0)),
+                in_layer_diffuse_net_flux(kappa_t * h, sky, vec3<f32>(0.0)), direction.y, asymmetry_star);
+            diffuse += sky_share * (traced_sky - diffuse_sky);
+        }
         var direct = vec3<f32>(0.0);
         if (l.y > 0.0) {
             let along = f32(i % IN_LAYER_SUN_EVERY) / f32(IN_LAYER_SUN_EVERY);
