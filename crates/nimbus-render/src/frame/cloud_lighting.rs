@@ -224,35 +224,23 @@ impl CloudLighting {
             usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
             mapped_at_creation: false,
         });
-        let shape: Vec<[f32; 4]> = reflected_exit::REFLECTED_SHAPE
-            .iter()
-            .map(|&a| [a, a, a, 0.0])
-            .collect();
-        queue.write_buffer(
-            &phase_tables,
-            Self::PHASE_TABLE_TEXELS as u64 * VEC4_BYTES,
-            bytemuck::cast_slice(&shape),
-        );
-        let source: Vec<[f32; 4]> = interior_source::INTERIOR_SOURCE
-            .iter()
-            .map(|&s| [s, s, s, 0.0])
-            .collect();
-        queue.write_buffer(
-            &phase_tables,
-            (Self::PHASE_TABLE_TEXELS + Self::REFLECTED_SHAPE_TEXELS) as u64 * VEC4_BYTES,
-            bytemuck::cast_slice(&source),
-        );
-        let sky: Vec<[f32; 4]> = sky_source::SKY_SOURCE
-            .iter()
-            .map(|&s| [s, s, s, 0.0])
-            .collect();
-        queue.write_buffer(
-            &phase_tables,
-            (Self::PHASE_TABLE_TEXELS + Self::REFLECTED_SHAPE_TEXELS + Self::INTERIOR_SOURCE_TEXELS)
-                as u64
-                * VEC4_BYTES,
-            bytemuck::cast_slice(&sky),
-        );
+        // The tables shared by every layer, one value per texel (grey),
+        // after the per-layer phase tables, in the order the lookups
+        // (cloud_layer_lookup.wgsl) find them.
+        let mut offset_texels = Self::PHASE_TABLE_TEXELS;
+        for table in [
+            &reflected_exit::REFLECTED_SHAPE[..],
+            &interior_source::INTERIOR_SOURCE[..],
+            &sky_source::SKY_SOURCE[..],
+        ] {
+            let grey: Vec<[f32; 4]> = table.iter().map(|&v| [v, v, v, 0.0]).collect();
+            queue.write_buffer(
+                &phase_tables,
+                offset_texels as u64 * VEC4_BYTES,
+                bytemuck::cast_slice(&grey),
+            );
+            offset_texels += table.len();
+        }
         let shadow = CloudShadowMap::new(device, queue);
         let side = SHADOW_CEILING_TEXELS as u32;
         let terrain_ceiling = device.create_texture(&wgpu::TextureDescriptor {

@@ -45,6 +45,24 @@ fn field_of(scene: &Scene) -> CloudLayerField {
     }
 }
 
+/// A test kernel's source: the drawing libraries and the stratus ones (the
+/// layer's lookups in WGSL) followed by `kernel`.
+fn lookup_kernel_source(kernel: &str) -> String {
+    let mut files = nimbus_render::shader::DRAWING_LIBRARIES.to_vec();
+    files.extend(nimbus_render::stratus::DRAWING_LIBRARIES);
+    nimbus_render::shader::compose(&files) + kernel
+}
+
+/// The frame's cloud-lighting group (the layer's uniform and tables) as a
+/// test kernel's group 3, where the stratus libraries read it.
+fn cloud_lighting_group(h: &HeadlessRenderer) -> common::ExtraGroup<'_> {
+    common::ExtraGroup {
+        index: 3,
+        layout: h.renderer.frame_resources().cloud_lighting.layout(),
+        group: h.renderer.frame_resources().cloud_lighting.bind_group(),
+    }
+}
+
 fn read_vec4s(h: &HeadlessRenderer, buffer: &wgpu::Buffer, texels: usize) -> Vec<[f32; 4]> {
     h.read_buffer_elements(buffer, texels).expect("read back")
 }
@@ -223,7 +241,6 @@ fn gpu_layer_marches_match_the_cpu_marches() {
     use nimbus_physics::cloud_layer::{
         cloud_along_ray_m, first_entry_m, path_inside_layer_m, surface_normal,
     };
-    use nimbus_render::shader;
 
     let mut h = headless();
     let scene = scene(0);
@@ -305,11 +322,7 @@ fn gpu_layer_marches_match_the_cpu_marches() {
     }
     assert!(rays.len() > 300, "{} rays", rays.len());
 
-    let source = {
-        let mut files = shader::DRAWING_LIBRARIES.to_vec();
-        files.extend(nimbus_render::stratus::DRAWING_LIBRARIES);
-        shader::compose(&files) + VIEW_PATH_KERNEL
-    };
+    let source = lookup_kernel_source(VIEW_PATH_KERNEL);
     // One ray (two vec4) in, six f32 out: the view path, the cloud along
     // the ray, the first entry, the surface's normal.
     let marches_on_gpu = |rays: &[[[f32; 4]; 2]]| -> Vec<f32> {
@@ -323,11 +336,7 @@ fn gpu_layer_marches_match_the_cpu_marches() {
                 input_stride: 32,
                 count: rays.len(),
                 outputs_per_item: 6,
-                extra: &[common::ExtraGroup {
-                    index: 3,
-                    layout: h.renderer.frame_resources().cloud_lighting.layout(),
-                    group: h.renderer.frame_resources().cloud_lighting.bind_group(),
-                }],
+                extra: &[cloud_lighting_group(&h)],
             },
         )
     };
@@ -472,7 +481,6 @@ fn reflected_shape_kernel(@builtin(global_invocation_id) id: vec3<u32>) {
 #[test]
 fn gpu_reflected_shape_matches_the_cpu_table() {
     use nimbus_physics::transport::reflected_exit::reflected_shape;
-    use nimbus_render::shader;
 
     let mut h = headless();
     h.render_frame(&scene(0), 32, 18, 0.0).expect("frame");
@@ -484,11 +492,7 @@ fn gpu_reflected_shape_matches_the_cpu_table() {
             }
         }
     }
-    let source = {
-        let mut files = shader::DRAWING_LIBRARIES.to_vec();
-        files.extend(nimbus_render::stratus::DRAWING_LIBRARIES);
-        shader::compose(&files) + REFLECTED_SHAPE_KERNEL
-    };
+    let source = lookup_kernel_source(REFLECTED_SHAPE_KERNEL);
     let gpu: Vec<f32> = common::run_kernel(
         &h,
         &common::Kernel {
@@ -499,11 +503,7 @@ fn gpu_reflected_shape_matches_the_cpu_table() {
             input_stride: 16,
             count: queries.len(),
             outputs_per_item: 1,
-            extra: &[common::ExtraGroup {
-                index: 3,
-                layout: h.renderer.frame_resources().cloud_lighting.layout(),
-                group: h.renderer.frame_resources().cloud_lighting.bind_group(),
-            }],
+            extra: &[cloud_lighting_group(&h)],
         },
     );
     let mut worst = 0.0f64;
@@ -544,7 +544,6 @@ fn interior_source_kernel(@builtin(global_invocation_id) id: vec3<u32>) {
 #[test]
 fn gpu_interior_source_matches_the_cpu_table() {
     use nimbus_physics::transport::interior_source::interior_source;
-    use nimbus_render::shader;
 
     let mut h = headless();
     h.render_frame(&scene(0), 32, 18, 0.0).expect("frame");
@@ -560,11 +559,7 @@ fn gpu_interior_source_matches_the_cpu_table() {
             }
         }
     }
-    let source = {
-        let mut files = shader::DRAWING_LIBRARIES.to_vec();
-        files.extend(nimbus_render::stratus::DRAWING_LIBRARIES);
-        shader::compose(&files) + INTERIOR_SOURCE_KERNEL
-    };
+    let source = lookup_kernel_source(INTERIOR_SOURCE_KERNEL);
     let gpu: Vec<f32> = common::run_kernel(
         &h,
         &common::Kernel {
@@ -575,11 +570,7 @@ fn gpu_interior_source_matches_the_cpu_table() {
             input_stride: 32,
             count: queries.len(),
             outputs_per_item: 1,
-            extra: &[common::ExtraGroup {
-                index: 3,
-                layout: h.renderer.frame_resources().cloud_lighting.layout(),
-                group: h.renderer.frame_resources().cloud_lighting.bind_group(),
-            }],
+            extra: &[cloud_lighting_group(&h)],
         },
     );
     for ([q, t], g) in queries.iter().zip(&gpu) {
@@ -620,7 +611,6 @@ fn sky_source_kernel(@builtin(global_invocation_id) id: vec3<u32>) {
 #[test]
 fn gpu_sky_source_matches_the_cpu_table() {
     use nimbus_physics::transport::sky_source::{BANDS, sky_source};
-    use nimbus_render::shader;
 
     let mut h = headless();
     h.render_frame(&scene(0), 32, 18, 0.0).expect("frame");
@@ -634,11 +624,7 @@ fn gpu_sky_source_matches_the_cpu_table() {
             }
         }
     }
-    let source = {
-        let mut files = shader::DRAWING_LIBRARIES.to_vec();
-        files.extend(nimbus_render::stratus::DRAWING_LIBRARIES);
-        shader::compose(&files) + SKY_SOURCE_KERNEL
-    };
+    let source = lookup_kernel_source(SKY_SOURCE_KERNEL);
     let gpu: Vec<f32> = common::run_kernel(
         &h,
         &common::Kernel {
@@ -649,11 +635,7 @@ fn gpu_sky_source_matches_the_cpu_table() {
             input_stride: 16,
             count: queries.len(),
             outputs_per_item: 1,
-            extra: &[common::ExtraGroup {
-                index: 3,
-                layout: h.renderer.frame_resources().cloud_lighting.layout(),
-                group: h.renderer.frame_resources().cloud_lighting.bind_group(),
-            }],
+            extra: &[cloud_lighting_group(&h)],
         },
     );
     for (q, g) in queries.iter().zip(&gpu) {
