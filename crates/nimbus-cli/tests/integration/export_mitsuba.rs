@@ -109,3 +109,72 @@ fn export_mitsuba_merges_the_clouds_whose_boxes_overlap() {
     );
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// `--light sun` and `--light sky` keep one emitter each and turn the
+/// terrain and the sea black (the full export keeps both and their
+/// albedo): the reference's light split by where it comes from.
+#[test]
+fn export_mitsuba_light_keeps_one_emitter_over_black_surfaces() {
+    let dir = temp_dir("mitsuba", "light");
+    std::fs::write(dir.join("scene.toml"), SCENE).expect("scene");
+    let export = |out: &str, light: Option<&str>| -> String {
+        let mut args = vec![
+            "export",
+            "scene.toml",
+            "--mitsuba",
+            out,
+            "--width",
+            "32",
+            "--height",
+            "18",
+        ];
+        if let Some(light) = light {
+            args.extend(["--light", light]);
+        }
+        let run = nimbus(&args, &dir);
+        assert!(
+            run.status.success(),
+            "{}",
+            String::from_utf8_lossy(&run.stderr)
+        );
+        std::fs::read_to_string(dir.join(out).join("scene.xml")).expect("scene.xml")
+    };
+    let full = export("full", None);
+    let sun = export("sun", Some("sun"));
+    let sky = export("sky", Some("sky"));
+    let emitters = |xml: &str| {
+        (
+            xml.matches("<emitter type=\"directional\">").count(),
+            xml.matches("<emitter type=\"envmap\">").count(),
+        )
+    };
+    assert_eq!(emitters(&full), (1, 1));
+    assert_eq!(emitters(&sun), (1, 0));
+    assert_eq!(emitters(&sky), (0, 1));
+    for xml in [&sun, &sky] {
+        assert!(!xml.contains("terrain_albedo.png") && !xml.contains("roughplastic"));
+        assert_eq!(
+            xml.matches("<rgb name=\"reflectance\" value=\"0, 0, 0\"/>")
+                .count(),
+            2
+        );
+    }
+    assert!(full.contains("terrain_albedo.png") && full.contains("roughplastic"));
+    // The clouds are the same media in all three.
+    let media = |xml: &str| xml.matches("<medium type=\"heterogeneous\"").count();
+    assert_eq!(media(&sun), media(&full));
+    assert_eq!(media(&sky), media(&full));
+    let notes = std::fs::read_to_string(dir.join("sky/APPROXIMATIONS.md")).expect("notes");
+    assert!(notes.contains("--light sky"), "{notes}");
+    // Without --mitsuba it is refused in one line.
+    let bad = nimbus(
+        &["export", "scene.toml", "--gltf", "x.glb", "--light", "sun"],
+        &dir,
+    );
+    let stderr = String::from_utf8_lossy(&bad.stderr);
+    assert!(
+        !bad.status.success() && stderr.contains("--mitsuba"),
+        "{stderr}"
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -321,6 +321,18 @@ pub struct Options {
     /// wavelength, which colours a lining seen a few degrees from the sun.
     /// Only with the full phase function (`phase_truncation_deg` 0).
     pub phase_per_channel: bool,
+    /// One light source alone, every surface black (`--light`): with the
+    /// full render, a split of the light by where it comes from.
+    pub light: Option<LightSource>,
+}
+
+/// One of the exported scene's two emitters ([`Options::light`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum LightSource {
+    /// The sun's directional emitter alone.
+    Sun,
+    /// The sky's environment map alone.
+    Sky,
 }
 
 /// Writes the scene.
@@ -338,6 +350,7 @@ pub fn export(
         phase_truncation_deg,
         air,
         phase_per_channel,
+        light,
     } = options;
     // The caller checks the arguments (`--phase-per-channel` needs the full
     // phase function: green's table below is the shared, untruncated one).
@@ -368,6 +381,20 @@ pub fn export(
         approximations
             .push("the flat ground's albedo map is exported as its mean albedo".to_string());
     }
+    if let Some(light) = light {
+        approximations.push(format!(
+            "--light {}: the {} alone, the terrain, sea and ground black (reflecting nothing): the full export's render minus the sun's and the sky's is the light the surfaces reflect",
+            match light {
+                LightSource::Sun => "sun",
+                LightSource::Sky => "sky",
+            },
+            match light {
+                LightSource::Sun => "sun's directional emitter",
+                LightSource::Sky => "sky's environment map",
+            }
+        ));
+    }
+    let black_surfaces = light.is_some();
     // 1. Render once so that the cumulus pass places this frame's clouds.
     headless.render_frame(scene, 16, 16, time_s as f32)?;
     let placed = headless.renderer.cumulus().placed_clouds();
@@ -444,16 +471,7 @@ pub fn export(
             <string name="pixel_format" value="rgb"/>
         </film>
     </sensor>
-    <emitter type="directional">
-        <vector name="direction" value="{sun_direction}"/>
-        <rgb name="irradiance" value="{e0:.6}, {e1:.6}, {e2:.6}"/>
-    </emitter>
-    <!-- nimbus's panoramas put north (−Z) at the centre; Mitsuba's envmap puts −Z at u = 0. -->
-    <emitter type="envmap">
-        <string name="filename" value="sky.exr"/>
-        <transform name="to_world"><rotate y="1" angle="180"/></transform>
-    </emitter>
-"#,
+{sun_emitter}{sky_emitter}"#,
         air_channel = if air {
             "\n    <default name=\"air\" value=\"g\"/>"
         } else {
@@ -468,17 +486,38 @@ pub fn export(
         origin = vector(camera.position_m),
         target = vector(camera.position_m + camera.forward * 1000.0),
         up = vector(camera.up),
-        sun_direction = vector(-to_sun),
-        e0 = sun_irradiance[0],
-        e1 = sun_irradiance[1],
-        e2 = sun_irradiance[2],
+        sun_emitter = if light == Some(LightSource::Sky) {
+            String::new()
+        } else {
+            format!(
+                r#"    <emitter type="directional">
+        <vector name="direction" value="{}"/>
+        <rgb name="irradiance" value="{:.6}, {:.6}, {:.6}"/>
+    </emitter>
+"#,
+                vector(-to_sun),
+                sun_irradiance[0],
+                sun_irradiance[1],
+                sun_irradiance[2]
+            )
+        },
+        sky_emitter = if light == Some(LightSource::Sun) {
+            ""
+        } else {
+            r#"    <!-- nimbus's panoramas put north (−Z) at the centre; Mitsuba's envmap puts −Z at u = 0. -->
+    <emitter type="envmap">
+        <string name="filename" value="sky.exr"/>
+        <transform name="to_world"><rotate y="1" angle="180"/></transform>
+    </emitter>
+"#
+        },
     );
 
     // 5. Terrain and sea, or the flat ground of a world nimbus does not draw.
     if scene.ground.terrain {
-        write_terrain(scene, dir, &mut xml, files)?;
+        write_terrain(scene, dir, &mut xml, files, black_surfaces)?;
     } else {
-        xml.push_str(&flat_ground_xml(&scene.ground));
+        xml.push_str(&flat_ground_xml(&scene.ground, black_surfaces));
     }
 
     // 6. Droplets' optics (the stratus layer's size distribution; the
@@ -991,12 +1030,17 @@ fn level_plane(height_m: f64) -> DMat4 {
 /// height, of its albedo (the mean of its albedo map when it has one),
 /// [`SEA_HALF_SIZE_M`] across like the sea. nimbus draws nothing there but
 /// lights the clouds from below with it (the stratus layer's radiosity,
-/// the cumulus's ground light), so the reference must have it too.
-fn flat_ground_xml(ground: &nimbus_render::scene::GroundSettings) -> String {
-    let albedo = ground
-        .albedo_map
-        .as_ref()
-        .map_or(ground.albedo, |map| map.map().mean());
+/// the cumulus's ground light), so the reference must have it too. Black
+/// with `black` ([`Options::light`]).
+fn flat_ground_xml(ground: &nimbus_render::scene::GroundSettings, black: bool) -> String {
+    let albedo = if black {
+        [0.0; 3]
+    } else {
+        ground
+            .albedo_map
+            .as_ref()
+            .map_or(ground.albedo, |map| map.map().mean())
+    };
     let plane = level_plane(ground.height_m);
     format!(
         r#"    <shape type="rectangle">
@@ -1013,12 +1057,14 @@ fn flat_ground_xml(ground: &nimbus_render::scene::GroundSettings) -> String {
     )
 }
 
-/// Terrain mesh (PLY) with its albedo (PNG) and the sea plane.
+/// Terrain mesh (PLY) with its albedo (PNG) and the sea plane; both black
+/// with `black` ([`Options::light`]).
 fn write_terrain(
     scene: &Scene,
     dir: &Path,
     xml: &mut String,
     files: &mut FileSet,
+    black: bool,
 ) -> anyhow::Result<()> {
     let terrain = nimbus_physics::terrain::generate(&scene.terrain);
     let n = terrain.vertices_per_side();
@@ -1086,6 +1132,27 @@ fn write_terrain(
     files.write_bytes(&dir.join("terrain_albedo.png"), "--mitsuba", &png)?;
     let water = scene.terrain.albedo.water;
     let sea = level_plane(scene.terrain.water_level_m);
+    if black {
+        let _ = write!(
+            xml,
+            r#"    <shape type="ply">
+        <string name="filename" value="terrain.ply"/>
+        <boolean name="face_normals" value="false"/>
+        <bsdf type="diffuse">
+            <rgb name="reflectance" value="0, 0, 0"/>
+        </bsdf>
+    </shape>
+    <shape type="rectangle">
+        <transform name="to_world"><matrix value="{sea}"/></transform>
+        <bsdf type="diffuse">
+            <rgb name="reflectance" value="0, 0, 0"/>
+        </bsdf>
+    </shape>
+"#,
+            sea = matrix(&sea),
+        );
+        return Ok(());
+    }
     let _ = write!(
         xml,
         r#"    <shape type="ply">
@@ -1310,11 +1377,17 @@ mod tests {
             "flat.toml",
         )
         .expect("scene");
-        let xml = flat_ground_xml(&scene.ground);
+        let xml = flat_ground_xml(&scene.ground, false);
         assert!(!xml.contains("terrain"), "{xml}");
         assert!(
             xml.contains(r#"<rgb name="reflectance" value="0.10000, 0.20000, 0.30000"/>"#),
             "{xml}"
+        );
+        // Black with one light alone (--light).
+        let black = flat_ground_xml(&scene.ground, true);
+        assert!(
+            black.contains(r#"<rgb name="reflectance" value="0.00000, 0.00000, 0.00000"/>"#),
+            "{black}"
         );
         // The rectangle's z axis (its normal) turned to +y, its centre at
         // the height.

@@ -27,6 +27,8 @@
 //!   distribution at 550 nm) as a tabulated phase function, and their
 //!   single-scattering albedo; the forward diffraction peak truncated by the
 //!   δ-M method at `--phase-truncation-deg` (default 5°; 0 keeps it);
+//! - with `--light sun` or `--light sky`, that emitter alone and every
+//!   surface black, to split the light by where it comes from;
 //! - the rain's mist (drops' extinction, Henyey–Greenstein 0.85) where
 //!   nimbus's map of rain factors puts it: inside the rain areas with their
 //!   soft edges and under the clouds with `rain.under_clouds` (a grid), or
@@ -82,6 +84,12 @@ pub struct ExportArgs {
     /// wavelength, which colours a lining seen a few degrees from the sun.
     #[arg(long, requires = "mitsuba")]
     phase_per_channel: bool,
+    /// With --mitsuba: one light source alone, the terrain, sea and ground
+    /// black: with the full export's render, the light split by where it
+    /// comes from (the full render minus the sun's and the sky's is the
+    /// light the surfaces reflect; docs/REALISM.md).
+    #[arg(long, value_enum, requires = "mitsuba", value_name = "SOURCE")]
+    light: Option<mitsuba::LightSource>,
 }
 
 /// Runs the subcommand.
@@ -161,6 +169,7 @@ pub fn run(args: &ExportArgs) -> anyhow::Result<()> {
             phase_truncation_deg: args.phase_truncation_deg,
             air: args.air,
             phase_per_channel: args.phase_per_channel,
+            light: args.light,
         },
         mitsuba_dir,
         &mut files,
