@@ -1057,8 +1057,11 @@ fn flat_ground_xml(ground: &nimbus_render::scene::GroundSettings, black: bool) -
     )
 }
 
-/// Terrain mesh (PLY) with its albedo (PNG) and the sea plane; both black
-/// with `black` ([`Options::light`]).
+/// A surface that reflects nothing ([`Options::light`]).
+const BLACK_BSDF: &str = r#"<bsdf type="diffuse"><rgb name="reflectance" value="0, 0, 0"/></bsdf>"#;
+
+/// Terrain mesh (PLY) with its albedo (PNG) and the sea plane; both black,
+/// and no albedo written, with `black` ([`Options::light`]).
 fn write_terrain(
     scene: &Scene,
     dir: &Path,
@@ -1111,75 +1114,64 @@ fn write_terrain(
         }
     }
     files.write_bytes(&dir.join("terrain.ply"), "--mitsuba", &ply)?;
-    // The albedo, sRGB-encoded (Mitsuba decodes 8-bit textures as sRGB);
-    // row b is v = b/(m − 1).
-    let texels = terrain.albedo_rgba8();
-    let mut rgb = Vec::with_capacity(m * m * 3);
-    for &j in &indices {
-        for &i in &indices {
-            rgb.extend_from_slice(&texels[j * n + i][..3]);
+    let sea = matrix(&level_plane(scene.terrain.water_level_m));
+    let (terrain_bsdf, sea_bsdf) = if black {
+        (BLACK_BSDF.to_string(), BLACK_BSDF.to_string())
+    } else {
+        // The albedo, sRGB-encoded (Mitsuba decodes 8-bit textures as
+        // sRGB); row b is v = b/(m − 1).
+        let texels = terrain.albedo_rgba8();
+        let mut rgb = Vec::with_capacity(m * m * 3);
+        for &j in &indices {
+            for &i in &indices {
+                rgb.extend_from_slice(&texels[j * n + i][..3]);
+            }
         }
-    }
-    let mut png = Vec::new();
-    image::ImageEncoder::write_image(
-        image::codecs::png::PngEncoder::new(&mut png),
-        &rgb,
-        m as u32,
-        m as u32,
-        image::ExtendedColorType::Rgb8,
-    )
-    .context("terrain albedo: PNG encoding failed")?;
-    files.write_bytes(&dir.join("terrain_albedo.png"), "--mitsuba", &png)?;
-    let water = scene.terrain.albedo.water;
-    let sea = level_plane(scene.terrain.water_level_m);
-    if black {
-        let _ = write!(
-            xml,
-            r#"    <shape type="ply">
-        <string name="filename" value="terrain.ply"/>
-        <boolean name="face_normals" value="false"/>
-        <bsdf type="diffuse">
-            <rgb name="reflectance" value="0, 0, 0"/>
-        </bsdf>
-    </shape>
-    <shape type="rectangle">
-        <transform name="to_world"><matrix value="{sea}"/></transform>
-        <bsdf type="diffuse">
-            <rgb name="reflectance" value="0, 0, 0"/>
-        </bsdf>
-    </shape>
-"#,
-            sea = matrix(&sea),
-        );
-        return Ok(());
-    }
-    let _ = write!(
-        xml,
-        r#"    <shape type="ply">
-        <string name="filename" value="terrain.ply"/>
-        <boolean name="face_normals" value="false"/>
-        <bsdf type="diffuse">
+        let mut png = Vec::new();
+        image::ImageEncoder::write_image(
+            image::codecs::png::PngEncoder::new(&mut png),
+            &rgb,
+            m as u32,
+            m as u32,
+            image::ExtendedColorType::Rgb8,
+        )
+        .context("terrain albedo: PNG encoding failed")?;
+        files.write_bytes(&dir.join("terrain_albedo.png"), "--mitsuba", &png)?;
+        let water = scene.terrain.albedo.water;
+        (
+            r#"<bsdf type="diffuse">
             <texture type="bitmap" name="reflectance">
                 <string name="filename" value="terrain_albedo.png"/>
             </texture>
-        </bsdf>
-    </shape>
-    <shape type="rectangle">
-        <transform name="to_world"><matrix value="{sea}"/></transform>
-        <bsdf type="roughplastic">
+        </bsdf>"#
+                .to_string(),
+            format!(
+                r#"<bsdf type="roughplastic">
             <string name="distribution" value="ggx"/>
             <float name="alpha" value="{alpha}"/>
             <rgb name="diffuse_reflectance" value="{w0:.5}, {w1:.5}, {w2:.5}"/>
             <float name="int_ior" value="{WATER_IOR}"/>
             <float name="ext_ior" value="1.0"/>
-        </bsdf>
+        </bsdf>"#,
+                alpha = nimbus_render::shader::WATER_GGX_ALPHA,
+                w0 = water[0],
+                w1 = water[1],
+                w2 = water[2],
+            ),
+        )
+    };
+    let _ = write!(
+        xml,
+        r#"    <shape type="ply">
+        <string name="filename" value="terrain.ply"/>
+        <boolean name="face_normals" value="false"/>
+        {terrain_bsdf}
     </shape>
-"#,
-        sea = matrix(&sea),
-        alpha = nimbus_render::shader::WATER_GGX_ALPHA,
-        w0 = water[0],
-        w1 = water[1],
-        w2 = water[2],
+    <shape type="rectangle">
+        <transform name="to_world"><matrix value="{sea}"/></transform>
+        {sea_bsdf}
+    </shape>
+"#
     );
     Ok(())
 }
